@@ -1,0 +1,26 @@
+# Two entry points (see README): `make demo` runs the main job, `make test` runs the test suite.
+# Both install what is missing first (scripts/bootstrap.sh is idempotent).
+VENV := .venv
+BIN := $(VENV)/bin
+OUT ?= out/demo
+MODEL ?= data/colour_target/colour_target.obj
+
+.PHONY: setup demo test lint bench clean
+
+setup:
+	@bash scripts/bootstrap.sh
+
+demo: setup
+	$(BIN)/shellvox info $(MODEL)
+
+test: setup
+	$(BIN)/ruff check pipeline offset voxel tests benchmarks data
+	$(BIN)/mypy
+	$(BIN)/python -m pytest
+
+lint: setup
+	$(BIN)/ruff check pipeline offset voxel tests benchmarks data
+	$(BIN)/mypy
+
+clean:
+	rm -rf out .pytest_cache .mypy_cache .ruff_cache

@@ -1,0 +1,3 @@
+"""shellvox pipeline: configuration, model loading, orchestration and the command line."""
+
+__version__ = "0.1.0"

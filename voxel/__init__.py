@@ -1,0 +1,15 @@
+"""Voxel grids, layer labelling, surface colour and streaming writers.
+
+Conventions (stated once, used everywhere in this package)
+----------------------------------------------------------
+- Lengths are millimetres (``_mm`` in names); counts are ``n_``.
+- Volumes are indexed ``(z, y, x)``: ``labels : (Z, Y, X) uint8``.
+- Points and vectors are ``(x, y, z)``: ``points : (N, 3) float64, mm``.
+- Voxel ``(z, y, x)`` has its centre at ``origin_mm + (x * vx, y * vy, z * vz)``, where
+  ``origin_mm`` is the centre of voxel ``(0, 0, 0)`` and ``(vx, vy, vz) = voxel_mm``.
+- Signed distance is negative inside, as in OpenVDB.
+- Layer index: 0 outside, 1..K the shell bands from the outside in, K + 1 the core.
+
+This package never imports :mod:`pipeline`; colour reaches it as a callable
+``colour_at(face_ids, barycentric) -> (N, 4) uint8``.
+"""
