@@ -26,7 +26,7 @@ fi
 [ -x .venv/bin/python ] || "$PYTHON" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip >/dev/null
 .venv/bin/python -m pip install -q -r requirements.lock
-.venv/bin/python -m pip install -q --no-deps --no-build-isolation -e .
+.venv/bin/python -m pip install -q --no-deps -e . >/dev/null 2>&1 || .venv/bin/python -m pip install --no-deps -e .
 .venv/bin/python -c "import voxel.openvdb_module as m; m.load_openvdb()" \
     || { echo "shellvox set-up: OpenVDB's Python module does not load in .venv" >&2; exit 1; }
 echo "$want" > "$stamp"
