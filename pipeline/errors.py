@@ -29,3 +29,7 @@ class InputError(ValueError):
     def __str__(self) -> str:
         where = f"{self.path}: " if self.path else ""
         return f"{where}{self.problem}; {self.fix}".replace("\n", " ")
+
+
+class ShellvoxWarning(UserWarning):
+    """Something was changed or assumed on the user's behalf (printed by the CLI)."""

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -75,7 +75,9 @@ class ColouredMesh:
             if not wanted and value is not None:
                 raise ValueError(f"colour_kind={self.colour_kind!r} takes no {name}")
             if value is not None and len(value) != n_faces:
-                raise ValueError(f"{name} must have {n_faces} rows (one per face), got {len(value)}")
+                raise ValueError(
+                    f"{name} must have {n_faces} rows (one per face), got {len(value)}"
+                )
         if self.colour_kind == "texture" and self.face_material is not None and n_faces:
             top = int(self.face_material.max())
             if top >= len(self.materials) or int(self.face_material.min()) < 0:
@@ -95,7 +97,7 @@ class ColouredMesh:
         return triangles
 
     def colour_at(
-        self, face_ids: NDArray[np.integer], barycentric: NDArray[np.floating]
+        self, face_ids: NDArray[np.integer[Any]], barycentric: NDArray[np.floating[Any]]
     ) -> NDArray[np.uint8]:
         """Return the surface colour at points given by face and barycentric coordinates.
 
@@ -131,7 +133,8 @@ class ColouredMesh:
             )
         if self.colour_kind == "face":
             assert self.face_rgba is not None
-            return self.face_rgba[face_ids]
+            face_rgba: NDArray[np.uint8] = self.face_rgba[face_ids]
+            return face_rgba
         if self.colour_kind == "vertex":
             assert self.corner_rgba is not None
             linear = np.einsum("nc,nck->nk", barycentric, decode_uint8(self.corner_rgba[face_ids]))

@@ -22,12 +22,15 @@ def summarise(mesh: ColouredMesh) -> dict[str, Any]:
     report = edge_report(mesh.faces)
     lower = mesh.vertices.min(axis=0)
     upper = mesh.vertices.max(axis=0)
-    textures = [[int(m.image.shape[1]), int(m.image.shape[0])]
-                for m in mesh.materials if m.image is not None]
+    textures = [
+        [int(m.image.shape[1]), int(m.image.shape[0])]
+        for m in mesh.materials
+        if m.image is not None
+    ]
     return {
         "path": mesh.source,
-        "faces": int(len(mesh.faces)),
-        "vertices": int(len(mesh.vertices)),
+        "faces": len(mesh.faces),
+        "vertices": len(mesh.vertices),
         "bounds_mm": [lower.tolist(), upper.tolist()],
         "size_mm": (upper - lower).tolist(),
         "closed": bool(report.closed),
@@ -47,13 +50,19 @@ def _distinct_colours(mesh: ColouredMesh) -> int:
         values = mesh.face_rgba
     elif mesh.colour_kind == "texture":
         used = set() if mesh.face_material is None else set(np.unique(mesh.face_material).tolist())
-        blocks = [m.image.reshape(-1, 4) if m.image is not None
-                  else np.rint(np.clip(m.factor, 0, 1) * 255).astype(np.uint8)[None]
-                  for i, m in enumerate(mesh.materials) if i in used]
+        blocks = [
+            m.image.reshape(-1, 4)
+            if m.image is not None
+            else np.rint(np.clip(m.factor, 0, 1) * 255).astype(np.uint8)[None]
+            for i, m in enumerate(mesh.materials)
+            if i in used
+        ]
         values = np.concatenate(blocks) if blocks else np.zeros((0, 4), np.uint8)
     else:
         return 1
-    packed = values.astype(np.uint32).view(np.uint32) if values.dtype == np.uint32 else (
-        np.ascontiguousarray(values, np.uint8).view(np.uint32).reshape(-1)
+    packed = (
+        values.astype(np.uint32).view(np.uint32)
+        if values.dtype == np.uint32
+        else (np.ascontiguousarray(values, np.uint8).view(np.uint32).reshape(-1))
     )
-    return int(len(np.unique(packed)))
+    return len(np.unique(packed))

@@ -13,7 +13,7 @@ textures, so a bilinear blend of two texels never darkens their mid-point.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,18 +22,16 @@ WrapMode = Literal["repeat", "clamp", "mirror"]
 FilterMode = Literal["linear", "nearest"]
 
 
-def srgb_to_linear(srgb: NDArray[np.floating]) -> NDArray[np.float64]:
+def srgb_to_linear(srgb: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
     """Decode sRGB-encoded values in ``[0, 1]`` to linear light in ``[0, 1]`` (IEC 61966-2-1)."""
     srgb = np.asarray(srgb, dtype=np.float64)
     return np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
 
 
-def linear_to_srgb(linear: NDArray[np.floating]) -> NDArray[np.float64]:
+def linear_to_srgb(linear: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
     """Encode linear light in ``[0, 1]`` to sRGB values in ``[0, 1]`` (IEC 61966-2-1)."""
     linear = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
-    return np.where(
-        linear <= 0.0031308, linear * 12.92, 1.055 * linear ** (1.0 / 2.4) - 0.055
-    )
+    return np.where(linear <= 0.0031308, linear * 12.92, 1.055 * linear ** (1.0 / 2.4) - 0.055)
 
 
 _DECODE_LUT = srgb_to_linear(np.arange(256) / 255.0)
@@ -47,13 +45,14 @@ def decode_uint8(rgba: NDArray[np.uint8]) -> NDArray[np.float64]:
     return out
 
 
-def encode_uint8(linear_rgba: NDArray[np.floating]) -> NDArray[np.uint8]:
+def encode_uint8(linear_rgba: NDArray[np.floating[Any]]) -> NDArray[np.uint8]:
     """Convert ``(..., 4)`` linear RGB + alpha in ``[0, 1]`` to ``(..., 4) uint8`` sRGB + alpha."""
     linear_rgba = np.asarray(linear_rgba, dtype=np.float64)
     out = np.empty(linear_rgba.shape, dtype=np.float64)
     out[..., :3] = linear_to_srgb(linear_rgba[..., :3])
     out[..., 3] = np.clip(linear_rgba[..., 3], 0.0, 1.0)
-    return np.rint(out * 255.0).astype(np.uint8)
+    encoded: NDArray[np.uint8] = np.rint(out * 255.0).astype(np.uint8)
+    return encoded
 
 
 @dataclass(frozen=True, eq=False)

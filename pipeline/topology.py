@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
+from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.mesh import ColouredMesh
 
 CORNER_FIELDS = ("corner_rgba", "corner_uv")
@@ -92,9 +92,7 @@ def edge_report(faces: NDArray[np.int64]) -> EdgeReport:
     """Classify the edges of a triangle mesh (see :class:`EdgeReport`)."""
     directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
     ordered = np.sort(directed, axis=1)
-    keys, inverse, counts = np.unique(
-        ordered, axis=0, return_inverse=True, return_counts=True
-    )
+    keys, inverse, counts = np.unique(ordered, axis=0, return_inverse=True, return_counts=True)
     inverse = inverse.reshape(-1)
     # An edge is consistently oriented if its uses go both ways: forward - backward == 0.
     forward = (directed[:, 0] == ordered[:, 0]).astype(np.int64)
@@ -135,30 +133,37 @@ def prepare(mesh: ColouredMesh, *, repair: bool = False) -> ColouredMesh:
     mesh = merge_by_position(mesh)
     faces = mesh.faces
     extent = float(np.ptp(mesh.vertices, axis=0).max())
-    repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (
-        faces[:, 2] == faces[:, 0]
+    repeated = (
+        (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 2] == faces[:, 0])
     )
     degenerate = repeated | (face_areas(mesh.vertices, faces) <= (extent * 1e-10) ** 2)
     if degenerate.all():
         raise InputError(path, "has only zero-area faces", "export a mesh that encloses a volume")
     if degenerate.any():
-        warnings.warn(f"{path}: dropped {int(degenerate.sum())} zero-area faces", stacklevel=2)
+        warnings.warn(
+            f"{path}: dropped {int(degenerate.sum())} zero-area faces",
+            ShellvoxWarning,
+            stacklevel=2,
+        )
         mesh = select_faces(mesh, ~degenerate)
     report = edge_report(mesh.faces)
     if repair and not report.oriented:
         mesh = _repair(mesh, report)
         report = edge_report(mesh.faces)
     if not report.closed:
-        bad, what = (
-            (report.boundary, "open: {n} boundary edges (holes)")
-            if len(report.boundary)
-            else (report.non_manifold, "non-manifold: {n} edges shared by more than two faces")
-        )
-        where = mesh.vertices[bad[0]].mean(axis=0)
+        problems = []
+        for bad, what in (
+            (report.boundary, "open: {n} boundary edges (holes)"),
+            (report.non_manifold, "non-manifold: {n} edges shared by more than two faces"),
+        ):
+            if len(bad):
+                x, y, z = mesh.vertices[bad[0]].mean(axis=0)
+                problems.append(
+                    what.format(n=len(bad)) + f", e.g. at ({x:.4g}, {y:.4g}, {z:.4g}) mm"
+                )
         raise InputError(
             path,
-            what.format(n=len(bad)) + f", e.g. at ({where[0]:.4g}, {where[1]:.4g}, "
-            f"{where[2]:.4g}) mm",
+            "; ".join(problems),
             "close the mesh in a modeller, or pass --repair to fill small holes",
         )
     if not report.oriented:
@@ -171,11 +176,17 @@ def prepare(mesh: ColouredMesh, *, repair: bool = False) -> ColouredMesh:
         )
     volume = signed_volume(mesh.vertices, mesh.faces)
     if abs(volume) <= (extent * 1e-6) ** 3 or extent == 0.0:
-        raise InputError(path, f"encloses no volume ({volume:.3g} mm^3)",
-                         "export a solid model, not a sheet or a point")
+        raise InputError(
+            path,
+            f"encloses no volume ({volume:.3g} mm^3)",
+            "export a solid model, not a sheet or a point",
+        )
     if volume < 0:
-        warnings.warn(f"{path}: the mesh is inside out (negative volume); flipped all faces",
-                      stacklevel=2)
+        warnings.warn(
+            f"{path}: the mesh is inside out (negative volume); flipped all faces",
+            ShellvoxWarning,
+            stacklevel=2,
+        )
         mesh = flip(mesh)
     return mesh
 
@@ -186,12 +197,15 @@ def _repair(mesh: ColouredMesh, report: EdgeReport) -> ColouredMesh:
 
     candidate = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     if len(report.misoriented) and not len(report.boundary) and not len(report.non_manifold):
-        trimesh.repair.fix_winding(candidate)
-        warnings.warn(f"{mesh.source}: --repair re-oriented faces to a consistent winding",
-                      stacklevel=3)
+        trimesh.repair.fix_winding(candidate)  # type: ignore[no-untyped-call]
+        warnings.warn(
+            f"{mesh.source}: --repair re-oriented faces to a consistent winding",
+            ShellvoxWarning,
+            stacklevel=3,
+        )
         return _with_geometry(mesh, np.asarray(candidate.vertices), np.asarray(candidate.faces))
     trimesh.repair.fill_holes(candidate)
-    trimesh.repair.fix_winding(candidate)
+    trimesh.repair.fix_winding(candidate)  # type: ignore[no-untyped-call]
     if not candidate.is_watertight:
         import pymeshfix
 
@@ -204,6 +218,7 @@ def _repair(mesh: ColouredMesh, report: EdgeReport) -> ColouredMesh:
         f"{mesh.source}: --repair closed {len(report.boundary)} boundary edges "
         f"({len(mesh.faces)} -> {len(candidate.faces)} faces); colour of new faces is "
         "taken from the nearest original face",
+        ShellvoxWarning,
         stacklevel=3,
     )
     return _with_geometry(mesh, np.asarray(candidate.vertices), np.asarray(candidate.faces))

@@ -15,15 +15,17 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from pipeline import __version__
-from pipeline.errors import InputError
-
+from pipeline.errors import InputError, ShellvoxWarning
 
 COMMANDS = ("info", "shells", "build", "inspect")
 
 
 def _subcommands() -> dict[str, ModuleType]:
-    return {name: importlib.import_module(f"pipeline.cli.{name}") for name in COMMANDS
-            if importlib.util.find_spec(f"pipeline.cli.{name}") is not None}
+    return {
+        name: importlib.import_module(f"pipeline.cli.{name}")
+        for name in COMMANDS
+        if importlib.util.find_spec(f"pipeline.cli.{name}") is not None
+    }
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -48,8 +50,15 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit status."""
     args = _parser().parse_args(argv)
-    previous = warnings.showwarning
-    warnings.showwarning = _show_warning
+    with warnings.catch_warnings():
+        # Our own warnings are shown as one line each; library chatter is not.
+        warnings.simplefilter("ignore")
+        warnings.simplefilter("always", ShellvoxWarning)
+        warnings.showwarning = _show_warning
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         status: int = args.handler(args)
         return status
@@ -59,8 +68,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("shellvox: interrupted; no partial output was kept", file=sys.stderr)
         return 130
-    finally:
-        warnings.showwarning = previous
 
 
 if __name__ == "__main__":  # pragma: no cover

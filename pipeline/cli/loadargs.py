@@ -11,23 +11,50 @@ from pipeline.errors import InputError
 
 def add_load_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``MODEL`` and the loader options (``--units``, ``--scale``, ...) to a parser."""
-    parser.add_argument("model", type=Path, metavar="MODEL",
-                        help="model file: .obj .ply .glb .gltf .3mf .stl .off")
+    parser.add_argument(
+        "model", type=Path, metavar="MODEL", help="model file: .obj .ply .glb .gltf .3mf .stl .off"
+    )
     group = parser.add_argument_group("model loading")
-    group.add_argument("--units", choices=sorted(UNIT_MM),
-                       help="unit of the file's coordinates (default mm; 3MF declares its own)")
-    group.add_argument("--scale", type=float, default=1.0,
-                       help="extra scale factor after unit conversion (default 1)")
-    group.add_argument("--colour", "--color", dest="colour", metavar="R,G,B[,A]",
-                       help="colour (0-255) for a model without colour, or the fallback "
-                            "when a texture is missing (with a warning)")
-    group.add_argument("--texture", type=Path, metavar="FILE",
-                       help="texture image for an OBJ whose MTL or map_Kd is missing")
-    group.add_argument("--repair", action="store_true",
-                       help="close small holes and fix winding (with a warning) instead of "
-                            "refusing the model")
-    group.add_argument("--force", action="store_true",
-                       help="accept models with more faces than the sane limit")
+    group.add_argument(
+        "--units",
+        choices=sorted(UNIT_MM),
+        help="unit of the file's coordinates (default mm; 3MF declares its own)",
+    )
+    group.add_argument(
+        "--scale",
+        type=float,
+        default=1.0,
+        help="extra scale factor after unit conversion (default 1)",
+    )
+    group.add_argument(
+        "--colour",
+        "--color",
+        dest="colour",
+        metavar="R,G,B[,A]",
+        help="colour (0-255) for a model without colour, or the fallback "
+        "when a texture is missing (with a warning)",
+    )
+    group.add_argument(
+        "--texture",
+        type=Path,
+        metavar="FILE",
+        help="texture image for an OBJ whose MTL or map_Kd is missing",
+    )
+    group.add_argument(
+        "--repair",
+        action="store_true",
+        help="close small holes and fix winding (with a warning) instead of refusing the model",
+    )
+    group.add_argument(
+        "--force", action="store_true", help="accept models with more faces than the sane limit"
+    )
+    group.add_argument(
+        "--max-faces",
+        type=int,
+        default=LoadOptions.max_faces,
+        metavar="N",
+        help=f"the sane face limit (default {LoadOptions.max_faces:,})",
+    )
 
 
 def parse_colour(text: str) -> tuple[int, int, int, int]:
@@ -37,8 +64,11 @@ def parse_colour(text: str) -> tuple[int, int, int, int]:
     except ValueError:
         values = []
     if len(values) not in (3, 4) or not all(0 <= v <= 255 for v in values):
-        raise InputError("--colour", f"expected R,G,B or R,G,B,A in 0-255, got {text!r}",
-                         "pass e.g. --colour 200,30,30")
+        raise InputError(
+            "--colour",
+            f"expected R,G,B or R,G,B,A in 0-255, got {text!r}",
+            "pass e.g. --colour 200,30,30",
+        )
     if len(values) == 3:
         values.append(255)
     return (values[0], values[1], values[2], values[3])
@@ -53,4 +83,5 @@ def load_options(args: argparse.Namespace) -> LoadOptions:
         texture=args.texture,
         repair=args.repair,
         force=args.force,
+        max_faces=args.max_faces,
     )

@@ -13,15 +13,22 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.config import UNIT_MM, LoadOptions
-from pipeline.errors import InputError
+from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.obj import read_obj
 from pipeline.loading.threemf import read_3mf
 from pipeline.loading.trimesh_formats import read_with_trimesh
 from pipeline.mesh import ColouredMesh
 from pipeline.topology import prepare
 
-FORMATS = {".obj": "obj", ".ply": "ply", ".glb": "glb", ".gltf": "gltf", ".3mf": "3mf",
-           ".stl": "stl", ".off": "off"}
+FORMATS = {
+    ".obj": "obj",
+    ".ply": "ply",
+    ".glb": "glb",
+    ".gltf": "gltf",
+    ".3mf": "3mf",
+    ".stl": "stl",
+    ".off": "off",
+}
 
 
 def load_model(path: str | Path, options: LoadOptions | None = None) -> ColouredMesh:
@@ -52,13 +59,17 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         raise InputError(path, "is not a file", "give the path of a model file")
     file_type = FORMATS.get(path.suffix.lower())
     if file_type is None:
-        raise InputError(path, f"unknown model format {path.suffix or '(no suffix)'!r}",
-                         f"use one of {', '.join(sorted(FORMATS))}")
+        raise InputError(
+            path,
+            f"unknown model format {path.suffix or '(no suffix)'!r}",
+            f"use one of {', '.join(sorted(FORMATS))}",
+        )
     if path.stat().st_size == 0:
         raise InputError(path, "is empty (0 bytes)", "export the model again")
     if options.scale <= 0 or not np.isfinite(options.scale):
-        raise InputError("--scale", f"must be a positive number, got {options.scale}",
-                         "pass e.g. --scale 25.4")
+        raise InputError(
+            "--scale", f"must be a positive number, got {options.scale}", "pass e.g. --scale 25.4"
+        )
     if options.texture is not None and not Path(options.texture).is_file():
         raise InputError(options.texture, "texture file not found", "check the --texture path")
 
@@ -70,21 +81,32 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         if options.units is not None and UNIT_MM[options.units] != declared:
             import warnings
 
-            warnings.warn(f"{path}: the 3MF declares its own unit; --units {options.units} "
-                          "is ignored (use --scale to resize)", stacklevel=2)
+            warnings.warn(
+                f"{path}: the 3MF declares its own unit; --units {options.units} "
+                "is ignored (use --scale to resize)",
+                ShellvoxWarning,
+                stacklevel=2,
+            )
         mm_per_unit = declared
     else:
         mesh = read_with_trimesh(path, file_type)
 
     if len(mesh.faces) > options.max_faces and not options.force:
-        raise InputError(path, f"has {len(mesh.faces):,} faces, more than the limit of "
-                         f"{options.max_faces:,}", "decimate it, or pass --force")
+        raise InputError(
+            path,
+            f"has {len(mesh.faces):,} faces, more than the limit of {options.max_faces:,}",
+            "decimate it, or pass --force",
+        )
     if not np.isfinite(mesh.vertices).all():
         bad = int((~np.isfinite(mesh.vertices)).any(axis=1).sum())
-        raise InputError(path, f"has {bad} vertices with NaN or infinite coordinates",
-                         "fix or re-export the model")
-    mesh = dataclasses.replace(mesh, vertices=mesh.vertices * (mm_per_unit * options.scale),
-                               source=str(path))
+        raise InputError(
+            path,
+            f"has {bad} vertices with NaN or infinite coordinates",
+            "fix or re-export the model",
+        )
+    mesh = dataclasses.replace(
+        mesh, vertices=mesh.vertices * (mm_per_unit * options.scale), source=str(path)
+    )
     if mesh.colour_kind == "none" and options.colour is not None:
         face_rgba = np.tile(np.asarray(options.colour, np.uint8), (len(mesh.faces), 1))
         mesh = dataclasses.replace(mesh, colour_kind="face", face_rgba=face_rgba)

@@ -38,19 +38,26 @@ def read_texture(source: Path | bytes, model: Path, name: str = "") -> NDArray[n
         handle = io.BytesIO(source) if isinstance(source, bytes) else source.open("rb")
         with handle, Image.open(handle) as image:
             if image.width * image.height > MAX_TEXTURE_PIXELS:
-                raise InputError(label, f"texture of {image.width}x{image.height} pixels is too "
-                                 "large", "downscale the texture below 16384x16384")
+                raise InputError(
+                    label,
+                    f"texture of {image.width}x{image.height} pixels is too large",
+                    "downscale the texture below 16384x16384",
+                )
             if image.mode in ("I;16", "I;16B", "I;16L", "I"):
                 grey = np.asarray(image, dtype=np.float64) / 257.0
                 rgb = np.repeat(np.clip(np.rint(grey), 0, 255).astype(np.uint8)[..., None], 3, 2)
-                alpha = np.full(rgb.shape[:2] + (1,), 255, np.uint8)
+                alpha = np.full((*rgb.shape[:2], 1), 255, np.uint8)
                 return np.concatenate([rgb, alpha], axis=2)
             return np.ascontiguousarray(np.asarray(image.convert("RGBA"), dtype=np.uint8))
     except FileNotFoundError:
-        raise InputError(label, "texture file is missing",
-                         "put it where the model says, or pass --texture FILE") from None
+        raise InputError(
+            label, "texture file is missing", "put it where the model says, or pass --texture FILE"
+        ) from None
     except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError) as error:
         if isinstance(error, InputError):
             raise
-        raise InputError(label, f"texture is unreadable ({type(error).__name__}: {error})",
-                         "re-save it as PNG or JPEG, or pass --texture FILE") from None
+        raise InputError(
+            label,
+            f"texture is unreadable ({type(error).__name__}: {error})",
+            "re-save it as PNG or JPEG, or pass --texture FILE",
+        ) from None

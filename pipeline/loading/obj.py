@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.config import LoadOptions
-from pipeline.errors import InputError
+from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.images import read_texture
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import Material, encode_uint8, srgb_to_linear
@@ -77,7 +77,7 @@ def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
 
     if has_uv and (textured & set(used) or (options.texture is not None and not materials)):
         assert uv_index is not None
-        if not materials:
+        if not materials and options.texture is not None:
             materials = {"": Material("texture", image=read_texture(options.texture, path))}
             used = [""]
             names = np.full(len(faces), "", dtype=object)
@@ -85,8 +85,13 @@ def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
         lookup = {name: i for i, name in enumerate(used)}
         face_material = np.array([lookup[n] for n in names.tolist()], dtype=np.int64)
         return ColouredMesh(
-            xyz, faces, "texture", corner_uv=uv_rows[uv_index], face_material=face_material,
-            materials=tuple(table), source=str(path),
+            xyz,
+            faces,
+            "texture",
+            corner_uv=uv_rows[uv_index],
+            face_material=face_material,
+            materials=tuple(table),
+            source=str(path),
         )
     if vertex_rgb is not None:
         rgb = vertex_rgb if vertex_rgb.max() > 1.0 + 1e-9 else vertex_rgb * 255.0
@@ -139,9 +144,7 @@ def _triangulate(
     n_tris = counts - 2
     owner = np.repeat(np.arange(len(counts)), n_tris)
     local = np.arange(int(n_tris.sum())) - np.repeat(np.cumsum(n_tris) - n_tris, n_tris)
-    corner = np.stack(
-        [starts[owner], starts[owner] + local + 1, starts[owner] + local + 2], axis=1
-    )
+    corner = np.stack([starts[owner], starts[owner] + local + 1, starts[owner] + local + 2], axis=1)
     return pos[corner], None if uv is None else uv[corner], owner
 
 
@@ -171,11 +174,16 @@ def _read_materials(
         found = [f for f in found if f is not None]
     if all(f is None for f in found):
         if options.texture is not None or options.colour is not None:
-            warnings.warn(f"{path}: MTL file {mtllibs[0]!r} not found; using the "
-                          "--texture/--colour given instead", stacklevel=2)
+            warnings.warn(
+                f"{path}: MTL file {mtllibs[0]!r} not found; using the "
+                "--texture/--colour given instead",
+                ShellvoxWarning,
+                stacklevel=2,
+            )
             return {}
         raise InputError(
-            path, f"its material library {mtllibs[0]!r} is missing",
+            path,
+            f"its material library {mtllibs[0]!r} is missing",
             "put the MTL beside the OBJ, or pass --texture FILE or --colour R,G,B",
         )
     materials: dict[str, Material] = {}
@@ -213,12 +221,17 @@ def _parse_mtl(obj_path: Path, mtl: Path, options: LoadOptions) -> dict[str, Mat
             image_path = options.texture
         if image_path is None:
             if options.colour is not None:
-                warnings.warn(f"{mtl}: texture {texture!r} not found; using --colour "
-                              f"{options.colour} instead", stacklevel=2)
+                warnings.warn(
+                    f"{mtl}: texture {texture!r} not found; using --colour "
+                    f"{options.colour} instead",
+                    ShellvoxWarning,
+                    stacklevel=2,
+                )
                 materials[name] = Material(name, factor=_rgba_to_factor(options.colour))
                 continue
             raise InputError(
-                mtl, f"texture {texture!r} of material {name!r} is missing",
+                mtl,
+                f"texture {texture!r} of material {name!r} is missing",
                 "put the image beside the MTL, or pass --texture FILE or --colour R,G,B",
             )
         materials[name] = Material(name, image=read_texture(image_path, obj_path))
@@ -230,8 +243,21 @@ def _map_filename(value: str | None) -> str | None:
     if value is None:
         return None
     tokens = value.split()
-    arity = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1,
-             "-imfchan": 1, "-mm": 2, "-o": 3, "-s": 3, "-t": 3, "-texres": 1, "-type": 1}
+    arity = {
+        "-blendu": 1,
+        "-blendv": 1,
+        "-bm": 1,
+        "-boost": 1,
+        "-cc": 1,
+        "-clamp": 1,
+        "-imfchan": 1,
+        "-mm": 2,
+        "-o": 3,
+        "-s": 3,
+        "-t": 3,
+        "-texres": 1,
+        "-type": 1,
+    }
     i = 0
     while i < len(tokens) and tokens[i].lower() in arity:
         i += 1 + arity[tokens[i].lower()]
@@ -247,4 +273,5 @@ def _rgba_to_factor(rgba: tuple[int, int, int, int]) -> NDArray[np.float64]:
 def _material_rgba(material: Material | None) -> NDArray[np.uint8]:
     if material is None:
         return np.array([255, 255, 255, 255], dtype=np.uint8)
-    return encode_uint8(material.factor[None])[0]
+    rgba: NDArray[np.uint8] = encode_uint8(material.factor[None])[0]
+    return rgba

@@ -23,7 +23,7 @@ from pipeline.config import UNIT_MM
 from pipeline.errors import InputError
 from pipeline.loading.images import read_texture
 from pipeline.mesh import ColouredMesh
-from pipeline.texture import Material, WrapMode, decode_uint8
+from pipeline.texture import FilterMode, Material, WrapMode, decode_uint8
 
 CORE = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
 MATERIAL = "{http://schemas.microsoft.com/3dmanufacturing/material/2015/02}"
@@ -32,10 +32,20 @@ MODEL_REL = "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"
 MAX_ENTRY_BYTES = 4 * 1024**3
 MAX_TOTAL_BYTES = 8 * 1024**3
 MAX_RATIO = 200.0
-UNITS_3MF = {"micron": "micron", "millimeter": "mm", "centimeter": "cm", "inch": "inch",
-             "foot": "foot", "meter": "m"}
-WRAP_3MF: dict[str, WrapMode] = {"wrap": "repeat", "mirror": "mirror", "clamp": "clamp",
-                                 "none": "clamp"}
+UNITS_3MF = {
+    "micron": "micron",
+    "millimeter": "mm",
+    "centimeter": "cm",
+    "inch": "inch",
+    "foot": "foot",
+    "meter": "m",
+}
+WRAP_3MF: dict[str, WrapMode] = {
+    "wrap": "repeat",
+    "mirror": "mirror",
+    "clamp": "clamp",
+    "none": "clamp",
+}
 
 
 @dataclass
@@ -65,16 +75,18 @@ def read_3mf(path: Path) -> tuple[ColouredMesh, float]:
     try:
         archive = zipfile.ZipFile(path)
     except zipfile.BadZipFile:
-        raise InputError(path, "is not a 3MF package (not a zip archive)",
-                         "re-export it as 3MF") from None
+        raise InputError(
+            path, "is not a 3MF package (not a zip archive)", "re-export it as 3MF"
+        ) from None
     with archive:
         _check_archive(path, archive)
         model_name = _model_part(path, archive)
         root = _parse_xml(path, archive, model_name)
         unit = root.get("unit", "millimeter")
         if unit not in UNITS_3MF:
-            raise InputError(path, f"declares unknown unit {unit!r}",
-                             f"use one of {', '.join(UNITS_3MF)}")
+            raise InputError(
+                path, f"declares unknown unit {unit!r}", f"use one of {', '.join(UNITS_3MF)}"
+            )
         resources = root.find(f"{CORE}resources")
         if resources is None:
             raise InputError(path, "has no <resources>", "re-export it as 3MF")
@@ -84,8 +96,14 @@ def read_3mf(path: Path) -> tuple[ColouredMesh, float]:
         build = root.find(f"{CORE}build")
         items = [] if build is None else list(build.iter(f"{CORE}item"))
         for item in items:
-            parts += _object_meshes(path, objects, item.get("objectid", ""),
-                                    _transform(item.get("transform")), properties, 0)
+            parts += _object_meshes(
+                path,
+                objects,
+                item.get("objectid", ""),
+                _transform(item.get("transform")),
+                properties,
+                0,
+            )
     if not parts:
         raise InputError(path, "has no build items with meshes", "re-export it with geometry")
     return _combine(path, parts, properties.materials), UNIT_MM[UNITS_3MF[unit]]
@@ -96,16 +114,24 @@ def _check_archive(path: Path, archive: zipfile.ZipFile) -> None:
     for info in archive.infolist():
         name = PurePosixPath(info.filename.replace("\\", "/"))
         if name.is_absolute() or ".." in name.parts or ":" in info.filename:
-            raise InputError(path, f"zip entry {info.filename!r} escapes the archive",
-                             "refusing to read it; re-export the 3MF from a trusted tool")
+            raise InputError(
+                path,
+                f"zip entry {info.filename!r} escapes the archive",
+                "refusing to read it; re-export the 3MF from a trusted tool",
+            )
         total += info.file_size
         ratio = info.file_size / max(info.compress_size, 1)
-        if info.file_size > MAX_ENTRY_BYTES or total > MAX_TOTAL_BYTES or (
-            ratio > MAX_RATIO and info.file_size > 64 * 1024**2
+        if (
+            info.file_size > MAX_ENTRY_BYTES
+            or total > MAX_TOTAL_BYTES
+            or (ratio > MAX_RATIO and info.file_size > 64 * 1024**2)
         ):
-            raise InputError(path, f"zip entry {info.filename!r} expands to {info.file_size} "
-                             f"bytes (ratio {ratio:.0f}:1), a likely zip bomb",
-                             "refusing to read it; re-export the 3MF")
+            raise InputError(
+                path,
+                f"zip entry {info.filename!r} expands to {info.file_size} "
+                f"bytes (ratio {ratio:.0f}:1), a likely zip bomb",
+                "refusing to read it; re-export the 3MF",
+            )
 
 
 def _model_part(path: Path, archive: zipfile.ZipFile) -> str:
@@ -165,15 +191,21 @@ def _read_properties(
         if name not in archive.namelist():
             raise InputError(path, f"texture {name!r} is not in the package", "re-export it")
         image = read_texture(_read_entry(path, archive, name), path, name)
-        wrap = (WRAP_3MF.get(texture.get("tilestyleu", "wrap"), "repeat"),
-                WRAP_3MF.get(texture.get("tilestylev", "wrap"), "repeat"))
-        filt = "nearest" if texture.get("filter") == "nearest" else "linear"
+        wrap = (
+            WRAP_3MF.get(texture.get("tilestyleu", "wrap"), "repeat"),
+            WRAP_3MF.get(texture.get("tilestylev", "wrap"), "repeat"),
+        )
+        filt: FilterMode = "nearest" if texture.get("filter") == "nearest" else "linear"
         textures[texture.get("id", "")] = len(materials)
         materials.append(Material(name, image=image, wrap=wrap, filter=filt))
     uv: dict[str, tuple[NDArray[np.float64], int]] = {}
     for group in resources.iter(f"{MATERIAL}texture2dgroup"):
-        coords = np.array([[float(c.get("u", 0)), float(c.get("v", 0))]
-                           for c in group.iter(f"{MATERIAL}tex2coord")]).reshape(-1, 2)
+        coords = np.array(
+            [
+                [float(c.get("u", 0)), float(c.get("v", 0))]
+                for c in group.iter(f"{MATERIAL}tex2coord")
+            ]
+        ).reshape(-1, 2)
         uv[group.get("id", "")] = (coords, textures[group.get("texid", "")])
     return _Properties(colours, uv, materials)
 
@@ -188,12 +220,16 @@ def _transform(text: str | None) -> NDArray[np.float64]:
     return matrix
 
 
-def _object_meshes(path: Path, objects: dict[str, ElementTree.Element], object_id: str,
-                   transform: NDArray[np.float64], properties: _Properties,
-                   depth: int) -> list[dict[str, NDArray[np.generic]]]:
+def _object_meshes(
+    path: Path,
+    objects: dict[str, ElementTree.Element],
+    object_id: str,
+    transform: NDArray[np.float64],
+    properties: _Properties,
+    depth: int,
+) -> list[dict[str, NDArray[np.generic]]]:
     if depth > 32 or object_id not in objects:
-        raise InputError(path, f"references missing or cyclic object {object_id!r}",
-                         "re-export it")
+        raise InputError(path, f"references missing or cyclic object {object_id!r}", "re-export it")
     obj = objects[object_id]
     mesh = obj.find(f"{CORE}mesh")
     parts: list[dict[str, NDArray[np.generic]]] = []
@@ -203,30 +239,47 @@ def _object_meshes(path: Path, objects: dict[str, ElementTree.Element], object_i
     if components is not None:
         for component in components.iter(f"{CORE}component"):
             child = transform @ _transform(component.get("transform"))
-            parts += _object_meshes(path, objects, component.get("objectid", ""), child,
-                                    properties, depth + 1)
+            parts += _object_meshes(
+                path, objects, component.get("objectid", ""), child, properties, depth + 1
+            )
     return parts
 
 
-def _mesh_part(path: Path, obj: ElementTree.Element, mesh: ElementTree.Element,
-               transform: NDArray[np.float64],
-               properties: _Properties) -> dict[str, NDArray[np.generic]]:
-    vertices = np.array([[float(v.get("x", "nan")), float(v.get("y", "nan")),
-                          float(v.get("z", "nan"))] for v in mesh.iter(f"{CORE}vertex")])
+def _mesh_part(
+    path: Path,
+    obj: ElementTree.Element,
+    mesh: ElementTree.Element,
+    transform: NDArray[np.float64],
+    properties: _Properties,
+) -> dict[str, NDArray[np.generic]]:
+    vertices = np.array(
+        [
+            [float(v.get("x", "nan")), float(v.get("y", "nan")), float(v.get("z", "nan"))]
+            for v in mesh.iter(f"{CORE}vertex")
+        ]
+    )
     triangles = list(mesh.iter(f"{CORE}triangle"))
-    faces = np.array([[int(t.get("v1", -1)), int(t.get("v2", -1)), int(t.get("v3", -1))]
-                      for t in triangles], dtype=np.int64).reshape(-1, 3)
+    faces = np.array(
+        [[int(t.get("v1", -1)), int(t.get("v2", -1)), int(t.get("v3", -1))] for t in triangles],
+        dtype=np.int64,
+    ).reshape(-1, 3)
     if len(vertices) == 0 or len(faces) == 0:
         raise InputError(path, f"object {obj.get('id')} has an empty mesh", "re-export it")
     if faces.min() < 0 or faces.max() >= len(vertices):
-        raise InputError(path, f"object {obj.get('id')} has a vertex index out of range",
-                         "re-export it")
+        raise InputError(
+            path, f"object {obj.get('id')} has a vertex index out of range", "re-export it"
+        )
     vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
     default_pid, default_index = obj.get("pid", ""), obj.get("pindex", "")
     pid = np.array([t.get("pid", default_pid) for t in triangles], dtype=object)
     p1 = [t.get("p1", default_index if t.get("pid") is None else "") for t in triangles]
-    index = np.array([[int(a or -1), int(t.get("p2", a or -1)), int(t.get("p3", a or -1))]
-                      for a, t in zip(p1, triangles, strict=True)], dtype=np.int64)
+    index = np.array(
+        [
+            [int(a or -1), int(t.get("p2", a or -1)), int(t.get("p3", a or -1))]
+            for a, t in zip(p1, triangles, strict=True)
+        ],
+        dtype=np.int64,
+    )
     n = len(faces)
     rgba = np.full((n, 3, 4), 255, dtype=np.uint8)
     uv = np.zeros((n, 3, 2))
@@ -241,11 +294,18 @@ def _mesh_part(path: Path, obj: ElementTree.Element, mesh: ElementTree.Element,
             uv[chosen] = coords[_check_index(path, index[chosen], len(coords))]
             material[chosen] = texture
         else:
-            raise InputError(path, f"triangles reference unknown property group {group!r}",
-                             "re-export it")
+            raise InputError(
+                path, f"triangles reference unknown property group {group!r}", "re-export it"
+            )
     coloured = pid != ""
-    return {"vertices": vertices, "faces": faces, "rgba": rgba, "uv": uv, "material": material,
-            "coloured": coloured.astype(bool)}
+    return {
+        "vertices": vertices,
+        "faces": faces,
+        "rgba": rgba,
+        "uv": uv,
+        "material": material,
+        "coloured": coloured.astype(bool),
+    }
 
 
 def _check_index(path: Path, index: NDArray[np.int64], size: int) -> NDArray[np.int64]:
@@ -254,8 +314,9 @@ def _check_index(path: Path, index: NDArray[np.int64], size: int) -> NDArray[np.
     return index
 
 
-def _combine(path: Path, parts: list[dict[str, NDArray[np.generic]]],
-             materials: list[Material]) -> ColouredMesh:
+def _combine(
+    path: Path, parts: list[dict[str, NDArray[np.generic]]], materials: list[Material]
+) -> ColouredMesh:
     offsets = np.cumsum([0] + [len(p["vertices"]) for p in parts[:-1]])
     vertices = np.concatenate([p["vertices"] for p in parts]).astype(np.float64)
     faces = np.concatenate([p["faces"] + o for p, o in zip(parts, offsets, strict=True)])
@@ -270,8 +331,15 @@ def _combine(path: Path, parts: list[dict[str, NDArray[np.generic]]],
         colours, inverse = np.unique(rgba[plain, 0], axis=0, return_inverse=True)
         table = list(materials) + [Material("colour", factor=decode_uint8(c)) for c in colours]
         material[plain] = len(materials) + inverse.reshape(-1)
-        return ColouredMesh(vertices, faces, "texture", corner_uv=uv, face_material=material,
-                            materials=tuple(table), source=source)
+        return ColouredMesh(
+            vertices,
+            faces,
+            "texture",
+            corner_uv=uv,
+            face_material=material,
+            materials=tuple(table),
+            source=source,
+        )
     if not coloured.any():
         return ColouredMesh(vertices, faces, "none", source=source)
     if (rgba == rgba[:, :1]).all():

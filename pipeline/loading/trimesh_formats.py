@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
+from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import Material, WrapMode, decode_uint8, encode_uint8, srgb_to_linear
 
@@ -32,12 +32,15 @@ def read_with_trimesh(path: Path, file_type: str) -> ColouredMesh:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            loaded = trimesh.load(str(path), file_type=file_type, process=False,
-                                  maintain_order=True)
+            loaded = trimesh.load(
+                str(path), file_type=file_type, process=False, maintain_order=True
+            )
     except Exception as error:  # trimesh raises many types for malformed files
-        raise InputError(path, f"could not be parsed as {file_type.upper()} "
-                         f"({type(error).__name__}: {error})", "check the file or re-export it"
-                         ) from None
+        raise InputError(
+            path,
+            f"could not be parsed as {file_type.upper()} ({type(error).__name__}: {error})",
+            "check the file or re-export it",
+        ) from None
     if isinstance(loaded, trimesh.Scene):
         parts = [g for g in loaded.dump(concatenate=False) if isinstance(g, trimesh.Trimesh)]
     elif isinstance(loaded, trimesh.Trimesh):
@@ -52,11 +55,14 @@ def read_with_trimesh(path: Path, file_type: str) -> ColouredMesh:
     return _combine(path, [_part(p, samplers, linear_vertex_colours) for p in parts])
 
 
-def _part(mesh: trimesh.Trimesh, samplers: dict[str, tuple[tuple[WrapMode, WrapMode], str]],
-          linear_vertex_colours: bool) -> dict[str, Any]:
+def _part(
+    mesh: trimesh.Trimesh,
+    samplers: dict[str, tuple[tuple[WrapMode, WrapMode], str]],
+    linear_vertex_colours: bool,
+) -> dict[str, Any]:
     faces = np.asarray(mesh.faces, dtype=np.int64)
     part: dict[str, Any] = {"vertices": np.asarray(mesh.vertices, np.float64), "faces": faces}
-    visual = mesh.visual
+    visual: Any = mesh.visual
     kind = getattr(visual, "kind", None)
     if kind == "texture" and visual.uv is not None and len(visual.uv) == len(mesh.vertices):
         material = visual.material
@@ -68,8 +74,13 @@ def _part(mesh: trimesh.Trimesh, samplers: dict[str, tuple[tuple[WrapMode, WrapM
         name = str(getattr(material, "name", "") or "")
         wrap, filt = samplers.get(name, (("repeat", "repeat"), "linear"))
         rgba = None if image is None else np.asarray(image.convert("RGBA"), dtype=np.uint8)
-        part["material"] = Material(name, factor=factor_f, image=rgba, wrap=wrap,
-                                    filter="nearest" if filt == "nearest" else "linear")
+        part["material"] = Material(
+            name,
+            factor=factor_f,
+            image=rgba,
+            wrap=wrap,
+            filter="nearest" if filt == "nearest" else "linear",
+        )
         part["uv"] = np.asarray(visual.uv, np.float64)[faces]
         return part
     if kind == "texture":  # a material without texture coordinates: its factor colour
@@ -114,16 +125,26 @@ def _combine(path: Path, parts: list[dict[str, Any]]) -> ColouredMesh:
                 material = p["material"]
             else:
                 if "rgba" in p:
-                    warnings.warn(f"{path}: a primitive's vertex or face colours are replaced "
-                                  "by its mean colour next to textured primitives", stacklevel=3)
+                    warnings.warn(
+                        f"{path}: a primitive's vertex or face colours are replaced "
+                        "by its mean colour next to textured primitives",
+                        ShellvoxWarning,
+                        stacklevel=3,
+                    )
                 mean = decode_uint8(p["rgba"]).reshape(-1, 4).mean(0) if "rgba" in p else None
                 material = Material("plain", factor=np.ones(4) if mean is None else mean)
                 uv.append(np.zeros((n, 3, 2)))
             index.append(np.full(n, len(materials), np.int64))
             materials.append(material)
-        return ColouredMesh(vertices, faces, "texture", corner_uv=np.concatenate(uv),
-                            face_material=np.concatenate(index), materials=tuple(materials),
-                            source=source)
+        return ColouredMesh(
+            vertices,
+            faces,
+            "texture",
+            corner_uv=np.concatenate(uv),
+            face_material=np.concatenate(index),
+            materials=tuple(materials),
+            source=source,
+        )
     if any("rgba" in p for p in parts):
         rgba = np.concatenate([p.get("rgba", np.repeat(white, len(p["faces"]), 0)) for p in parts])
         if (rgba == rgba[:, :1]).all():
@@ -152,8 +173,10 @@ def _gltf_samplers(path: Path) -> dict[str, tuple[tuple[WrapMode, WrapMode], str
             continue
         sampler_index = textures[info["index"]].get("sampler")
         sampler = samplers[sampler_index] if sampler_index is not None else {}
-        wrap = (GL_WRAP.get(sampler.get("wrapS", 10497), "repeat"),
-                GL_WRAP.get(sampler.get("wrapT", 10497), "repeat"))
+        wrap = (
+            GL_WRAP.get(sampler.get("wrapS", 10497), "repeat"),
+            GL_WRAP.get(sampler.get("wrapT", 10497), "repeat"),
+        )
         filt = "nearest" if sampler.get("magFilter") in GL_NEAREST else "linear"
         result[str(material.get("name", ""))] = (wrap, filt)
     return result
