@@ -14,12 +14,12 @@ demo: setup
 	$(BIN)/shellvox info $(MODEL)
 
 test: setup
-	$(BIN)/ruff check pipeline offset voxel tests benchmarks data
+	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/python -m pytest
 
 lint: setup
-	$(BIN)/ruff check pipeline offset voxel tests benchmarks data
+	$(BIN)/ruff check .
 	$(BIN)/mypy
 
 clean:
