@@ -255,3 +255,47 @@ def test_obj_without_mtl_takes_texture_option(tmp_path):
         mesh = load_model(tmp_path / "m.obj", LoadOptions(texture=tmp_path / "given.png"))
     assert mesh.colour_kind == "texture"
     assert _colour_at_point(mesh, _point_for_uv(np.array([U, V_UP]))) == RED
+
+
+PLY_HEADER = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+
+
+def test_ply_float_vertex_colours(tmp_path):
+    colours = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0.2, 0.7, 0.9]])
+    text = PLY_HEADER + "property float z\nproperty float red\nproperty float green\n"
+    text += "property float blue\nelement face 4\nproperty list uchar int vertex_indices\n"
+    text += "end_header\n"
+    text += "".join(
+        f"{x} {y} {z} {r} {g} {b}\n"
+        for (x, y, z), (r, g, b) in zip(TET_VERTICES, colours, strict=True)
+    )
+    text += "".join(f"3 {a} {b} {c}\n" for a, b, c in TET_FACES)
+    (tmp_path / "f.ply").write_text(text)
+    mesh = load_model(tmp_path / "f.ply")
+    assert mesh.colour_kind == "vertex"
+    expected = np.rint(colours * 255)
+    for f in range(4):
+        for c in range(3):
+            got = mesh.colour_at(np.array([f]), np.eye(3)[c][None])[0]
+            vertex = int(
+                np.flatnonzero((mesh.vertices[mesh.faces[f, c]] == TET_VERTICES).all(1))[0]
+            )
+            np.testing.assert_array_equal(got[:3], expected[vertex])
+
+
+def test_ply_uchar_face_colours(tmp_path):
+    colours = np.array([[255, 0, 0], [0, 255, 0], [0, 0, 255], [9, 9, 9]])
+    text = PLY_HEADER + "property float z\nelement face 4\n"
+    text += "property list uchar int vertex_indices\nproperty uchar red\nproperty uchar green\n"
+    text += "property uchar blue\nend_header\n"
+    text += "".join(f"{x} {y} {z}\n" for x, y, z in TET_VERTICES)
+    text += "".join(
+        f"3 {a} {b} {c} {r} {g} {bl}\n"
+        for (a, b, c), (r, g, bl) in zip(TET_FACES, colours, strict=True)
+    )
+    (tmp_path / "fc.ply").write_text(text)
+    mesh = load_model(tmp_path / "fc.ply")
+    assert mesh.colour_kind == "face"
+    for f, face in enumerate(TET_FACES):
+        fid, bary = locate(mesh, TET_VERTICES[face].mean(0))
+        np.testing.assert_array_equal(mesh.colour_at(fid, bary)[0, :3], colours[f])
