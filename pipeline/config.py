@@ -66,3 +66,22 @@ def as_json(config: Any) -> dict[str, Any]:
         return value
 
     return {key: convert(value) for key, value in dataclasses.asdict(config).items()}
+
+
+@dataclass(frozen=True)
+class ShellConfig:
+    """How shells are made (``shellvox shells``; the shell stage of ``build``).
+
+    Parameters
+    ----------
+    thickness_mm : tuple of float
+        Thickness of each layer, outside in (mm), the same for every face.
+    method : {"robust", "paper"}
+        Offset construction (see :mod:`offset`).
+    layer_height_mm : float
+        Printer layer height used by the slicer baseline of the report.
+    """
+
+    thickness_mm: tuple[float, ...] = (0.5, 0.5)
+    method: Literal["robust", "paper"] = "robust"
+    layer_height_mm: float = 0.027

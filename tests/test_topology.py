@@ -63,3 +63,28 @@ def test_inconsistent_winding_is_refused_or_repaired():
     assert any("re-oriented" in str(w.message) for w in record)
     assert edge_report(mesh.faces).oriented
     assert signed_volume(mesh.vertices, mesh.faces) == pytest.approx(1000 / 6)
+
+
+def test_merge_by_position_matches_a_slow_reference():
+    from pipeline.topology import merge_by_position
+
+    rng = np.random.default_rng(3)
+    points = rng.integers(0, 5, size=(400, 3)).astype(np.float64)  # many repeated rows
+    faces = rng.integers(0, 400, size=(300, 3))
+    merged = merge_by_position(ColouredMesh(points, faces, source="t"))
+    assert len(merged.vertices) == len(np.unique(points, axis=0))
+    np.testing.assert_array_equal(merged.vertices[merged.faces], points[faces])
+
+
+def test_edge_report_matches_a_slow_reference():
+    box = trimesh.creation.icosphere(subdivisions=2)
+    faces = np.asarray(box.faces)[5:]  # open it: the removed faces leave boundary edges
+    report = edge_report(faces)
+    counts: dict[tuple[int, int], int] = {}
+    for a, b, c in faces.tolist():
+        for e in ((a, b), (b, c), (c, a)):
+            key = (min(e), max(e))
+            counts[key] = counts.get(key, 0) + 1
+    expected = sorted(k for k, n in counts.items() if n == 1)
+    assert sorted(map(tuple, report.boundary.tolist())) == expected
+    assert len(report.misoriented) == 0

@@ -125,13 +125,7 @@ def _triangulate(
     if counts.min() < 3:
         raise InputError(path, "has a face with fewer than 3 corners", "re-export the mesh")
     tokens = [token for face in face_lines for token in face]
-    parts = [token.split("/") for token in tokens]
-    try:
-        pos = np.array([int(p[0]) for p in parts], dtype=np.int64)
-        uv_ok = all(len(p) > 1 and p[1] != "" for p in parts)
-        uv = np.array([int(p[1]) for p in parts], dtype=np.int64) if uv_ok else None
-    except ValueError:
-        raise InputError(path, "has a malformed 'f' line", "re-export the mesh") from None
+    pos, uv = _corner_indices(path, tokens)
     pos = np.where(pos < 0, pos + n_positions, pos - 1)  # OBJ indices are 1-based or negative
     if uv is not None:
         uv = np.where(uv < 0, uv + n_uvs, uv - 1)
@@ -146,6 +140,34 @@ def _triangulate(
     local = np.arange(int(n_tris.sum())) - np.repeat(np.cumsum(n_tris) - n_tris, n_tris)
     corner = np.stack([starts[owner], starts[owner] + local + 1, starts[owner] + local + 2], axis=1)
     return pos[corner], None if uv is None else uv[corner], owner
+
+
+def _corner_indices(
+    path: Path, tokens: list[str]
+) -> tuple[NDArray[np.int64], NDArray[np.int64] | None]:
+    """Position and UV indices of face corners written ``v``, ``v/vt``, ``v/vt/vn``, ``v//vn``."""
+    joined = " ".join(tokens)
+    first = tokens[0]
+    slashes = first.count("/")
+    uniform = joined.count("/") == slashes * len(tokens) and joined.count("//") in (
+        0,
+        len(tokens) if "//" in first else -1,
+    )
+    try:
+        per_corner = slashes + 1 - ("//" in first)
+        if uniform:  # the usual case: parse all corners at once
+            fields = np.array(joined.replace("//", "/").replace("/", " ").split(), np.int64)
+            if fields.size == per_corner * len(tokens):
+                table = fields.reshape(len(tokens), per_corner)
+                has_uv = slashes >= 1 and "//" not in first
+                return table[:, 0], table[:, 1] if has_uv else None
+        parts = [token.split("/") for token in tokens]
+        pos = np.array([int(p[0]) for p in parts], dtype=np.int64)
+        uv_ok = all(len(p) > 1 and p[1] != "" for p in parts)
+        uv = np.array([int(p[1]) for p in parts], dtype=np.int64) if uv_ok else None
+    except ValueError:
+        raise InputError(path, "has a malformed 'f' line", "re-export the mesh") from None
+    return pos, uv
 
 
 def _resolve(base: Path, name: str) -> Path | None:
