@@ -1,0 +1,229 @@
+"""Quality numbers of one shell against its original surface and the previous shell."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.sparse
+import scipy.sparse.csgraph
+import trimesh
+
+from offset._validate import FloatArray, IntArray
+from offset.adjacency import bend_angles, edge_adjacency, face_normals
+from offset.intersections import count_self_intersections
+
+#: Barycentric coordinate below which a closest point counts as on an edge / vertex.
+FEATURE_BARY = 1e-6
+
+
+def percentiles(values: FloatArray) -> dict[str, float | None]:
+    """Return p50, p99 and max of `values` as plain floats (``None`` when empty).
+
+    Parameters
+    ----------
+    values : (N,) float64
+
+    Returns
+    -------
+    dict
+        Keys ``p50``, ``p99``, ``max``.
+    """
+    if values.size == 0:
+        return {"p50": None, "p99": None, "max": None}
+    p50, p99 = np.percentile(values, [50, 99])
+    return {"p50": float(p50), "p99": float(p99), "max": float(values.max())}
+
+
+def nearest_feature(
+    original: trimesh.Trimesh, points: FloatArray
+) -> tuple[FloatArray, FloatArray, IntArray, IntArray]:
+    """Return exact closest points on `original` and the feature kind they lie on.
+
+    Parameters
+    ----------
+    original : trimesh.Trimesh
+    points : (N, 3) float64, mm
+
+    Returns
+    -------
+    closest : (N, 3) float64, mm
+    distance : (N,) float64, mm
+    face : (N,) int64
+        Triangle holding the closest point.
+    kind : (N,) int64
+        0 face interior, 1 edge, 2 vertex.
+    """
+    closest, distance, face = trimesh.proximity.closest_point(  # type: ignore[no-untyped-call]
+        original, points
+    )
+    face = np.asarray(face, dtype=np.int64)
+    bary = trimesh.triangles.points_to_barycentric(  # type: ignore[no-untyped-call]
+        original.triangles[face], closest
+    )
+    kind = (np.asarray(bary) < FEATURE_BARY).sum(axis=1).astype(np.int64)
+    return np.asarray(closest), np.asarray(distance, dtype=np.float64), face, kind
+
+
+def equidistance(
+    original: trimesh.Trimesh, depth: FloatArray, points: FloatArray
+) -> dict[str, Any]:
+    """Return equidistance and plane-deviation statistics of points on a shell.
+
+    Parameters
+    ----------
+    original : trimesh.Trimesh
+        The original closed surface.
+    depth : (F,) float64, mm
+        Requested cumulative depth per original face.
+    points : (N, 3) float64, mm
+        Points sampled on the shell.
+
+    Returns
+    -------
+    dict
+        ``error_pct`` (p50/p99/max of ``|dist - D(nearest)| / D(nearest)`` in %),
+        ``plane_deviation_mm`` (the same in mm for points whose nearest point is inside a
+        face, i.e. their distance from the moved face plane), and ``by_region``: the same
+        percent statistics and the sample share for points nearest to a face interior, a
+        convex edge, a reflex edge and a vertex.
+    """
+    _, distance, face, kind = nearest_feature(original, points)
+    want = depth[face]
+    err_mm = np.abs(distance - want)
+    err_pct = 100.0 * err_mm / want
+    region = np.where(kind == 0, "face", np.where(kind >= 2, "vertex", "edge")).astype(object)
+    if np.any(kind == 1):
+        region[kind == 1] = _edge_kind(original, points[kind == 1], face[kind == 1])
+    by_region = {
+        name: {"share": float(np.mean(region == name)), **percentiles(err_pct[region == name])}
+        for name in ("face", "convex_edge", "reflex_edge", "vertex")
+    }
+    return {
+        "n_samples": int(points.shape[0]),
+        "error_pct": percentiles(err_pct),
+        "plane_deviation_mm": percentiles(err_mm[kind == 0]),
+        "by_region": by_region,
+    }
+
+
+def _edge_kind(original: trimesh.Trimesh, points: FloatArray, face: IntArray) -> FloatArray:
+    """Name the edge (``convex_edge`` / ``reflex_edge``) nearest to each point."""
+    v = np.asarray(original.vertices, dtype=np.float64)
+    f = np.asarray(original.faces, dtype=np.int64)
+    normals, _ = face_normals(v, f)
+    adj = edge_adjacency(f)
+    bend = bend_angles(normals, v, adj)
+    bary = trimesh.triangles.points_to_barycentric(  # type: ignore[no-untyped-call]
+        original.triangles[face], points
+    )
+    # Edge j joins corners j, j + 1: the corner (j + 2) % 3 has the smallest coordinate.
+    j = (np.argmin(bary, axis=1) + 1) % 3
+    edge = adj.face_edges[face, j]
+    return np.where(bend[edge] < 0, "reflex_edge", "convex_edge").astype(object)
+
+
+def mesh_checks(vertices: FloatArray, faces: IntArray) -> dict[str, Any]:
+    """Return closure, orientation, self-intersection count and volume of a mesh.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float64, mm
+    faces : (m, 3) int64
+
+    Returns
+    -------
+    dict
+        ``n_faces``, ``closed``, ``oriented`` (consistent winding, positive volume),
+        ``self_intersections``, ``volume_mm3`` (``None`` unless closed).
+    """
+    if faces.shape[0] == 0:
+        return {"n_faces": 0, "closed": True, "oriented": True, "self_intersections": 0,
+                "volume_mm3": 0.0}
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    closed = bool(mesh.is_watertight)
+    volume = float(mesh.volume) if closed else None
+    return {
+        "n_faces": int(faces.shape[0]),
+        "closed": closed,
+        "oriented": bool(mesh.is_winding_consistent) and (volume is None or volume > 0),
+        "self_intersections": count_self_intersections(vertices, faces),
+        "volume_mm3": volume,
+    }
+
+
+def nested_in(
+    inner: tuple[FloatArray, IntArray], outer: tuple[FloatArray, IntArray]
+) -> bool:
+    """Return whether the closed mesh `inner` lies strictly inside the closed mesh `outer`.
+
+    The two surfaces must not cross, and one vertex of every connected component of
+    `inner` must be inside `outer` (generalised winding number above one half); without
+    crossings, each component is then entirely inside.
+
+    Parameters
+    ----------
+    inner, outer : (vertices (n, 3) float64 mm, faces (m, 3) int64)
+
+    Returns
+    -------
+    bool
+    """
+    if inner[1].shape[0] == 0:
+        return True
+    if outer[1].shape[0] == 0:
+        return False
+    _, label = scipy.sparse.csgraph.connected_components(
+        scipy.sparse.coo_matrix(
+            (np.ones(inner[1].size), (inner[1].reshape(-1), np.roll(inner[1], 1, 1).reshape(-1))),
+            shape=(len(inner[0]), len(inner[0])),
+        ),
+        directed=False,
+    )
+    used = np.zeros(len(inner[0]), dtype=bool)
+    used[inner[1].reshape(-1)] = True
+    _, probe = np.unique(label[used], return_index=True)
+    probe_pts = inner[0][np.flatnonzero(used)[probe]]
+    if not np.all(winding_number(outer[0], outer[1], probe_pts) > 0.5):
+        return False
+    both_v = np.concatenate([outer[0], inner[0]])
+    both_f = np.concatenate([outer[1], inner[1] + len(outer[0])])
+    crossings = count_self_intersections(both_v, both_f)
+    return crossings == count_self_intersections(*outer) + count_self_intersections(*inner)
+
+
+def winding_number(
+    vertices: FloatArray, faces: IntArray, points: FloatArray, *, chunk: int = 4_000_000
+) -> FloatArray:
+    """Return the generalised winding number of `points` w.r.t. a closed mesh.
+
+    Solid angles by Van Oosterom and Strackee's formula, summed over all faces.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+    points : (N, 3) float64, mm
+    chunk : int, optional
+        Point-face pairs evaluated at once.
+
+    Returns
+    -------
+    (N,) float64
+        About 1 inside, 0 outside.
+    """
+    tri = vertices[faces]
+    out = np.empty(len(points))
+    step = max(1, chunk // max(len(faces), 1))
+    for s in range(0, len(points), step):
+        r = tri[None, :, :, :] - points[s : s + step, None, None, :]
+        ln = np.linalg.norm(r, axis=3)
+        det = np.einsum("pfi,pfi->pf", r[:, :, 0], np.cross(r[:, :, 1], r[:, :, 2]))
+        dots = (
+            ln[:, :, 0] * ln[:, :, 1] * ln[:, :, 2]
+            + np.einsum("pfi,pfi->pf", r[:, :, 0], r[:, :, 1]) * ln[:, :, 2]
+            + np.einsum("pfi,pfi->pf", r[:, :, 1], r[:, :, 2]) * ln[:, :, 0]
+            + np.einsum("pfi,pfi->pf", r[:, :, 2], r[:, :, 0]) * ln[:, :, 1]
+        )
+        out[s : s + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
+    return out
