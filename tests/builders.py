@@ -62,20 +62,26 @@ def write_obj(
 
 def write_glb(
     path: Path,
-    corner_uv_gltf: np.ndarray,
-    image: np.ndarray,
+    corner_uv_gltf: np.ndarray | None,
+    image: np.ndarray | None,
     palette: bool = False,
     factor: list[float] | None = None,
+    corner_colour_linear: np.ndarray | None = None,
 ) -> None:
     """Tetrahedron GLB (12 unshared vertices) with a base-colour texture.
 
     ``corner_uv_gltf`` is in glTF's convention: origin at the top-left of the image.
     """
     positions = TET_VERTICES[TET_FACES].reshape(-1, 3).astype(np.float32)
-    uvs = corner_uv_gltf.reshape(-1, 2).astype(np.float32)
     indices = np.arange(12, dtype=np.uint32)
-    picture = png_bytes(image, "P" if palette else "RGBA")
-    blobs = [positions.tobytes(), uvs.tobytes(), indices.tobytes(), picture]
+    if corner_uv_gltf is not None and image is not None:
+        second = corner_uv_gltf.reshape(-1, 2).astype(np.float32).tobytes()
+        last = png_bytes(image, "P" if palette else "RGBA")
+    else:  # COLOR_0: linear RGBA floats per vertex, no texture
+        assert corner_colour_linear is not None
+        second = corner_colour_linear.reshape(-1, 4).astype(np.float32).tobytes()
+        last = b""
+    blobs = [positions.tobytes(), second, indices.tobytes(), last]
     views, offset, binary = [], 0, b""
     for blob in blobs:
         views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(blob)})
@@ -116,6 +122,18 @@ def write_glb(
         "scenes": [{"nodes": [0]}],
         "scene": 0,
     }
+    if corner_uv_gltf is None:
+        document["accessors"][1] = {
+            "bufferView": 1,
+            "componentType": 5126,
+            "count": 12,
+            "type": "VEC4",
+        }
+        for key in ("images", "samplers", "textures", "materials"):
+            del document[key]
+        document["meshes"] = [
+            {"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1}, "indices": 2}]}
+        ]
     text = json.dumps(document).encode()
     text += b" " * (-len(text) % 4)
     body = struct.pack("<I4s", len(text), b"JSON") + text

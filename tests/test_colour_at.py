@@ -299,3 +299,44 @@ def test_ply_uchar_face_colours(tmp_path):
     for f, face in enumerate(TET_FACES):
         fid, bary = locate(mesh, TET_VERTICES[face].mean(0))
         np.testing.assert_array_equal(mesh.colour_at(fid, bary)[0, :3], colours[f])
+
+
+def test_glb_color_0_is_linear_light_encoded_to_srgb(tmp_path):
+    rng = np.random.default_rng(7)
+    linear = np.concatenate([rng.uniform(0.05, 1.0, (4, 3)), np.ones((4, 1))], axis=1)
+    corner = linear[TET_FACES.reshape(-1)]  # one colour per tetrahedron vertex
+    write_glb(tmp_path / "c.glb", None, None, corner_colour_linear=corner)
+    mesh = load_model(tmp_path / "c.glb")
+    assert mesh.colour_kind == "vertex"
+    expected = colour.cctf_encoding(linear[:, :3], function="sRGB") * 255
+    for f in range(4):
+        for c in range(3):
+            got = mesh.colour_at(np.array([f]), np.eye(3)[c][None])[0, :3]
+            vertex = int(
+                np.flatnonzero((mesh.vertices[mesh.faces[f, c]] == TET_VERTICES).all(1))[0]
+            )
+            # COLOR_0 passes through 8-bit linear storage in trimesh: allow that rounding.
+            np.testing.assert_allclose(got, expected[vertex], atol=3)
+
+
+def test_obj_with_two_textured_materials_keeps_them_distinct(tmp_path):
+    lines = ["mtllib m.mtl"] + [f"v {x} {y} {z}" for x, y, z in TET_VERTICES]
+    lines += ["vt 0.5 0.5"]
+    for i, face in enumerate(TET_FACES):
+        lines += [f"usemtl {'a' if i < 2 else 'b'}", "f " + " ".join(f"{v + 1}/1" for v in face)]
+    (tmp_path / "m.obj").write_text("\n".join(lines))
+    (tmp_path / "m.mtl").write_text("newmtl a\nmap_Kd a.png\nnewmtl b\nmap_Kd b.png\n")
+    from builders import png_bytes
+
+    for name, value in (("a", (200, 10, 10)), ("b", (10, 10, 200))):
+        image = np.zeros((4, 4, 4), np.uint8)
+        image[..., :3] = value
+        image[..., 3] = 255
+        (tmp_path / f"{name}.png").write_bytes(png_bytes(image))
+    mesh = load_model(tmp_path / "m.obj")
+    assert mesh.colour_kind == "texture"
+    assert len(mesh.materials) == 2
+    for f, face in enumerate(TET_FACES):
+        fid, bary = locate(mesh, TET_VERTICES[face].mean(0))
+        want = (200, 10, 10) if f < 2 else (10, 10, 200)
+        assert tuple(mesh.colour_at(fid, bary)[0, :3]) == want
