@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import manifold3d as m3d
 import numpy as np
+import numpy.typing as npt
 import scipy.sparse
 import scipy.sparse.csgraph
 import trimesh
@@ -50,6 +51,8 @@ from offset.adjacency import bend_angles, edge_adjacency, face_normals
 FLAT_EDGE_RAD = np.radians(1.0)
 #: Pieces reach this fraction of their depth outside the surface (avoids coplanar caps).
 OUTSIDE_FRACTION = 0.05
+#: Extra subtraction rounds where a Boolean left part of the original surface behind.
+REPAIR_ROUNDS = 3
 #: Components thinner on average than this fraction of the depth, or smaller than this
 #: fraction of the extent cubed, are dropped as slivers.
 SLIVER_FRACTION = 1e-6
@@ -85,7 +88,8 @@ def robust_offset(
     list of (vertices (n, 3) float64 mm, faces (m, 3) int64)
         One outward-oriented mesh per layer, possibly empty or with several components.
     """
-    solid = _to_manifold(vertices, faces)
+    solid = _to_manifold(vertices, faces).as_original()
+    solid_id = int(solid.original_id())
     if solid.status() != m3d.Error.NoError:
         raise ValueError(
             f"vertices/faces must form a closed oriented manifold, got {solid.status()}"
@@ -141,18 +145,67 @@ def robust_offset(
             ),
             _balls(vertices[ball_vertices], vdepth[ball_vertices], 3),
         ]
+        min_thickness = SLIVER_FRACTION * float(d.min())
         batches = [mf for pts, tris in pieces for mf in _batched_manifolds(pts, tris)]
         core = m3d.Manifold.batch_boolean([solid, *batches], m3d.OpType.Subtract)
-        mesh = core.to_mesh64()
-        vert = np.ascontiguousarray(np.asarray(mesh.vert_properties)[:, :3], dtype=np.float64)
-        tri = np.ascontiguousarray(np.asarray(mesh.tri_verts), dtype=np.int64).reshape(-1, 3)
-        out.append(_drop_slivers(vert, tri, SLIVER_FRACTION * float(d.min())))
+        vert, tri, leftover = _mesh_arrays(core, solid_id, min_thickness)
+        for _ in range(REPAIR_ROUNDS):
+            if not np.any(leftover):
+                break
+            # Original surface must never survive (every face's prism covers it): the
+            # Boolean mis-classified a region. Subtract the pieces around it once more.
+            box_lo = vert[tri[leftover]].reshape(-1, 3).min(axis=0) - d.max()
+            box_hi = vert[tri[leftover]].reshape(-1, 3).max(axis=0) + d.max()
+            local = [
+                mf
+                for pts, tris in pieces
+                for mf in _batched_manifolds(pts[_overlapping(pts, box_lo, box_hi)], tris)
+            ]
+            core = m3d.Manifold.batch_boolean([core, *local], m3d.OpType.Subtract)
+            vert, tri, leftover = _mesh_arrays(core, solid_id, min_thickness)
+        out.append((vert, tri))
     return out
+
+
+def _mesh_arrays(
+    core: m3d.Manifold, solid_id: int, min_thickness: float
+) -> tuple[FloatArray, IntArray, npt.NDArray[np.bool_]]:
+    """Return sliver-free vertices and triangles, and which triangles stem from the solid.
+
+    Parameters
+    ----------
+    core : manifold3d.Manifold
+    solid_id : int
+        Original ID of the input solid.
+    min_thickness : float, mm
+        See :func:`_drop_slivers`.
+
+    Returns
+    -------
+    vertices : (n, 3) float64, mm
+    faces : (m, 3) int64
+    from_solid : (m,) bool
+    """
+    mesh = core.to_mesh64()
+    vert = np.ascontiguousarray(np.asarray(mesh.vert_properties)[:, :3], dtype=np.float64)
+    tri = np.ascontiguousarray(np.asarray(mesh.tri_verts), dtype=np.int64).reshape(-1, 3)
+    run_id = np.asarray(mesh.run_original_id, dtype=np.int64)
+    run_index = np.asarray(mesh.run_index, dtype=np.int64) // 3
+    tri_id = np.repeat(run_id, np.diff(run_index)) if run_id.size else np.full(len(tri), -1)
+    vert, tri, keep = _drop_slivers(vert, tri, min_thickness)
+    return vert, tri, tri_id[keep] == solid_id
+
+
+def _overlapping(points: FloatArray, lo: FloatArray, hi: FloatArray) -> npt.NDArray[np.bool_]:
+    """Return which pieces ``(N, P, 3)`` have a bounding box meeting the box ``[lo, hi]``."""
+    return np.asarray(
+        np.all((points.min(axis=1) <= hi) & (points.max(axis=1) >= lo), axis=1), dtype=bool
+    )
 
 
 def _drop_slivers(
     vertices: FloatArray, faces: IntArray, min_thickness: float
-) -> tuple[FloatArray, IntArray]:
+) -> tuple[FloatArray, IntArray, npt.NDArray[np.bool_]]:
     """Remove flat or tiny components.
 
     Booleans of nearly coincident faces can leave closed needle components of about zero
@@ -171,9 +224,11 @@ def _drop_slivers(
     vertices : (n', 3) float64, mm
     faces : (m', 3) int64
         Unreferenced vertices removed.
+    kept : (m,) bool
+        Which input faces were kept.
     """
     if faces.shape[0] == 0:
-        return vertices, faces
+        return vertices, faces, np.zeros(0, dtype=bool)
     graph = scipy.sparse.coo_matrix(
         (np.ones(faces.size), (faces.reshape(-1), np.roll(faces, 1, axis=1).reshape(-1))),
         shape=(len(vertices), len(vertices)),
@@ -192,7 +247,11 @@ def _drop_slivers(
     used = np.zeros(len(vertices), dtype=bool)
     used[faces[keep].reshape(-1)] = True
     new_index = np.cumsum(used) - 1
-    return np.ascontiguousarray(vertices[used]), np.ascontiguousarray(new_index[faces[keep]])
+    return (
+        np.ascontiguousarray(vertices[used]),
+        np.ascontiguousarray(new_index[faces[keep]]),
+        keep,
+    )
 
 
 def _to_manifold(vertices: FloatArray, faces: IntArray) -> m3d.Manifold:
