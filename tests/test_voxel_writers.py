@@ -1,0 +1,89 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import tifffile
+
+from voxel.atomic import atomic_path, write_text_atomic
+from voxel.grid import GridSpec
+from voxel.openvdb_module import load_openvdb
+from voxel.tiff_writer import TiffStackWriter
+from voxel.vdb_writer import VdbStackWriter, describe_grids
+
+GRID = GridSpec((1.0, 2.0, 3.0), (0.0423, 0.0846, 0.027), (10, 20, 30))
+
+
+@pytest.mark.parametrize("samples", [0, 3, 4])
+def test_tiff_round_trip(tmp_path, samples):
+    rng = np.random.default_rng(samples)
+    shape = GRID.shape_zyx + ((samples,) if samples else ())
+    data = rng.integers(0, 255, shape).astype(np.uint8)
+    with TiffStackWriter(tmp_path / "a.tif", GRID, samples=samples) as writer:
+        for start, stop in ((0, 3), (3, 4), (4, 10)):
+            writer.write_slab(data[start:stop])
+    with tifffile.TiffFile(tmp_path / "a.tif") as tiff:
+        np.testing.assert_array_equal(tiff.asarray(), data)
+        assert tiff.is_imagej
+        assert tiff.imagej_metadata["unit"] == "mm"
+        assert tiff.imagej_metadata["spacing"] == pytest.approx(0.027)
+        x_res = tiff.pages[0].tags["XResolution"].value
+        y_res = tiff.pages[0].tags["YResolution"].value
+        assert x_res[1] / x_res[0] == pytest.approx(0.0423, rel=1e-5)
+        assert y_res[1] / y_res[0] == pytest.approx(0.0846, rel=1e-5)
+        assert tiff.pages[0].compression == tifffile.COMPRESSION.ADOBE_DEFLATE
+
+
+def test_tiff_rejects_wrong_slabs(tmp_path):
+    writer = TiffStackWriter(tmp_path / "b.tif", GRID)
+    with pytest.raises(ValueError, match="slab must be uint8"):
+        writer.write_slab(np.zeros((2, 20, 31), np.uint8))
+    writer.write_slab(np.zeros((2, 20, 30), np.uint8))
+    with pytest.raises(ValueError, match="2 of 10 pages"):
+        writer.close()
+
+
+def test_vdb_round_trip(tmp_path):
+    vdb = load_openvdb()
+    layers = np.zeros(GRID.shape_zyx, np.uint8)
+    layers[2:8, 5:15, 10:20] = 1
+    layers[3:7, 7:13, 12:18] = 2
+    rgb = np.zeros((*GRID.shape_zyx, 3), np.float32)
+    rgb[layers == 1] = (0.5, 0.25, 1.0)
+    sdf = np.full(GRID.shape_zyx, 0.25, np.float32)
+    sdf[layers == 1] = -0.01
+    writer = VdbStackWriter(GRID, sdf_half_width_mm=0.25)
+    writer.write_slab(0, layers[:4], rgb[:4], sdf[:4])
+    writer.write_slab(4, layers[4:], rgb[4:], sdf[4:])
+    summary = writer.write(tmp_path / "v.vdb", {"tool": "shellvox"})
+    grids, _ = vdb.readAll(str(tmp_path / "v.vdb"))
+    assert describe_grids(grids) == summary
+    assert summary["density"]["active_voxels"] == np.count_nonzero(layers)
+    assert summary["color"]["active_voxels"] == np.count_nonzero(layers == 1)
+    assert summary["sdf"]["class"] == "level set"
+    by_name = {grid.name: grid for grid in grids}
+    for grid in grids:
+        np.testing.assert_allclose(grid.transform.voxelSize(), GRID.voxel_mm)
+    # index (i, j, k) = (x, y, z) maps to the voxel centre
+    np.testing.assert_allclose(
+        by_name["layer"].transform.indexToWorld((15, 10, 3)), GRID.index_to_world([[3, 10, 15]])[0]
+    )
+    back = np.zeros(GRID.shape_zyx[::-1], np.float32)
+    by_name["layer"].copyToArray(back, ijk=(0, 0, 0))
+    np.testing.assert_array_equal(back.transpose(2, 1, 0), layers)
+    assert by_name["sdf"].getConstAccessor().getValue((15, 10, 5)) == pytest.approx(-0.25)
+
+
+def test_atomic_leaves_nothing_on_failure(tmp_path):
+    target = tmp_path / "out.json"
+
+    def fail() -> None:
+        with atomic_path(target) as temporary:
+            temporary.write_text("half")
+            raise RuntimeError("boom")
+
+    with pytest.raises(RuntimeError, match="boom"):
+        fail()
+    assert list(tmp_path.iterdir()) == []
+    write_text_atomic(target, "{}")
+    assert target.read_text() == "{}"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.json"]

@@ -1,0 +1,172 @@
+"""Streaming ImageJ-compatible TIFF stacks, written slab by slab (serialisation only).
+
+Each file is written by its own thread from a bounded queue, so the caller pushes slabs
+(:meth:`TiffStackWriter.write_slab`) while compression runs beside the numerics; at most
+``queue_slabs`` slabs wait in memory. Pages are ``(Y, X)`` (or ``(Y, X, S)`` RGB) planes,
+one per z, deflate (zlib) compressed, with ImageJ metadata ``spacing`` (z), ``unit='mm'``
+and TIFF resolution tags (pixels per mm in x and y) so Fiji shows true size.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+import tifffile
+from numpy.typing import NDArray
+
+from voxel.grid import GridSpec
+
+#: Classic TIFF holds at most 4 GiB; BigTIFF is chosen when the raw data could exceed this.
+CLASSIC_TIFF_LIMIT = 2**32 - 2**26
+
+_DONE = None
+
+
+class TiffStackWriter:
+    """Write a ``(Z, Y, X[, S])`` uint8 stack to ``path`` one slab at a time.
+
+    Parameters
+    ----------
+    path : Path
+        File to write (the caller makes it atomic, see :mod:`voxel.atomic`).
+    grid : GridSpec
+        Gives the number of pages, page shape and physical voxel size.
+    samples : int
+        0 for a grey stack ``(Z, Y, X)``; 3 (RGB) or 4 (RGBA) for colour ``(Z, Y, X, S)``.
+    compression_level : int
+        zlib level 1..9.
+    queue_slabs : int
+        Slabs that may wait for the writer thread.
+
+    Notes
+    -----
+    ImageJ hyperstacks are specified without BigTIFF; past 4 GiB the file is a BigTIFF with
+    the ImageJ description, which Fiji opens with Bio-Formats (:attr:`bigtiff` tells).
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        grid: GridSpec,
+        *,
+        samples: int = 0,
+        compression_level: int = 6,
+        queue_slabs: int = 2,
+    ) -> None:
+        if samples not in (0, 3, 4):
+            raise ValueError(f"samples must be 0, 3 or 4, got {samples}")
+        if not 1 <= compression_level <= 9:
+            raise ValueError(f"compression_level must be 1..9, got {compression_level}")
+        self.path = Path(path)
+        self.grid = grid
+        self.samples = samples
+        _, n_y, n_x = grid.shape_zyx
+        self.page_shape: tuple[int, ...] = (n_y, n_x) if samples == 0 else (n_y, n_x, samples)
+        self.bigtiff = grid.n_voxels * max(samples, 1) > CLASSIC_TIFF_LIMIT
+        self._level = compression_level
+        self._queue: queue.Queue[NDArray[np.uint8] | None] = queue.Queue(maxsize=queue_slabs)
+        self._pages_sent = 0
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name=f"tiff:{self.path.name}")
+        self._thread.start()
+
+    def write_slab(self, slab: NDArray[np.uint8]) -> None:
+        """Queue the next ``(Zs, Y, X[, S])`` uint8 slab (pages in z order)."""
+        if slab.dtype != np.uint8 or slab.shape[1:] != self.page_shape:
+            raise ValueError(
+                f"slab must be uint8 (Zs, {', '.join(map(str, self.page_shape))}), "
+                f"got {slab.dtype} {slab.shape}"
+            )
+        if self._pages_sent + len(slab) > self.grid.shape_zyx[0]:
+            raise ValueError(f"more than Z={self.grid.shape_zyx[0]} pages written")
+        self._raise_if_failed()
+        self._put(np.ascontiguousarray(slab))
+        self._pages_sent += len(slab)
+
+    def close(self) -> None:
+        """Finish the file; raise if fewer than ``Z`` pages were written or writing failed."""
+        self._put(_DONE)
+        self._thread.join()
+        if self._pages_sent != self.grid.shape_zyx[0]:
+            raise ValueError(f"{self._pages_sent} of {self.grid.shape_zyx[0]} pages written")
+        self._raise_if_failed()
+
+    def abort(self) -> None:
+        """Stop the writer thread without finishing the file (the caller removes it)."""
+        if self._thread.is_alive():
+            self._error = self._error or RuntimeError("aborted")
+            while self._thread.is_alive():
+                try:
+                    self._queue.put(_DONE, timeout=0.1)
+                except queue.Full:
+                    continue
+                self._thread.join(timeout=0.1)
+
+    def __enter__(self) -> TiffStackWriter:
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        trace: TracebackType | None,
+    ) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
+
+    def _put(self, item: NDArray[np.uint8] | None) -> None:
+        while True:
+            try:
+                self._queue.put(item, timeout=0.5)
+                return
+            except queue.Full:
+                if not self._thread.is_alive():
+                    self._raise_if_failed()
+                    return
+
+    def _raise_if_failed(self) -> None:
+        if self._error is not None:
+            raise RuntimeError(f"writing {self.path} failed: {self._error}") from self._error
+
+    def _pages(self) -> Iterator[NDArray[np.uint8]]:
+        while True:
+            slab = self._queue.get()
+            if slab is None:
+                return
+            if self._error is not None:
+                continue
+            yield from slab
+
+    def _run(self) -> None:
+        vx, vy, vz = self.grid.voxel_mm
+        n_z = self.grid.shape_zyx[0]
+        options: dict[str, Any] = {
+            "shape": (n_z, *self.page_shape),
+            "dtype": np.uint8,
+            "compression": "zlib",
+            "compressionargs": {"level": self._level},
+            "resolution": (1.0 / vx, 1.0 / vy),
+            "metadata": {"spacing": vz, "unit": "mm", "axes": "ZYXS" if self.samples else "ZYX"},
+        }
+        if self.samples:
+            options["photometric"] = "rgb"
+            if self.samples == 4:
+                options["extrasamples"] = ("unassalpha",)
+        else:
+            options["photometric"] = "minisblack"
+        try:
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", message=".*nonconformant BigTIFF ImageJ")
+                with tifffile.TiffWriter(self.path, bigtiff=self.bigtiff, imagej=True) as tiff:
+                    tiff.write(self._pages(), **options)
+        except BaseException as error:  # reported to the caller by close()/write_slab()
+            self._error = error
