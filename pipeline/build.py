@@ -1,0 +1,245 @@
+"""``build_stack``: shells, then Z slabs of layers and colours, streamed to the output files.
+
+Numerics live in :mod:`offset` and :func:`voxel.slab.compute_slab`; the writers only
+serialise. Every file is written under a temporary name and renamed only when the whole
+build succeeded, ``manifest.json`` last, so a failed run leaves nothing that looks complete.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+from tqdm import tqdm
+
+from offset import offset_shells
+from pipeline import __version__
+from pipeline.build_config import BuildConfig
+from pipeline.config import as_json
+from pipeline.mesh import ColouredMesh
+from voxel.atomic import atomic_path
+from voxel.colour import srgb_to_linear
+from voxel.grid import GridSpec
+from voxel.nearest import SurfaceIndex
+from voxel.slab import StackModel, compute_slab, halo_voxels
+from voxel.tiff_writer import TiffStackWriter
+from voxel.vdb_writer import VdbStackWriter
+
+#: Working bytes per voxel of a slab (arrays of compute_slab, colour conversion, VDB copies).
+BYTES_PER_VOXEL = 64
+
+
+def build_stack(
+    mesh: ColouredMesh,
+    config: BuildConfig,
+    out_dir: Path,
+    *,
+    progress: bool | None = None,
+) -> dict[str, Any]:
+    """Build the layered voxel stack of a coloured mesh into ``out_dir``.
+
+    Parameters
+    ----------
+    mesh : ColouredMesh
+        Closed, outward-oriented model in mm.
+    config : BuildConfig
+        Grid, layers and output options.
+    out_dir : Path
+        Output folder (created). Receives ``layers.tif``, ``colour.tif``, ``volume.vdb``,
+        ``shells/shell_k.ply`` and ``manifest.json``.
+    progress : bool or None
+        Show a progress bar; ``None`` shows it only on a terminal.
+
+    Returns
+    -------
+    dict
+        The manifest (also written to ``out_dir/manifest.json``).
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "manifest.json").unlink(missing_ok=True)  # the old run is no longer complete
+    seconds: dict[str, float] = {}
+    started = time.perf_counter()
+    thickness = np.asarray(config.thickness_mm, dtype=np.float64)
+    shells = offset_shells(mesh.vertices, mesh.faces, thickness, method=config.shell_method)
+    seconds["shells"] = time.perf_counter() - started
+
+    half_width = config.sdf_half_width_mm
+    grid = GridSpec.from_bounds(
+        mesh.vertices.min(axis=0),
+        mesh.vertices.max(axis=0),
+        config.voxel_mm,
+        margin_mm=max(config.margin_mm, half_width),
+    )
+    model = StackModel(
+        surfaces=((mesh.vertices, mesh.faces), *((s.vertices, s.faces) for s in shells)),
+        surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
+        colour_at=mesh.colour_at,
+        colour_layers=config.colour_layers,
+        sdf_half_width_mm=half_width,
+    )
+    n_z = grid.shape_zyx[0]
+    halo = halo_voxels(model, grid)[0]
+    rows = slab_rows_for(grid, config.slab_mb, halo)
+    counts = np.zeros(model.n_bands + 2, dtype=np.int64)
+    diagnostics = {"unbalanced_rows": 0, "nesting_violations": 0, "nearest_queries": 0}
+    slab_seconds = 0.0
+    with contextlib.ExitStack() as stack:
+        manifest_path = stack.enter_context(atomic_path(out_dir / "manifest.json"))
+        (out_dir / "shells").mkdir(exist_ok=True)
+        for shell in shells:
+            ply = stack.enter_context(atomic_path(out_dir / "shells" / f"shell_{shell.layer}.ply"))
+            trimesh.Trimesh(shell.vertices, shell.faces, process=False).export(
+                str(ply), file_type="ply"
+            )
+        samples = 4 if config.alpha else 3
+        level = config.compression_level
+        layers_tif = stack.enter_context(
+            TiffStackWriter(
+                stack.enter_context(atomic_path(out_dir / "layers.tif")),
+                grid,
+                compression_level=level,
+            )
+        )
+        colour_tif = stack.enter_context(
+            TiffStackWriter(
+                stack.enter_context(atomic_path(out_dir / "colour.tif")),
+                grid,
+                samples=samples,
+                compression_level=level,
+            )
+        )
+        vdb = VdbStackWriter(grid, sdf_half_width_mm=half_width) if config.write_vdb else None
+        vdb_path = stack.enter_context(atomic_path(out_dir / "volume.vdb")) if vdb else None
+        bar = stack.enter_context(
+            tqdm(
+                total=n_z,
+                unit="z",
+                desc="voxels",
+                disable=None if progress is None else not progress,
+            )
+        )
+        for z_start in range(0, n_z, rows):
+            tick = time.perf_counter()
+            slab = compute_slab(model, grid, z_start, min(n_z, z_start + rows))
+            counts += np.bincount(slab.layers.ravel(), minlength=len(counts))[: len(counts)]
+            diagnostics["unbalanced_rows"] += slab.n_unbalanced_rows
+            diagnostics["nesting_violations"] += slab.n_nesting_violations
+            diagnostics["nearest_queries"] += slab.n_nearest_queries
+            layers_tif.write_slab(slab.layers)
+            colour_tif.write_slab(slab.rgba[..., :samples])
+            if vdb is not None:
+                linear = srgb_to_linear(slab.rgba[..., :3])
+                # keep black colour voxels active in the sparse grid (background is 0)
+                coloured = np.isin(slab.layers, np.asarray(config.colour_layers, np.uint8))
+                linear[coloured] = np.maximum(linear[coloured], np.float32(1e-7))
+                sdf = np.where(slab.sdf_band, slab.sdf, np.float32(half_width))
+                vdb.write_slab(z_start, slab.layers, linear, sdf.astype(np.float32))
+            slab_seconds += time.perf_counter() - tick
+            bar.update(slab.z_stop - slab.z_start)
+        bar.close()
+        seconds["slabs"] = slab_seconds
+        tick = time.perf_counter()
+        layers_tif.close()
+        colour_tif.close()
+        seconds["tiff_finish"] = time.perf_counter() - tick
+        vdb_summary: dict[str, Any] = {}
+        if vdb is not None and vdb_path is not None:
+            tick = time.perf_counter()
+            vdb_summary = vdb.write(vdb_path, {"creator": f"shellvox {__version__}"})
+            seconds["vdb_write"] = time.perf_counter() - tick
+        seconds["total"] = time.perf_counter() - started
+        manifest = _manifest(mesh, config, grid, shells, counts, diagnostics, seconds)
+        manifest["vdb"] = vdb_summary
+        manifest["tiff"] = {
+            "layers.tif": {"bigtiff": layers_tif.bigtiff, "samples": 1},
+            "colour.tif": {"bigtiff": colour_tif.bigtiff, "samples": samples},
+        }
+        manifest["slab_rows"] = rows
+        manifest["halo_rows"] = halo
+        manifest_path.write_text(json.dumps(manifest, indent=2), encoding="utf-8")
+    manifest["file_bytes"] = {
+        str(path.relative_to(out_dir)): path.stat().st_size
+        for path in sorted(out_dir.rglob("*"))
+        if path.is_file() and not path.name.startswith(".")
+    }
+    return manifest
+
+
+def _manifest(
+    mesh: ColouredMesh,
+    config: BuildConfig,
+    grid: GridSpec,
+    shells: list[Any],
+    counts: np.ndarray[Any, Any],
+    diagnostics: dict[str, int],
+    seconds: dict[str, float],
+) -> dict[str, Any]:
+    n_bands = len(config.thickness_mm)
+    depth = np.cumsum(config.thickness_mm)
+    layers: list[dict[str, Any]] = [
+        {"index": 0, "name": "outside", "thickness_rule": "outside the model"}
+    ]
+    for k in range(1, n_bands + 1):
+        role = "colour" if k in config.colour_layers else "backing"
+        layers.append(
+            {
+                "index": k,
+                "name": f"{role}_{k}",
+                "thickness_rule": (
+                    f"per-face inward offset: {config.thickness_mm[k - 1]} mm thick, "
+                    f"from depth {depth[k - 1] - config.thickness_mm[k - 1]:g} "
+                    f"to {depth[k - 1]:g} mm"
+                ),
+                "shell_faces": len(shells[k - 1].faces),
+            }
+        )
+    layers.append(
+        {
+            "index": n_bands + 1,
+            "name": "core",
+            "thickness_rule": f"deeper than {depth[-1]:g} mm",
+        }
+    )
+    for entry in layers:
+        entry["voxels"] = int(counts[entry["index"]])
+        entry["colour"] = entry["index"] in config.colour_layers
+    return {
+        "tool": f"shellvox {__version__}",
+        "input": {"path": mesh.source, "sha256": _sha256(mesh.source), "faces": mesh.n_faces},
+        "config": as_json(config),
+        "grid": {
+            "shape_zyx": list(grid.shape_zyx),
+            "voxel_size_mm": list(grid.voxel_mm),
+            "origin_mm": list(grid.origin_mm),
+            "convention": "voxel (z, y, x) centre = origin_mm + (x*vx, y*vy, z*vz)",
+        },
+        "layers": layers,
+        "voxel_counts": {entry["name"]: entry["voxels"] for entry in layers},
+        "diagnostics": diagnostics,
+        "seconds": seconds,
+    }
+
+
+def _sha256(source: str) -> str | None:
+    path = Path(source)
+    if not source or not path.is_file():
+        return None
+    digest = hashlib.sha256()
+    with path.open("rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def slab_rows_for(grid: GridSpec, slab_mb: float, halo_rows: int) -> int:
+    """Return the slab height (rows) whose working arrays, halo included, fit ``slab_mb`` MiB."""
+    per_row = grid.shape_zyx[1] * grid.shape_zyx[2] * BYTES_PER_VOXEL
+    return max(1, math.floor(slab_mb * 2**20 / per_row) - 2 * halo_rows)

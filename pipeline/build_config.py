@@ -1,0 +1,71 @@
+"""The frozen configuration of ``shellvox build``; it serialises into ``manifest.json``."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+
+@dataclass(frozen=True)
+class BuildConfig:
+    """How a layered voxel stack is built.
+
+    Parameters
+    ----------
+    voxel_mm : (3,) float, mm
+        Voxel size ``(x, y, z)``.
+    printer : str or None
+        Printer profile the voxel size came from (``"j750"``), for the manifest.
+    thickness_mm : tuple of float, mm
+        Thickness of each shell band, outside in (``K`` values).
+    colour_layers : tuple of int
+        Layers (1..K+1) whose voxels take the nearest surface colour.
+    shell_method : {"robust", "paper"}
+        Offset construction (see :mod:`offset`).
+    margin_mm : float, mm
+        Empty space around the model in the grid (at least the level-set half width).
+    sdf_half_width_voxels : float
+        Half width of the ``sdf`` level set's narrow band, in largest-voxel sizes.
+    slab_mb : float
+        Memory budget of one slab's working arrays; sets the slab height.
+    alpha : bool
+        Write ``colour.tif`` as RGBA instead of RGB.
+    compression_level : int
+        zlib level of the TIFFs (1 fast .. 9 small).
+    write_vdb : bool
+        Write ``volume.vdb`` (its grids are held in memory until the end).
+    """
+
+    voxel_mm: tuple[float, float, float]
+    printer: str | None = None
+    thickness_mm: tuple[float, ...] = (0.5, 0.5)
+    colour_layers: tuple[int, ...] = (1,)
+    shell_method: Literal["robust", "paper"] = "robust"
+    margin_mm: float = 0.5
+    sdf_half_width_voxels: float = 3.0
+    slab_mb: float = 512.0
+    alpha: bool = False
+    compression_level: int = 6
+    write_vdb: bool = True
+
+    def __post_init__(self) -> None:
+        if len(self.voxel_mm) != 3 or not all(math.isfinite(v) and v > 0 for v in self.voxel_mm):
+            raise ValueError(f"voxel_mm must be 3 positive lengths, got {self.voxel_mm}")
+        if not self.thickness_mm or not all(t > 0 for t in self.thickness_mm):
+            raise ValueError(f"thickness_mm must be positive lengths, got {self.thickness_mm}")
+        top = len(self.thickness_mm) + 1
+        if not self.colour_layers or not all(1 <= k <= top for k in self.colour_layers):
+            raise ValueError(f"colour_layers must lie in 1..{top}, got {self.colour_layers}")
+        if self.margin_mm < 0 or self.sdf_half_width_voxels < 0 or self.slab_mb <= 0:
+            raise ValueError(
+                "margin_mm and sdf_half_width_voxels must be >= 0 and slab_mb > 0, got "
+                f"{self.margin_mm}, {self.sdf_half_width_voxels}, {self.slab_mb}"
+            )
+        if not 1 <= self.compression_level <= 9:
+            raise ValueError(f"compression_level must be 1..9, got {self.compression_level}")
+
+    @property
+    def sdf_half_width_mm(self) -> float:
+        """Narrow-band half width of the level set, mm."""
+        return self.sdf_half_width_voxels * max(self.voxel_mm)

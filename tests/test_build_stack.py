@@ -1,0 +1,107 @@
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import tifffile
+import trimesh
+
+from pipeline.build import build_stack
+from pipeline.build_config import BuildConfig
+from pipeline.mesh import ColouredMesh
+from voxel.openvdb_module import load_openvdb
+from voxel.vdb_writer import describe_grids
+
+
+def _ball(radius: float = 3.0) -> ColouredMesh:
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=radius)
+    faces = sphere.faces.astype(np.int64)
+    centroid = sphere.triangles_center
+    rgba = np.zeros((len(faces), 4), np.uint8)
+    rgba[:, 3] = 255
+    rgba[centroid[:, 0] > 0, 0] = 250  # red half, black half (black must stay active)
+    return ColouredMesh(sphere.vertices, faces, "face", face_rgba=rgba, source="ball")
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    out = tmp_path_factory.mktemp("build")
+    config = BuildConfig(voxel_mm=(0.1, 0.15, 0.08), thickness_mm=(0.4, 0.6), slab_mb=2.0)
+    manifest = build_stack(_ball(), config, out, progress=False)
+    return out, config, manifest
+
+
+def test_outputs_and_manifest(built):
+    out, _, manifest = built
+    names = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
+    assert names == {
+        "manifest.json",
+        "layers.tif",
+        "colour.tif",
+        "volume.vdb",
+        "shells/shell_1.ply",
+        "shells/shell_2.ply",
+    }
+    on_disk = json.loads((out / "manifest.json").read_text())
+    assert on_disk["grid"] == manifest["grid"]
+    assert [layer["index"] for layer in on_disk["layers"]] == [0, 1, 2, 3]
+    assert on_disk["diagnostics"]["unbalanced_rows"] == 0
+    assert manifest["slab_rows"] < manifest["grid"]["shape_zyx"][0]  # really streamed
+
+
+def test_tiff_round_trip_matches_manifest(built):
+    out, _, manifest = built
+    grid = manifest["grid"]
+    with tifffile.TiffFile(out / "layers.tif") as tiff:
+        layers = tiff.asarray()
+        assert tiff.imagej_metadata["spacing"] == pytest.approx(grid["voxel_size_mm"][2])
+        assert tiff.imagej_metadata["unit"] == "mm"
+    colour = tifffile.imread(out / "colour.tif")
+    assert list(layers.shape) == grid["shape_zyx"]
+    assert colour.shape == (*layers.shape, 3)
+    counts = np.bincount(layers.ravel(), minlength=4)
+    assert [layer["voxels"] for layer in manifest["layers"]] == counts.tolist()
+    assert np.all(colour[layers != 1] == 0)
+    reds = set(map(tuple, colour[layers == 1].reshape(-1, 3)))
+    assert reds <= {(250, 0, 0), (0, 0, 0)}  # never averaged
+
+
+def test_layers_follow_depth(built):
+    out, _, manifest = built
+    layers = tifffile.imread(out / "layers.tif")
+    g = manifest["grid"]
+    z, y, x = np.indices(layers.shape)
+    centre = np.stack([x, y, z], axis=-1) * g["voxel_size_mm"] + g["origin_mm"]
+    depth = 3.0 - np.linalg.norm(centre, axis=-1)
+    expected = (depth > 0).astype(int) + (depth > 0.4) + (depth > 1.0)
+    clear = np.min(np.abs(depth[..., None] - np.array([0.0, 0.4, 1.0])), axis=-1) > 0.08
+    agree = (layers == expected)[clear].mean()
+    assert agree > 0.999
+
+
+def test_vdb_matches_manifest(built):
+    out, _, manifest = built
+    grids, _ = load_openvdb().readAll(str(out / "volume.vdb"))
+    summary = describe_grids(grids)
+    assert summary == manifest["vdb"]
+    inside = sum(layer["voxels"] for layer in manifest["layers"][1:])
+    assert summary["density"]["active_voxels"] == inside
+    assert summary["color"]["active_voxels"] == manifest["layers"][1]["voxels"]
+    assert summary["sdf"]["class"] == "level set"
+    for grid in summary.values():
+        assert grid["voxel_size_mm"] == pytest.approx(manifest["grid"]["voxel_size_mm"])
+
+
+def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch):
+    import pipeline.build as build
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("slab failed")
+
+    monkeypatch.setattr(build, "compute_slab", boom)
+    config = BuildConfig(voxel_mm=(0.2, 0.2, 0.2), thickness_mm=(0.5,))
+    with pytest.raises(RuntimeError, match="slab failed"):
+        build_stack(_ball(), config, tmp_path, progress=False)
+    left = [p for p in tmp_path.rglob("*") if p.is_file()]
+    assert left == []
