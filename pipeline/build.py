@@ -193,6 +193,8 @@ def _manifest(
             {
                 "index": k,
                 "name": f"{role}_{k}",
+                "thickness_mm": config.thickness_mm[k - 1],
+                "depth_mm": float(depth[k - 1]),
                 "thickness_rule": (
                     f"per-face inward offset: {config.thickness_mm[k - 1]} mm thick, "
                     f"from depth {depth[k - 1] - config.thickness_mm[k - 1]:g} "

@@ -1,0 +1,70 @@
+from __future__ import annotations
+
+import json
+
+import pytest
+import trimesh
+from PIL import Image
+
+from pipeline.cli import main
+
+
+@pytest.fixture
+def model(tmp_path):
+    path = tmp_path / "ball.obj"
+    trimesh.creation.icosphere(subdivisions=2, radius=2.0).export(path)
+    return path
+
+
+def test_build_then_inspect(tmp_path, model, capsys):
+    out = tmp_path / "out"
+    status = main(
+        [
+            "build",
+            str(model),
+            "-o",
+            str(out),
+            "--voxel-size",
+            "0.1,0.12,0.08",
+            "--thickness",
+            "0.3,0.4",
+            "--colour",
+            "200,30,30",
+            "--no-progress",
+        ]
+    )
+    assert status == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["grid"]["voxel_size_mm"] == [0.1, 0.12, 0.08]
+    assert manifest["config"]["printer"] is None
+    assert "layers.tif" in capsys.readouterr().out
+    assert main(["inspect", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "layer 1 colour_1" in text
+    for name in ("xy_mid.png", "xz_mid.png", "yz_mid.png", "layer_depth_histogram.png"):
+        with Image.open(out / "preview" / name) as image:
+            assert image.size[0] > 10
+    # XZ section at true aspect: a ball is as tall as it is wide
+    with Image.open(out / "preview" / "xz_mid.png") as image:
+        width, height = image.size
+    extent = manifest["grid"]["shape_zyx"]
+    size = manifest["grid"]["voxel_size_mm"]
+    assert width / height == pytest.approx(extent[2] * size[0] / (extent[0] * size[2]), rel=0.01)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--voxel-size", "1,0,1"], "--voxel-size"),
+        (["--thickness", "0.5,-1"], "--thickness"),
+        (["--colour-layers", "4"], "--colour-layers"),
+    ],
+)
+def test_bad_options_exit_2(tmp_path, model, capsys, extra, message):
+    assert main(["build", str(model), "-o", str(tmp_path / "o"), *extra]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_inspect_refuses_unfinished(tmp_path, capsys):
+    assert main(["inspect", str(tmp_path)]) == 2
+    assert "manifest.json" in capsys.readouterr().err

@@ -1,0 +1,127 @@
+"""Preview pictures of a layered stack: sections at true aspect and a depth histogram (PNG).
+
+Pure rendering from arrays to :class:`PIL.Image.Image`; reading files is the caller's job.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from PIL import Image, ImageDraw
+from scipy import ndimage
+
+#: Display colour of layer 0 (outside), the bands (cycled) and the core (last).
+OUTSIDE_RGB = (255, 255, 255)
+BAND_RGB = ((120, 120, 120), (170, 150, 110), (110, 150, 170), (150, 110, 170))
+CORE_RGB = (60, 60, 60)
+
+
+def section_image(
+    layers: NDArray[np.uint8],
+    rgb: NDArray[np.uint8],
+    *,
+    colour_layers: tuple[int, ...],
+    n_bands: int,
+    pixel_mm: tuple[float, float],
+    max_pixels: int = 1600,
+) -> Image.Image:
+    """Render one section: surface colour in the colour layers, a flat tone elsewhere.
+
+    Parameters
+    ----------
+    layers : (H, W) uint8
+        Layer index of the section (rows top to bottom as given).
+    rgb : (H, W, 3) uint8
+        sRGB colour of the section (0 outside the colour layers).
+    colour_layers : tuple of int
+        Layers drawn with their surface colour.
+    n_bands : int
+        ``K``; layer ``K + 1`` is the core.
+    pixel_mm : (2,) float, mm
+        Physical ``(width, height)`` of one voxel in the section.
+    max_pixels : int
+        Longest side of the picture.
+
+    Returns
+    -------
+    PIL.Image.Image
+        RGB picture resampled (nearest) to true physical aspect.
+    """
+    palette = np.array(
+        [OUTSIDE_RGB, *(BAND_RGB[k % len(BAND_RGB)] for k in range(n_bands)), CORE_RGB]
+        + [(255, 0, 255)] * (256 - n_bands - 2),
+        dtype=np.uint8,
+    )
+    picture = palette[layers]
+    coloured = np.isin(layers, np.asarray(colour_layers, dtype=np.uint8))
+    picture[coloured] = rgb[coloured]
+    height_mm = layers.shape[0] * pixel_mm[1]
+    width_mm = layers.shape[1] * pixel_mm[0]
+    scale = max_pixels / max(height_mm, width_mm)
+    size = (max(1, round(width_mm * scale)), max(1, round(height_mm * scale)))
+    return Image.fromarray(picture, "RGB").resize(size, Image.Resampling.NEAREST)
+
+
+def boundary_depths(
+    layers: NDArray[np.uint8], pixel_mm: tuple[float, float], n_bands: int
+) -> list[NDArray[np.float64]]:
+    """Return, per band ``k``, the in-plane depth (mm) of its voxels next to band ``k + 1``.
+
+    Depth is the section's 2-D Euclidean distance to the nearest outside voxel, which is
+    at least the true 3-D depth (equal where the surface is perpendicular to the plane).
+    """
+    depth = ndimage.distance_transform_edt(layers > 0, sampling=(pixel_mm[1], pixel_mm[0]))
+    result = []
+    for band in range(1, n_bands + 1):
+        deeper = ndimage.binary_dilation(layers > band)
+        result.append(np.asarray(depth[(layers == band) & deeper], dtype=np.float64))
+    return result
+
+
+def histogram_image(
+    depths: list[NDArray[np.float64]],
+    expected_mm: list[float],
+    *,
+    bins: int = 60,
+    size: tuple[int, int] = (900, 420),
+) -> Image.Image:
+    """Draw histograms of band inner-boundary depths with the configured depths as lines.
+
+    Parameters
+    ----------
+    depths : list of (n,) float64, mm
+        Depths per band (see :func:`boundary_depths`).
+    expected_mm : list of float, mm
+        Configured cumulative depth per band.
+    """
+    width, height = size
+    image = Image.new("RGB", size, (255, 255, 255))
+    draw = ImageDraw.Draw(image)
+    values = [d for d in depths if len(d)]
+    top = max([*(float(np.percentile(d, 99.5)) for d in values), *expected_mm, 1e-3]) * 1.15
+    edges = np.linspace(0.0, top, bins + 1)
+    counts = [np.histogram(d, bins=edges)[0] for d in depths]
+    peak = max([1, *(int(c.max()) for c in counts if len(c))])
+    left, bottom, plot_w, plot_h = 50, height - 40, width - 70, height - 80
+    bar_w = plot_w / bins
+    for band, band_counts in enumerate(counts):
+        rgb = BAND_RGB[band % len(BAND_RGB)]
+        for index, count in enumerate(band_counts):
+            if count:
+                x0 = left + index * bar_w
+                y0 = bottom - plot_h * count / peak
+                draw.rectangle([x0, y0, x0 + bar_w - 1, bottom], outline=rgb)
+    for band, depth_mm in enumerate(expected_mm):
+        x = left + plot_w * depth_mm / top
+        draw.line([x, bottom, x, bottom - plot_h], fill=(200, 0, 0), width=2)
+        draw.text((x + 3, 20 + 14 * band), f"band {band + 1}: {depth_mm:g} mm", fill=(200, 0, 0))
+    draw.line([left, bottom, left + plot_w, bottom], fill=(0, 0, 0))
+    for tick in np.linspace(0.0, top, 6):
+        x = left + plot_w * tick / top
+        draw.text((x - 10, bottom + 6), f"{tick:.2f}", fill=(0, 0, 0))
+    draw.text(
+        (left, bottom + 22),
+        "depth of each band's inner boundary in the sections (mm)",
+        fill=(0, 0, 0),
+    )
+    return image
