@@ -1,0 +1,284 @@
+"""Benchmarks of ``shellvox build`` against the issue's done-when targets.
+
+Usage (from the repository root; meshes from ../shared/meshes)::
+
+    .venv/bin/python benchmarks/bench_build.py accuracy spot --size-mm 30
+    .venv/bin/python benchmarks/bench_build.py memory spot --size-mm 10
+    .venv/bin/python benchmarks/bench_build.py speed spot --size-mm 100
+
+``accuracy``: builds at the J750 grid, then checks on random voxel samples (a) the layer
+index against an independent closest-point computation (trimesh, with inside/outside from
+the generalised winding number), (b) CIEDE2000 of colour-layer voxels against the colour of
+the exact nearest point, (c) the TIFF / VDB round trips against manifest.json.
+``memory``: peak RSS of the build of the model and of the model stretched 2x in z
+(separate processes). ``speed``: build time next to OpenVDB's mesh-to-level-set of the
+same mesh on the same (anisotropic) grid, as a ratio.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from pipeline.build import build_stack  # noqa: E402
+from pipeline.build_config import BuildConfig  # noqa: E402
+from pipeline.config import LoadOptions  # noqa: E402
+from pipeline.loading import load_model  # noqa: E402
+from pipeline.mesh import ColouredMesh  # noqa: E402
+from voxel.openvdb_module import load_openvdb  # noqa: E402
+from voxel.printers import printer_voxel_mm  # noqa: E402
+
+MESHES = ROOT.parent / "shared" / "meshes"
+MODELS = {
+    "spot": MESHES / "spot" / "spot_triangulated.obj",
+    "duck": MESHES / "duck" / "Duck.glb",
+    "airplane": MESHES / "airplane" / "colored_airplane.ply",
+    "bunny": MESHES / "bunny" / "bunny.obj",
+}
+
+
+def scaled_model(name: str, size_mm: float, stretch_z: float = 1.0) -> ColouredMesh:
+    """Load a shared mesh scaled so its largest extent is ``size_mm`` (z stretched)."""
+    mesh = load_model(MODELS[name], LoadOptions())
+    extent = float(np.ptp(mesh.vertices, axis=0).max())
+    vertices = (mesh.vertices - mesh.vertices.min(axis=0)) * (size_mm / extent)
+    vertices[:, 2] *= stretch_z
+    return dataclasses.replace(mesh, vertices=vertices)
+
+
+def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Generalised winding number (Van Oosterom-Strackee solid angles), brute force."""
+    result = np.zeros(len(points))
+    tri = vertices[faces]
+    for start in range(0, len(points), 256):
+        p = points[start : start + 256, None, None, :]
+        a, b, c = (tri[None, :, i, :] - p[:, :, 0, :] for i in range(3))
+        la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
+        det = np.einsum("pfk,pfk->pf", a, np.cross(b, c))
+        div = (
+            la * lb * lc
+            + np.einsum("pfk,pfk->pf", a, b) * lc
+            + np.einsum("pfk,pfk->pf", b, c) * la
+            + np.einsum("pfk,pfk->pf", c, a) * lb
+        )
+        result[start : start + 256] = np.arctan2(det, div).sum(axis=1) / (2 * np.pi)
+    return result
+
+
+def accuracy(args: argparse.Namespace) -> dict[str, object]:
+    import colour
+    import tifffile
+    import trimesh
+
+    from voxel.vdb_writer import describe_grids
+
+    mesh = scaled_model(args.model, args.size_mm)
+    config = BuildConfig(voxel_mm=printer_voxel_mm("j750"), printer="j750", slab_mb=args.slab_mb)
+    out = Path(args.out or tempfile.mkdtemp(prefix=f"shellvox-{args.model}-"))
+    started = time.perf_counter()
+    manifest = build_stack(mesh, config, out, progress=args.progress)
+    build_seconds = time.perf_counter() - started
+    grid = manifest["grid"]
+    voxel = np.asarray(grid["voxel_size_mm"])
+    diagonal = float(np.linalg.norm(voxel))
+    depth = np.cumsum(config.thickness_mm)
+    rng = np.random.default_rng(0)
+
+    # (c) round trips
+    with tifffile.TiffFile(out / "layers.tif") as tiff:
+        layers = tiff.asarray()
+        meta = tiff.imagej_metadata
+        x_res = tiff.pages[0].tags["XResolution"].value
+        y_res = tiff.pages[0].tags["YResolution"].value
+    tiff_ok = (
+        list(layers.shape) == grid["shape_zyx"]
+        and abs(meta["spacing"] - voxel[2]) < 1e-9
+        and meta["unit"] == "mm"
+        and abs(x_res[1] / x_res[0] - voxel[0]) < 1e-6
+        and abs(y_res[1] / y_res[0] - voxel[1]) < 1e-6
+        and np.bincount(layers.ravel(), minlength=len(depth) + 2).tolist()
+        == [layer["voxels"] for layer in manifest["layers"]]
+    )
+    grids, _ = load_openvdb().readAll(str(out / "volume.vdb"))
+    vdb_ok = describe_grids(grids) == manifest["vdb"]
+
+    # (a) layers vs independent closest points on a sample of voxels per layer
+    samples = []
+    for index in range(len(depth) + 2):
+        if index == 0:  # outside voxels within 20 voxels (x) of the model only
+            near = ndimage.maximum_filter1d(layers > 0, size=41, axis=2)
+            flat = np.flatnonzero(near & (layers == 0))
+            del near
+        else:
+            flat = np.flatnonzero(layers.ravel() == index)
+        samples.append(rng.choice(flat, size=min(len(flat), args.samples), replace=False))
+    chosen = np.concatenate(samples)
+    zyx = np.stack(np.unravel_index(chosen, layers.shape), axis=1)
+    centres = np.asarray(grid["origin_mm"]) + zyx[:, ::-1] * voxel
+    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    closest, distance, face = trimesh.proximity.closest_point(tm, centres)
+    inside = winding_numbers(mesh.vertices, mesh.faces, centres) > 0.5
+    predicted = np.where(inside, 1 + (distance[:, None] > depth[None, :]).sum(axis=1), 0)
+    boundaries = np.concatenate([[0.0], depth])
+    clear = np.abs(distance[:, None] - boundaries[None, :]).min(axis=1) > diagonal
+    got = layers.ravel()[chosen]
+    per_layer = {
+        str(index): float(np.mean((got == predicted)[clear & (got == index)]))
+        for index in range(len(depth) + 2)
+        if np.any(clear & (got == index))
+    }
+    agreement = float(np.mean((got == predicted)[clear]))
+
+    # (b) colour of colour-layer voxels vs the exact nearest point's colour
+    del layers
+    colour_voxels = got == 1
+    rgb = np.zeros((int(colour_voxels.sum()), 3), np.uint8)
+    with tifffile.TiffFile(out / "colour.tif") as tiff:
+        where = zyx[colour_voxels]
+        for z in np.unique(where[:, 0]):  # one page at a time
+            page = tiff.pages[int(z)].asarray()
+            rows = where[:, 0] == z
+            rgb[rows] = page[where[rows, 1], where[rows, 2], :3]
+    bary = trimesh.triangles.points_to_barycentric(
+        mesh.vertices[mesh.faces[face[colour_voxels]]], closest[colour_voxels]
+    )
+    exact = mesh.colour_at(
+        face[colour_voxels], np.clip(bary, 0, 1) / np.clip(bary, 0, 1).sum(1)[:, None]
+    )[:, :3]
+
+    def lab(values: np.ndarray) -> np.ndarray:
+        return colour.XYZ_to_Lab(colour.sRGB_to_XYZ(values / 255.0))
+
+    delta = colour.delta_E(lab(rgb), lab(exact), method="CIE 2000")
+    sizes = {
+        str(p.relative_to(out)): p.stat().st_size for p in sorted(out.rglob("*")) if p.is_file()
+    }
+    return {
+        "model": args.model,
+        "size_mm": args.size_mm,
+        "grid_zyx": grid["shape_zyx"],
+        "voxels": int(np.prod(grid["shape_zyx"])),
+        "build_seconds": round(build_seconds, 1),
+        "manifest_seconds": manifest["seconds"],
+        "diagnostics": manifest["diagnostics"],
+        "a_layer_agreement": agreement,
+        "a_per_layer": per_layer,
+        "a_samples_clear": int(clear.sum()),
+        "a_samples": len(chosen),
+        "b_ciede2000_median": float(np.median(delta)),
+        "b_ciede2000_p99": float(np.percentile(delta, 99)),
+        "b_samples": len(delta),
+        "c_tiff_round_trip": bool(tiff_ok),
+        "c_vdb_matches_manifest": bool(vdb_ok),
+        "file_bytes": sizes,
+        "voxel_counts": manifest["voxel_counts"],
+    }
+
+
+def _child_build(args: argparse.Namespace) -> dict[str, object]:
+    mesh = scaled_model(args.model, args.size_mm, stretch_z=args.stretch_z)
+    config = BuildConfig(
+        voxel_mm=printer_voxel_mm("j750"), slab_mb=args.slab_mb, write_vdb=not args.no_vdb
+    )
+    with tempfile.TemporaryDirectory() as out:
+        started = time.perf_counter()
+        manifest = build_stack(mesh, config, Path(out), progress=False)
+        seconds = time.perf_counter() - started
+    peak_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return {
+        "stretch_z": args.stretch_z,
+        "grid_zyx": manifest["grid"]["shape_zyx"],
+        "slab_rows": manifest["slab_rows"],
+        "seconds": round(seconds, 1),
+        "shell_seconds": round(manifest["seconds"]["shells"], 1),
+        "peak_rss_mb": round(peak_kb / 1024, 1),
+    }
+
+
+def memory(args: argparse.Namespace) -> dict[str, object]:
+    runs = []
+    for stretch in (1.0, 2.0):
+        command = [
+            sys.executable,
+            __file__,
+            "child",
+            args.model,
+            "--size-mm",
+            str(args.size_mm),
+            "--stretch-z",
+            str(stretch),
+            "--slab-mb",
+            str(args.slab_mb),
+        ] + (["--no-vdb"] if args.no_vdb else [])
+        result = subprocess.run(command, check=True, capture_output=True, text=True)
+        runs.append(json.loads(result.stdout.strip().splitlines()[-1]))
+    ratio = runs[1]["peak_rss_mb"] / runs[0]["peak_rss_mb"]
+    return {"model": args.model, "vdb": not args.no_vdb, "runs": runs, "rss_ratio_2x_tall": ratio}
+
+
+def speed(args: argparse.Namespace) -> dict[str, object]:
+    mesh = scaled_model(args.model, args.size_mm)
+    vx, vy, vz = printer_voxel_mm("j750")
+    vdb = load_openvdb()
+    transform = vdb.createLinearTransform()
+    transform.scale((vx, vy, vz))
+    started = time.perf_counter()
+    level_set = vdb.FloatGrid.createLevelSetFromPolygons(
+        mesh.vertices.astype(np.float32),
+        triangles=mesh.faces.astype(np.int32),
+        transform=transform,
+        halfWidth=3.0,
+    )
+    vdb_seconds = time.perf_counter() - started
+    config = BuildConfig(voxel_mm=(vx, vy, vz), printer="j750", slab_mb=args.slab_mb)
+    with tempfile.TemporaryDirectory() as out:
+        started = time.perf_counter()
+        manifest = build_stack(mesh, config, Path(out), progress=args.progress)
+        build_seconds = time.perf_counter() - started
+    return {
+        "model": args.model,
+        "size_mm": args.size_mm,
+        "grid_zyx": manifest["grid"]["shape_zyx"],
+        "build_seconds": round(build_seconds, 1),
+        "build_breakdown": manifest["seconds"],
+        "build_without_shells_seconds": round(build_seconds - manifest["seconds"]["shells"], 1),
+        "openvdb_mesh_to_level_set_seconds": round(vdb_seconds, 1),
+        "openvdb_active_voxels": int(level_set.activeVoxelCount()),
+        "ratio": round(build_seconds / vdb_seconds, 2),
+        "ratio_without_shells": round(
+            (build_seconds - manifest["seconds"]["shells"]) / vdb_seconds, 2
+        ),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("task", choices=["accuracy", "memory", "speed", "child"])
+    parser.add_argument("model", choices=sorted(MODELS))
+    parser.add_argument("--size-mm", type=float, default=30.0)
+    parser.add_argument("--stretch-z", type=float, default=1.0)
+    parser.add_argument("--samples", type=int, default=20000, help="voxels sampled per layer")
+    parser.add_argument("--slab-mb", type=float, default=512.0)
+    parser.add_argument("--no-vdb", action="store_true")
+    parser.add_argument("--out", help="keep the build here")
+    parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None)
+    args = parser.parse_args()
+    task = {"accuracy": accuracy, "memory": memory, "speed": speed, "child": _child_build}
+    print(json.dumps(task[args.task](args)))
+
+
+if __name__ == "__main__":
+    main()
