@@ -87,3 +87,17 @@ def test_atomic_leaves_nothing_on_failure(tmp_path):
     write_text_atomic(target, "{}")
     assert target.read_text() == "{}"
     assert [p.name for p in tmp_path.iterdir()] == ["out.json"]
+
+
+def test_bigtiff_past_the_classic_limit(tmp_path, monkeypatch):
+    import voxel.tiff_writer as tiff_writer
+
+    monkeypatch.setattr(tiff_writer, "CLASSIC_TIFF_LIMIT", 1000)
+    data = np.arange(np.prod(GRID.shape_zyx)).reshape(GRID.shape_zyx).astype(np.uint8)
+    with TiffStackWriter(tmp_path / "big.tif", GRID) as writer:
+        assert writer.bigtiff
+        writer.write_slab(data)
+    with tifffile.TiffFile(tmp_path / "big.tif") as tiff:
+        assert tiff.is_bigtiff
+        assert tiff.imagej_metadata["unit"] == "mm"
+        np.testing.assert_array_equal(tiff.asarray(), data)
