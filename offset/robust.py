@@ -42,6 +42,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse
 import scipy.sparse.csgraph
+import scipy.spatial
 import trimesh
 
 from offset._validate import FloatArray, IntArray
@@ -154,12 +155,11 @@ def robust_offset(
                 break
             # Original surface must never survive (every face's prism covers it): the
             # Boolean mis-classified a region. Subtract the pieces around it once more.
-            box_lo = vert[tri[leftover]].reshape(-1, 3).min(axis=0) - d.max()
-            box_hi = vert[tri[leftover]].reshape(-1, 3).max(axis=0) + d.max()
+            near = scipy.spatial.cKDTree(vert[tri[leftover]].reshape(-1, 3))
             local = [
                 mf
                 for pts, tris in pieces
-                for mf in _batched_manifolds(pts[_overlapping(pts, box_lo, box_hi)], tris)
+                for mf in _batched_manifolds(pts[_near(pts, near, float(d.max()))], tris)
             ]
             core = m3d.Manifold.batch_boolean([core, *local], m3d.OpType.Subtract)
             vert, tri, leftover = _mesh_arrays(core, solid_id, min_thickness)
@@ -196,11 +196,16 @@ def _mesh_arrays(
     return vert, tri, tri_id[keep] == solid_id
 
 
-def _overlapping(points: FloatArray, lo: FloatArray, hi: FloatArray) -> npt.NDArray[np.bool_]:
-    """Return which pieces ``(N, P, 3)`` have a bounding box meeting the box ``[lo, hi]``."""
-    return np.asarray(
-        np.all((points.min(axis=1) <= hi) & (points.max(axis=1) >= lo), axis=1), dtype=bool
-    )
+def _near(
+    points: FloatArray, tree: scipy.spatial.cKDTree, margin: float
+) -> npt.NDArray[np.bool_]:
+    """Return which pieces ``(N, P, 3)`` come within `margin` of a point in `tree`."""
+    if len(points) == 0:
+        return np.zeros(0, dtype=bool)
+    centre = 0.5 * (points.min(axis=1) + points.max(axis=1))
+    radius = np.linalg.norm(points.max(axis=1) - points.min(axis=1), axis=1)
+    dist, _ = tree.query(centre)
+    return np.asarray(dist <= radius + margin, dtype=bool)
 
 
 def _drop_slivers(
