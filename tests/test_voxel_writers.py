@@ -101,3 +101,14 @@ def test_bigtiff_past_the_classic_limit(tmp_path, monkeypatch):
         assert tiff.is_bigtiff
         assert tiff.imagej_metadata["unit"] == "mm"
         np.testing.assert_array_equal(tiff.asarray(), data)
+
+
+def test_atomic_files_get_the_usual_mode(tmp_path):
+    import os
+
+    umask = os.umask(0o022)
+    try:
+        write_text_atomic(tmp_path / "a.json", "{}")
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "a.json").stat().st_mode & 0o777 == 0o644
