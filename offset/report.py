@@ -11,6 +11,7 @@ import trimesh
 
 from offset._validate import FloatArray, IntArray, check_mesh, check_thickness
 from offset.baselines import slicer_thickness, vertex_normal_offset
+from offset.intersections import count_self_intersections
 from offset.quality import equidistance, mesh_checks, nested_in, percentiles
 from offset.shells import Shell
 
@@ -49,7 +50,9 @@ def shell_report(
     Returns
     -------
     dict
-        Plain JSON types. ``layers[k]["shell"]`` holds :func:`offset.quality.mesh_checks`
+        Plain JSON types. ``input_self_intersections`` counts crossing face pairs of the
+        input (a self-intersecting input bounds no well-defined solid).
+        ``layers[k]["shell"]`` holds :func:`offset.quality.mesh_checks`
         keys, ``nested`` (inside the previous shell, or the surface for layer 1) and
         ``equidistance`` (:func:`offset.quality.equidistance`); ``layers[k]["baselines"]``
         the same for ``vertex_normal`` and the thickness error of ``slicer_contour``.
@@ -83,7 +86,12 @@ def shell_report(
             }
             previous_naive = naive[k]
         layers.append(entry)
-    return {"n_faces": int(f.shape[0]), "n_layers": int(t.shape[0]), "layers": layers}
+    return {
+        "n_faces": int(f.shape[0]),
+        "n_layers": int(t.shape[0]),
+        "input_self_intersections": count_self_intersections(v, f),
+        "layers": layers,
+    }
 
 
 def _measure(
