@@ -337,7 +337,9 @@ def _prisms(
     incentre = np.einsum("ni,nij->nj", edge_len, tri) / perimeter[:, None]
     area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     inradius = area2 / perimeter
-    grow = 1.0 + GROW_FRACTION * d / inradius
+    reach = np.linalg.norm(tri - incentre[:, None, :], axis=2).max(axis=1)
+    # Edges move out by GROW_FRACTION * D, corners by at most ten times that (slivers).
+    grow = 1.0 + GROW_FRACTION * d * np.minimum(1.0 / inradius, 10.0 / reach)
     tri = incentre[:, None, :] + grow[:, None, None] * (tri - incentre[:, None, :])
     down = (d[:, None] * normals)[:, None, :]
     pts = np.concatenate([tri - down, tri + OUTSIDE_FRACTION * down], axis=1)
