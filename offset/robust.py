@@ -20,10 +20,12 @@ pieces:
 * a cone with a spherical cap (or a whole icosphere where the normal cone is wider than a
   hemisphere) at each vertex of such an edge, radius the deepest incident face.
 
-All polytopes are inscribed in the exact swept region, so the shell is never deeper than
-the ideal (up to ``GROW_FRACTION**2``) and at most ``D (1 - cos(step / 2))`` shallower at
-reflex edges and vertices. Pieces overlap their neighbours by ``GROW_FRACTION * D`` along
-the surface so that no surface edge lies exactly on a piece boundary. Same-topology pieces
+All polytopes are inscribed in the exact swept region, so the shell is at most
+``D (1 - cos(step / 2))`` shallower than the ideal at reflex edges and vertices, and never
+deeper except by the overlap below (at most ``5e-5 D``, at reflex features). Pieces
+overlap their neighbours by ``GROW_FRACTION * D`` along the surface (sliver triangles'
+corners by at most ten times that) so that no surface edge lies exactly on a piece
+boundary; without it, Booleans left slivers of material along reflex edges. Same-topology pieces
 are packed in batches of pairwise disjoint pieces (spatial hashing by cell parity and rank
 in a cell) into single manifolds, so the Python work scales with the number of batches,
 not of faces; the Boolean itself runs in C++. Two guards follow the Boolean: components

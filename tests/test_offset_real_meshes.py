@@ -33,10 +33,12 @@ def test_bunny_shells_are_valid_nested_and_equidistant(shared_mesh):
         assert shell["equidistance"]["error_pct"]["p99"] <= 2.0
         # Never deeper than asked (inscribed polytopes), at most a few % shallower.
         assert shell["equidistance"]["error_pct"]["max"] <= 5.0
-    # Independent check on shell vertices: most (those over face interiors) lie at exactly
-    # D; none deeper than D beyond the 1e-6 pieces' overlap allowance.
+        # Area-weighted, most of the shell lies over face interiors, exactly at D.
+        assert shell["equidistance"]["error_pct"]["p50"] <= 1e-6
+    # Independent check on shell vertices: none deeper than D beyond the pieces' overlap
+    # allowance (corners grow by at most 1e-2 D, so 5e-5 D deeper).
     rng = np.random.default_rng(0)
     some = rng.choice(len(shells[1].vertices), size=3000, replace=False)
     dist = trimesh.proximity.closest_point(bunny, shells[1].vertices[some])[1]
-    assert np.all(dist <= 1.5 * (1 + 1e-6))
-    assert np.median(np.abs(dist - 1.5)) <= 1e-9
+    assert np.all(dist <= 1.5 * (1 + 1e-4))
+    assert np.all(dist >= 1.5 * (1 - 0.05))
