@@ -12,6 +12,9 @@ setup:
 
 demo: setup
 	$(BIN)/shellvox info $(MODEL)
+	$(BIN)/shellvox build $(MODEL) -o $(OUT) --printer j750 --thickness 0.5,0.5
+	$(BIN)/shellvox inspect $(OUT)
+	@echo "shellvox demo: outputs in $(OUT)/ (layers.tif, colour.tif, volume.vdb, shells/, preview/*.png, manifest.json)"
 
 test: setup
 	$(BIN)/ruff check .
