@@ -60,9 +60,6 @@ def _distinct_colours(mesh: ColouredMesh) -> int:
         values = np.concatenate(blocks) if blocks else np.zeros((0, 4), np.uint8)
     else:
         return 1
-    packed = (
-        values.astype(np.uint32).view(np.uint32)
-        if values.dtype == np.uint32
-        else (np.ascontiguousarray(values, np.uint8).view(np.uint32).reshape(-1))
-    )
+    # One uint32 per RGBA value: a 1-D unique instead of unique(axis=0).
+    packed = np.ascontiguousarray(values, np.uint8).view(np.uint32).reshape(-1)
     return len(np.unique(packed))

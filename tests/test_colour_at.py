@@ -103,7 +103,6 @@ def test_3mf_vertex_colours_match_the_xml(tmp_path):
     rgba = np.array([list(bytes.fromhex(c[1:] + ("FF" if len(c) == 7 else ""))) for c in colours])
     for f, face in enumerate(TET_FACES):
         for corner in range(3):
-            point = TET_VERTICES[face[corner]] * (1 - 1e-12) + 1e-12 * TET_VERTICES[face].mean(0)
             # The corner of face f: locate the face containing the centroid, then the corner.
             fid, _ = locate(mesh, TET_VERTICES[face].mean(0))
             local = int(
@@ -113,7 +112,6 @@ def test_3mf_vertex_colours_match_the_xml(tmp_path):
             )
             bary = np.eye(3)[local][None]
             assert mesh.colour_at(fid, bary)[0].tolist() == rgba[index[f, corner]].tolist()
-            del point
 
 
 @pytest.mark.parametrize(
