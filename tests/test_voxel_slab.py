@@ -106,3 +106,89 @@ def test_bad_options(nested):
         StackModel(model.surfaces, model.surface, model.colour_at, colour_layers=(4,))
     with pytest.raises(ValueError, match="slab rows"):
         compute_slab(model, grid, 5, 5)
+
+
+def _box_model(depth_per_face: np.ndarray, colour_layers=(1,)):
+    box = trimesh.creation.box(extents=(6.0, 6.0, 6.0))
+    faces = box.faces.astype(np.int64)
+    colour_at, _ = _face_colour(box.vertices, faces)
+    return StackModel(
+        ((box.vertices, faces),),
+        SurfaceIndex.build(box.vertices, faces),
+        colour_at,
+        colour_layers=colour_layers,
+        depth_mm=depth_per_face,
+    ), box
+
+
+def test_distance_layers_follow_the_nearest_face_depth():
+    """Box with another depth per side: analytic distance to the nearest side plane."""
+    _, box = _box_model(np.ones((2, 12)))
+    normals = box.face_normals
+    side = np.argmax(np.abs(normals), axis=1) * 2 + (normals.max(axis=1) > 0.5)
+    side_depth = np.array([[0.4, 0.5, 0.6, 0.7, 0.8, 0.9], [1.1, 1.3, 1.2, 1.6, 1.5, 1.4]])
+    model, _ = _box_model(side_depth[:, side])
+    grid = GridSpec.from_bounds([-3, -3, -3], [3, 3, 3], (0.07, 0.11, 0.05), margin_mm=0.3)
+    result = compute_slab(model, grid, 0, grid.shape_zyx[0])
+    idx = np.stack(np.nonzero(np.ones(grid.shape_zyx, bool)), axis=1)
+    centres = grid.index_to_world(idx)
+    # distance to each side plane: side 2a is -axis a, side 2a+1 is +axis a
+    gaps = np.stack([3.0 + centres[:, 0], 3.0 - centres[:, 0], 3.0 + centres[:, 1],
+                     3.0 - centres[:, 1], 3.0 + centres[:, 2], 3.0 - centres[:, 2]], axis=1)
+    inside = np.all(gaps > 0, axis=1)
+    nearest_side = np.argmin(gaps, axis=1)
+    d = gaps.min(axis=1)
+    depth = side_depth[:, nearest_side]
+    expected = np.where(inside, 1 + (d[None] >= depth).sum(axis=0), 0)
+    ordered = np.sort(gaps, axis=1)
+    clear = (ordered[:, 1] - ordered[:, 0] > 1e-9) & np.all(np.abs(d[None] - depth) > 1e-9, axis=0)
+    clear &= np.abs(d) > 1e-9
+    got = result.layers.reshape(-1)
+    np.testing.assert_array_equal(got[clear], expected[clear])
+    assert set(np.unique(got)) == {0, 1, 2, 3}
+
+
+def test_distance_and_shell_realisations_agree(nested):
+    model, grid, _ = nested
+    shells = compute_slab(model, grid, 0, grid.shape_zyx[0])
+    by_distance = StackModel(
+        model.surfaces[:1],
+        model.surface,
+        model.colour_at,
+        colour_layers=(1,),
+        sdf_half_width_mm=0.3,
+        depth_mm=np.tile([[0.5], [1.0]], (1, len(model.surfaces[0][1]))),
+    )
+    result = compute_slab(by_distance, grid, 0, grid.shape_zyx[0])
+    idx = np.stack(np.nonzero(np.ones(grid.shape_zyx, bool)), axis=1)
+    radius = np.linalg.norm(grid.index_to_world(idx), axis=1)
+    # icosphere facets lie within 0.02 mm of the spheres; offsets of a facetted sphere
+    # differ from the smaller icospheres by as much again
+    sure = np.min(np.abs(radius[:, None] - np.array([3.0, 2.5, 2.0])), axis=1) > 0.05
+    np.testing.assert_array_equal(result.layers.ravel()[sure], shells.layers.ravel()[sure])
+    for name in ("sdf", "sdf_band"):
+        np.testing.assert_array_equal(getattr(result, name), getattr(shells, name))
+    colour = result.layers == 1
+    same = colour & (shells.layers == 1)
+    np.testing.assert_array_equal(result.rgba[same], shells.rgba[same])
+    assert np.all(result.rgba[~colour] == 0)
+
+
+def test_distance_slabs_equal_whole_and_colour_the_core():
+    model, _ = _box_model(np.tile([[0.5], [1.0]], (1, 12)), colour_layers=(1, 3))
+    grid = GridSpec.from_bounds([-3, -3, -3], [3, 3, 3], (0.2, 0.25, 0.15), margin_mm=0.3)
+    whole = compute_slab(model, grid, 0, grid.shape_zyx[0])
+    parts = [compute_slab(model, grid, a, b) for a, b in ((0, 17), (17, grid.shape_zyx[0]))]
+    np.testing.assert_array_equal(np.concatenate([p.layers for p in parts]), whole.layers)
+    np.testing.assert_array_equal(np.concatenate([p.rgba for p in parts]), whole.rgba)
+    coloured = np.isin(whole.layers, [1, 3])
+    assert np.all(whole.rgba[coloured][:, 3] == 255)
+    assert np.all(whole.rgba[~coloured] == 0)
+
+
+def test_bad_depth(nested):
+    model, _, _ = nested
+    n_faces = len(model.surfaces[0][1])
+    for bad in (np.ones((2, n_faces - 1)), np.array([[1.0] * n_faces, [0.5] * n_faces])):
+        with pytest.raises(ValueError, match="depth_mm must be"):
+            StackModel(model.surfaces[:1], model.surface, model.colour_at, depth_mm=bad)

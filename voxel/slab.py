@@ -2,6 +2,19 @@
 
 :func:`compute_slab` returns arrays only (no files), so slabs can run in any order or in
 parallel and runs can resume.
+
+Two layer realisations:
+
+* **distance** (``StackModel.depth_mm`` given): a voxel inside the outer surface lies in
+  band ``k`` when ``D_{k-1}(f) <= d < D_k(f)``, with ``d`` its exact distance to the
+  original surface and ``f`` the face of its nearest point; this is the ideal offset
+  (rounded at reflex features, collapsing in thin walls) sampled exactly at the voxel
+  centres. Only inside voxels within ``D_K`` plus a voxel diagonal of an outside voxel
+  (box-shaped search, a superset of the ball) are queried; the rest are core. A crack or
+  slot narrower than a voxel has no outside voxel centre in it and so does not seed a
+  band of its own.
+* **shells** (``depth_mm`` None): a voxel's layer is how many of the nested closed
+  surfaces ``surfaces`` contain its centre (exact winding numbers).
 """
 
 from __future__ import annotations
@@ -39,6 +52,9 @@ class StackModel:
         Layers (1..K+1) whose voxels take the nearest surface colour.
     sdf_half_width_mm : float, mm
         Half width of the narrow band of the outer surface's signed distance (0: none).
+    depth_mm : (K, F) float64, mm, optional
+        Cumulative depth ``D_k(f)`` of each band per original face (non-decreasing in
+        ``k``). Given: layers by distance, and ``surfaces`` needs only the original.
     """
 
     surfaces: tuple[Surface, ...]
@@ -46,11 +62,21 @@ class StackModel:
     colour_at: ColourAt
     colour_layers: tuple[int, ...] = (1,)
     sdf_half_width_mm: float = 0.0
+    depth_mm: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         if not self.surfaces:
             raise ValueError("surfaces must hold at least the original surface, got none")
-        top = len(self.surfaces)  # K + 1
+        if self.depth_mm is not None:
+            depth = self.depth_mm
+            n_faces = len(self.surfaces[0][1])
+            if depth.ndim != 2 or depth.shape[1] != n_faces or depth.shape[0] < 1:
+                raise ValueError(f"depth_mm must be (K, {n_faces}), got shape {depth.shape}")
+            if not (np.all(np.isfinite(depth)) and np.all(depth > 0)) or np.any(
+                np.diff(depth, axis=0) < 0
+            ):
+                raise ValueError("depth_mm must be positive, finite and non-decreasing in k")
+        top = self.n_bands + 1
         bad = [layer for layer in self.colour_layers if not 1 <= layer <= top]
         if bad:
             raise ValueError(f"colour_layers must lie in 1..{top}, got {list(self.colour_layers)}")
@@ -60,6 +86,8 @@ class StackModel:
     @property
     def n_bands(self) -> int:
         """Number of shell bands ``K`` (the core is layer ``K + 1``)."""
+        if self.depth_mm is not None:
+            return int(self.depth_mm.shape[0])
         return len(self.surfaces) - 1
 
 
@@ -100,9 +128,25 @@ class SlabResult(NamedTuple):
 
 def halo_voxels(model: StackModel, grid: GridSpec) -> tuple[int, int, int]:
     """Return the halo ``(z, y, x)`` in voxels that the signed-distance band needs."""
-    half_width = model.sdf_half_width_mm
+    return _box(model.sdf_half_width_mm, grid)
+
+
+def search_voxels(model: StackModel, grid: GridSpec) -> tuple[int, int, int]:
+    """Return the halo ``(z, y, x)`` in voxels of the inside voxels that are queried.
+
+    The sdf band's half width, and in the distance realisation the deepest band plus a
+    voxel diagonal (a voxel centre within ``D_K`` of the surface has an outside voxel
+    centre within ``D_K`` plus a diagonal of it, where the grid resolves the surface).
+    """
+    reach = model.sdf_half_width_mm
+    if model.depth_mm is not None:
+        reach = max(reach, float(model.depth_mm.max()) + float(np.linalg.norm(grid.voxel_mm)))
+    return _box(reach, grid)
+
+
+def _box(reach_mm: float, grid: GridSpec) -> tuple[int, int, int]:
     vx, vy, vz = grid.voxel_mm
-    return (math.ceil(half_width / vz), math.ceil(half_width / vy), math.ceil(half_width / vx))
+    return (math.ceil(reach_mm / vz), math.ceil(reach_mm / vy), math.ceil(reach_mm / vx))
 
 
 def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -> SlabResult:
@@ -127,38 +171,48 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
         raise ValueError(
             f"slab rows must satisfy 0 <= z_start < z_stop <= {n_z}, got {z_start}, {z_stop}"
         )
-    halo = halo_voxels(model, grid)
-    low, high = max(0, z_start - halo[0]), min(n_z, z_stop + halo[0])
+    sdf_halo = halo_voxels(model, grid)
+    search = search_voxels(model, grid)
+    low, high = max(0, z_start - search[0]), min(n_z, z_stop + search[0])
     vertices, faces = model.surfaces[0]
     outer = winding_slab(vertices, faces, grid, low, high)
-    inside_halo = outer.winding > 0
-    inside = inside_halo[z_start - low : z_stop - low]
     unbalanced = outer.n_unbalanced_rows
-    layers = inside.astype(np.uint8)
-    previous = inside
+    inside_halo = outer.winding > 0
+    del outer
+    rows = slice(z_start - low, z_stop - low)
+    inside = inside_halo[rows]
+    colour_values = np.asarray(model.colour_layers, dtype=np.uint8)
     violations = 0
-    for shell_vertices, shell_faces in model.surfaces[1:]:
-        if len(shell_faces) == 0:
-            previous = np.zeros_like(inside)
-            continue
-        shell = winding_slab(shell_vertices, shell_faces, grid, z_start, z_stop)
-        unbalanced += shell.n_unbalanced_rows
-        contained = shell.winding > 0
-        violations += int(np.count_nonzero(contained & ~previous))
-        layers += contained
-        previous = contained
-
-    colour_mask = np.isin(layers, np.asarray(model.colour_layers, dtype=np.uint8))
-    band = _band_candidates(inside_halo, z_start - low, z_stop - low, halo)
-    query = colour_mask | band
+    if model.depth_mm is None:
+        layers, unbalanced_shells, violations = _shell_layers(model, grid, inside, z_start)
+        unbalanced += unbalanced_shells
+        query = np.isin(layers, colour_values)
+        if max(sdf_halo) > 0:
+            query |= _near(~inside_halo, rows, sdf_halo) & inside
+    elif model.n_bands + 1 in model.colour_layers:
+        query = inside.copy()  # the core takes colour too: every inside voxel is queried
+    else:
+        query = _near(~inside_halo, rows, search) & inside
+    if max(sdf_halo) > 0:
+        query |= _near(inside_halo, rows, sdf_halo) & ~inside
+    del inside_halo
     flat = np.flatnonzero(query)
-    index = np.stack(np.unravel_index(flat, query.shape), axis=1)
+    del query
+    index = np.stack(np.unravel_index(flat, inside.shape), axis=1)
     index[:, 0] += z_start
     nearest = nearest_on_surface(model.surface, grid.index_to_world(index))
+    del index
+    queried_inside = inside.ravel()[flat]
+    if model.depth_mm is not None:
+        # band k where D_{k-1}(f) <= d < D_k(f), f the nearest face; unqueried: core
+        layers = np.where(inside, np.uint8(model.n_bands + 1), np.uint8(0))
+        depth = model.depth_mm[:, nearest.face_ids[queried_inside]]
+        deeper = (nearest.distance_mm[queried_inside][None, :] >= depth).sum(axis=0)
+        layers.reshape(-1)[flat[queried_inside]] = (1 + deeper).astype(np.uint8)
 
     shape = layers.shape
+    in_colour = np.isin(layers.ravel()[flat], colour_values)
     rgba = np.zeros((*shape, 4), dtype=np.uint8)
-    in_colour = colour_mask.ravel()[flat]
     rgba.reshape(-1, 4)[flat[in_colour]] = nearest_colour(
         nearest._replace(
             face_ids=nearest.face_ids[in_colour],
@@ -170,30 +224,49 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     half_width = np.float32(model.sdf_half_width_mm)
     sdf = np.where(inside, -half_width, half_width).astype(np.float32)
     sdf_band = np.zeros(shape, dtype=bool)
-    in_band = band.ravel()[flat]
-    band_flat = flat[in_band]
-    distance = nearest.distance_mm[in_band]
-    close = distance < model.sdf_half_width_mm
-    signed = np.where(inside.ravel()[band_flat], -distance, distance).astype(np.float32)
-    sdf.reshape(-1)[band_flat[close]] = signed[close]
-    sdf_band.reshape(-1)[band_flat[close]] = True
+    close = nearest.distance_mm < model.sdf_half_width_mm
+    band_flat = flat[close]
+    distance = nearest.distance_mm[close]
+    signed = np.where(queried_inside[close], -distance, distance)
+    sdf.reshape(-1)[band_flat] = signed.astype(np.float32)
+    sdf_band.reshape(-1)[band_flat] = True
     return SlabResult(
         z_start, z_stop, layers, rgba, sdf, sdf_band, unbalanced, violations, len(flat)
     )
 
 
-def _band_candidates(
-    inside_halo: NDArray[np.bool_], start: int, stop: int, halo: tuple[int, int, int]
+def _near(
+    seeds_halo: NDArray[np.bool_], rows: slice, halo: tuple[int, int, int]
 ) -> NDArray[np.bool_]:
-    """Voxels of rows ``start..stop`` within a box of ``halo`` voxels of the other side."""
+    """Voxels of ``rows`` within a box of ``halo`` voxels (per axis) of a seed voxel."""
     if max(halo) == 0:
-        return np.zeros((stop - start, *inside_halo.shape[1:]), dtype=bool)
+        return np.asarray(seeds_halo[rows])
     size = tuple(2 * h + 1 for h in halo)
-    occupied = inside_halo.view(np.uint8)
-    near_inside = ndimage.maximum_filter(occupied, size=size, mode="constant", cval=0)
-    near_outside = ndimage.maximum_filter(1 - occupied, size=size, mode="constant", cval=1)
-    inside = inside_halo[start:stop]
-    result: NDArray[np.bool_] = np.where(
-        inside, near_outside[start:stop] > 0, near_inside[start:stop] > 0
-    )
+    near = ndimage.maximum_filter(seeds_halo.view(np.uint8), size=size, mode="nearest")
+    result: NDArray[np.bool_] = near[rows].view(np.bool_)
     return result
+
+
+def _shell_layers(
+    model: StackModel, grid: GridSpec, inside: NDArray[np.bool_], z_start: int
+) -> tuple[NDArray[np.uint8], int, int]:
+    """Layers as the count of nested surfaces holding each voxel centre.
+
+    Returns the layers ``(Zs, Y, X) uint8``, the unbalanced rows and the nesting
+    violations (voxels inside a shell but outside the surface around it).
+    """
+    z_stop = z_start + inside.shape[0]
+    layers = inside.astype(np.uint8)
+    previous = inside
+    unbalanced = violations = 0
+    for shell_vertices, shell_faces in model.surfaces[1:]:
+        if len(shell_faces) == 0:
+            previous = np.zeros_like(inside)
+            continue
+        shell = winding_slab(shell_vertices, shell_faces, grid, z_start, z_stop)
+        unbalanced += shell.n_unbalanced_rows
+        contained = shell.winding > 0
+        violations += int(np.count_nonzero(contained & ~previous))
+        layers += contained
+        previous = contained
+    return layers, unbalanced, violations
