@@ -11,7 +11,9 @@ import contextlib
 import hashlib
 import json
 import math
+import multiprocessing
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -23,12 +25,15 @@ from offset import offset_shells
 from pipeline import __version__
 from pipeline.build_config import BuildConfig
 from pipeline.config import as_json
+from pipeline.errors import ShellvoxWarning
 from pipeline.mesh import ColouredMesh
+from voxel.agreement import shell_agreement
 from voxel.atomic import atomic_path
 from voxel.colour import srgb_to_linear
 from voxel.grid import GridSpec
 from voxel.nearest import SurfaceIndex
-from voxel.slab import StackModel, compute_slab, halo_voxels
+from voxel.sampler import LayerSampler
+from voxel.slab import StackModel, compute_slab, search_voxels
 from voxel.tiff_writer import TiffStackWriter
 from voxel.vdb_writer import VdbStackWriter
 
@@ -68,9 +73,7 @@ def build_stack(
     seconds: dict[str, float] = {}
     started = time.perf_counter()
     thickness = np.asarray(config.thickness_mm, dtype=np.float64)
-    shells = offset_shells(mesh.vertices, mesh.faces, thickness, method=config.shell_method)
-    seconds["shells"] = time.perf_counter() - started
-
+    by_distance = config.layer_rule == "distance"
     half_width = config.sdf_half_width_mm
     grid = GridSpec.from_bounds(
         mesh.vertices.min(axis=0),
@@ -78,27 +81,36 @@ def build_stack(
         config.voxel_mm,
         margin_mm=max(config.margin_mm, half_width),
     )
-    model = StackModel(
-        surfaces=((mesh.vertices, mesh.faces), *((s.vertices, s.faces) for s in shells)),
-        surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
-        colour_at=mesh.colour_at,
-        colour_layers=config.colour_layers,
-        sdf_half_width_mm=half_width,
-    )
-    n_z = grid.shape_zyx[0]
-    halo = halo_voxels(model, grid)[0]
-    rows = slab_rows_for(grid, config.slab_mb, halo)
-    counts = np.zeros(model.n_bands + 2, dtype=np.int64)
-    diagnostics = {"unbalanced_rows": 0, "nesting_violations": 0, "nearest_queries": 0}
-    slab_seconds = 0.0
+    depth = np.repeat(np.cumsum(thickness)[:, None], mesh.n_faces, axis=1)
     with contextlib.ExitStack() as stack:
-        manifest_path = stack.enter_context(atomic_path(out_dir / "manifest.json"))
-        (out_dir / "shells").mkdir(exist_ok=True)
-        for shell in shells:
-            ply = stack.enter_context(atomic_path(out_dir / "shells" / f"shell_{shell.layer}.ply"))
-            trimesh.Trimesh(shell.vertices, shell.faces, process=False).export(
-                str(ply), file_type="ply"
+        shells: list[Any] | None = None
+        pending = None
+        if not by_distance:
+            shells, seconds["shells"] = timed_shells(mesh.vertices, mesh.faces, thickness, config)
+        elif config.shell_meshes:  # beside the voxels, in another process
+            pool = stack.enter_context(multiprocessing.get_context("spawn").Pool(1))
+            pending = pool.apply_async(
+                timed_shells, (mesh.vertices, mesh.faces, thickness, config)
             )
+        model = StackModel(
+            surfaces=(
+                (mesh.vertices, mesh.faces),
+                *(((s.vertices, s.faces) for s in shells) if shells is not None else ()),
+            ),
+            surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
+            colour_at=mesh.colour_at,
+            colour_layers=config.colour_layers,
+            sdf_half_width_mm=half_width,
+            depth_mm=depth if by_distance else None,
+        )
+        n_z = grid.shape_zyx[0]
+        halo = search_voxels(model, grid)[0]
+        rows = slab_rows_for(grid, config.slab_mb, halo)
+        sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / rows))
+        counts = np.zeros(model.n_bands + 2, dtype=np.int64)
+        diagnostics = {"unbalanced_rows": 0, "nesting_violations": 0, "nearest_queries": 0}
+        slab_seconds = 0.0
+        manifest_path = stack.enter_context(atomic_path(out_dir / "manifest.json"))
         samples = 4 if config.alpha else 3
         level = config.compression_level
         layers_tif = stack.enter_context(
@@ -130,6 +142,7 @@ def build_stack(
             tick = time.perf_counter()
             slab = compute_slab(model, grid, z_start, min(n_z, z_start + rows))
             counts += np.bincount(slab.layers.ravel(), minlength=len(counts))[: len(counts)]
+            sampler.add(slab.z_start, slab.layers)
             diagnostics["unbalanced_rows"] += slab.n_unbalanced_rows
             diagnostics["nesting_violations"] += slab.n_nesting_violations
             diagnostics["nearest_queries"] += slab.n_nearest_queries
@@ -155,8 +168,43 @@ def build_stack(
             tick = time.perf_counter()
             vdb_summary = vdb.write(vdb_path, {"creator": f"shellvox {__version__}"})
             seconds["vdb_write"] = time.perf_counter() - tick
+        agreement: dict[str, Any] | None = None
+        if pending is not None:
+            tick = time.perf_counter()
+            try:
+                shells, seconds["shells"] = pending.get()
+            except Exception as error:  # the voxels do not depend on the shell meshes
+                warnings.warn(
+                    f"{mesh.source}: the shell meshes failed ({error}); the voxel stack is "
+                    "complete without shells/; rerun with --layers shells to see the error",
+                    ShellvoxWarning,
+                    stacklevel=2,
+                )
+            seconds["shells_wait"] = time.perf_counter() - tick
+        if shells is not None:
+            (out_dir / "shells").mkdir(exist_ok=True)
+            for shell in shells:
+                ply = stack.enter_context(
+                    atomic_path(out_dir / "shells" / f"shell_{shell.layer}.ply")
+                )
+                trimesh.Trimesh(shell.vertices, shell.faces, process=False).export(
+                    str(ply), file_type="ply"
+                )
+            if by_distance:
+                tick = time.perf_counter()
+                points, sampled = sampler.samples()
+                agreement = shell_agreement(
+                    points,
+                    sampled,
+                    model.surface,
+                    depth,
+                    [(s.vertices, s.faces) for s in shells],
+                    clear_mm=float(np.linalg.norm(grid.voxel_mm)),
+                )
+                seconds["agreement"] = time.perf_counter() - tick
         seconds["total"] = time.perf_counter() - started
         manifest = _manifest(mesh, config, grid, shells, counts, diagnostics, seconds)
+        manifest["shell_agreement"] = agreement
         manifest["vdb"] = vdb_summary
         manifest["tiff"] = {
             "layers.tif": {"bigtiff": layers_tif.bigtiff, "samples": 1},
@@ -177,7 +225,7 @@ def _manifest(
     mesh: ColouredMesh,
     config: BuildConfig,
     grid: GridSpec,
-    shells: list[Any],
+    shells: list[Any] | None,
     counts: np.ndarray[Any, Any],
     diagnostics: dict[str, int],
     seconds: dict[str, float],
@@ -196,11 +244,15 @@ def _manifest(
                 "thickness_mm": config.thickness_mm[k - 1],
                 "depth_mm": float(depth[k - 1]),
                 "thickness_rule": (
-                    f"per-face inward offset: {config.thickness_mm[k - 1]} mm thick, "
-                    f"from depth {depth[k - 1] - config.thickness_mm[k - 1]:g} "
-                    f"to {depth[k - 1]:g} mm"
+                    f"{config.thickness_mm[k - 1]} mm thick: distance to the surface from "
+                    f"{depth[k - 1] - config.thickness_mm[k - 1]:g} to {depth[k - 1]:g} mm"
+                    + (
+                        " (exact nearest-point distance)"
+                        if config.layer_rule == "distance"
+                        else " (between offset shells)"
+                    )
                 ),
-                "shell_faces": len(shells[k - 1].faces),
+                "shell_faces": None if shells is None else len(shells[k - 1].faces),
             }
         )
     layers.append(
@@ -239,6 +291,18 @@ def _sha256(source: str) -> str | None:
         for block in iter(lambda: stream.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def timed_shells(
+    vertices: np.ndarray[Any, Any],
+    faces: np.ndarray[Any, Any],
+    thickness: np.ndarray[Any, Any],
+    config: BuildConfig,
+) -> tuple[list[Any], float]:
+    """Return the offset shells of the model and the seconds they took (picklable)."""
+    tick = time.perf_counter()
+    shells = offset_shells(vertices, faces, thickness, method=config.shell_method)
+    return shells, time.perf_counter() - tick
 
 
 def slab_rows_for(grid: GridSpec, slab_mb: float, halo_rows: int) -> int:

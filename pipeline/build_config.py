@@ -21,6 +21,14 @@ class BuildConfig:
         Thickness of each shell band, outside in (``K`` values).
     colour_layers : tuple of int
         Layers (1..K+1) whose voxels take the nearest surface colour.
+    layer_rule : {"distance", "shells"}
+        How voxels get their layer: ``"distance"`` compares each voxel's exact distance
+        to the surface with the depths of its nearest face (the ideal offset, sampled
+        exactly); ``"shells"`` counts the offset shells holding the voxel centre.
+    shell_meshes : bool
+        Also compute the offset shells and write them to ``shells/`` (with the
+        ``"distance"`` rule they run beside the voxels, in another process, and the
+        manifest reports how well the two realisations agree).
     shell_method : {"robust", "paper"}
         Offset construction (see :mod:`offset`).
     margin_mm : float, mm
@@ -41,6 +49,8 @@ class BuildConfig:
     printer: str | None = None
     thickness_mm: tuple[float, ...] = (0.5, 0.5)
     colour_layers: tuple[int, ...] = (1,)
+    layer_rule: Literal["distance", "shells"] = "distance"
+    shell_meshes: bool = True
     shell_method: Literal["robust", "paper"] = "robust"
     margin_mm: float = 0.5
     sdf_half_width_voxels: float = 3.0
@@ -62,6 +72,8 @@ class BuildConfig:
                 "margin_mm and sdf_half_width_voxels must be >= 0 and slab_mb > 0, got "
                 f"{self.margin_mm}, {self.sdf_half_width_voxels}, {self.slab_mb}"
             )
+        if self.layer_rule not in ("distance", "shells"):
+            raise ValueError(f"layer_rule must be 'distance' or 'shells', got {self.layer_rule!r}")
         if not 1 <= self.compression_level <= 9:
             raise ValueError(f"compression_level must be 1..9, got {self.compression_level}")
 

@@ -105,3 +105,35 @@ def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch):
         build_stack(_ball(), config, tmp_path, progress=False)
     left = [p for p in tmp_path.rglob("*") if p.is_file()]
     assert left == []
+
+
+def test_distance_layers_agree_with_the_shells(built):
+    _, config, manifest = built
+    assert config.layer_rule == "distance"
+    agreement = manifest["shell_agreement"]
+    # both realise the same bands of the same ball: they may differ only near boundaries
+    assert agreement["samples"] > 5000
+    assert agreement["samples_clear"] > 0.5 * agreement["samples"]
+    assert agreement["agreement_clear"] >= 0.999
+    assert set(agreement["per_layer"]) == {"1", "2", "3"}
+
+
+@pytest.mark.parametrize(
+    ("rule", "meshes", "expect_shells"),
+    [("shells", True, True), ("distance", False, False)],
+)
+def test_layer_rules_and_shell_meshes(tmp_path, rule, meshes, expect_shells):
+    config = BuildConfig(
+        voxel_mm=(0.2, 0.25, 0.15), thickness_mm=(0.5,), layer_rule=rule, shell_meshes=meshes
+    )
+    manifest = build_stack(_ball(), config, tmp_path, progress=False)
+    assert (tmp_path / "shells" / "shell_1.ply").is_file() == expect_shells
+    assert manifest["shell_agreement"] is None
+    layers = tifffile.imread(tmp_path / "layers.tif")
+    g = manifest["grid"]
+    z, y, x = np.indices(layers.shape)
+    centre = np.stack([x, y, z], axis=-1) * g["voxel_size_mm"] + g["origin_mm"]
+    depth = 3.0 - np.linalg.norm(centre, axis=-1)
+    expected = (depth > 0).astype(int) + (depth > 0.5)
+    clear = np.min(np.abs(depth[..., None] - np.array([0.0, 0.5])), axis=-1) > 0.08
+    assert (layers == expected)[clear].mean() > 0.999

@@ -44,6 +44,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="K1,K2,...",
         help="layers that take the surface colour (default 1, the outermost)",
     )
+    parser.add_argument(
+        "--layers",
+        choices=("distance", "shells"),
+        default="distance",
+        help="layer of a voxel from its exact distance to the surface (default), "
+        "or from the offset shells holding it",
+    )
+    parser.add_argument(
+        "--shell-meshes",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="also write the offset shells to DIR/shells/ (default: yes)",
+    )
     parser.add_argument("--method", choices=METHODS, default="robust", help="offset construction")
     parser.add_argument("--alpha", action="store_true", help="write colour.tif as RGBA")
     parser.add_argument("--no-vdb", action="store_true", help="skip volume.vdb")
@@ -95,6 +108,8 @@ def config_from_args(args: argparse.Namespace) -> BuildConfig:
         printer=printer,
         thickness_mm=thickness,
         colour_layers=colour_layers,
+        layer_rule=args.layers,
+        shell_meshes=args.shell_meshes or args.layers == "shells",
         shell_method=args.method,
         alpha=args.alpha,
         write_vdb=not args.no_vdb,
