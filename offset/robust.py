@@ -55,25 +55,23 @@ import numpy.typing as npt
 import scipy.sparse
 import scipy.sparse.csgraph
 import scipy.spatial
-import trimesh
 
 from offset._validate import FloatArray, IntArray
 from offset.adjacency import bend_angles, edge_adjacency, face_normals
+from offset.pieces import MARGIN_RAD, Group, balls, prisms, sectors, vertex_caps
+from offset.union import to_manifold, union_pieces
 
-#: Edges bending less than this (radians, convex) still get a cylinder, closing float gaps.
-FLAT_EDGE_RAD = np.radians(1.0)
-#: Pieces reach this fraction of their depth outside the surface (avoids coplanar caps).
-OUTSIDE_FRACTION = 0.05
-#: Extra subtraction rounds where a Boolean left part of the original surface behind.
+#: Reflex edges bending more than this (radians) get a sector; flatter ones are covered
+#: by the overlap of the two grown prisms (``2 GROW_FRACTION`` wide at the full depth).
+REFLEX_EDGE_RAD = 1e-3
+#: Largest angular step of the rounded arcs (radians): chords stay within
+#: ``1 - cos(ARC_STEP_RAD / 2)`` (0.2 %) of the depth.
+ARC_STEP_RAD = np.radians(7.5)
+#: Extra subtraction rounds where a Boolean left part of the previous boundary behind.
 REPAIR_ROUNDS = 3
 #: Components thinner on average than this fraction of the depth, or smaller than this
 #: fraction of the extent cubed, are dropped as slivers.
 SLIVER_FRACTION = 1e-6
-#: Pieces reach this fraction of their depth beyond their face, edge or vertex along the
-#: surface (overlap instead of coincidence); the depth error this adds is ~1e-8 relative.
-GROW_FRACTION = 1e-3
-#: Angular margin (radians) added around the rounded arc of edges and the cap of vertices.
-MARGIN_RAD = np.radians(10.0)
 
 
 def robust_offset(
@@ -81,7 +79,6 @@ def robust_offset(
     faces: IntArray,
     depth: FloatArray,
     *,
-    arc_segments: int = 8,
     cap_rings: int = 4,
     cap_azimuths: int = 16,
 ) -> list[tuple[FloatArray, IntArray]]:
@@ -94,8 +91,6 @@ def robust_offset(
         Closed, outward-oriented triangles.
     depth : (K, F) float64, mm
         Cumulative depth ``D_k(f)`` per layer and face, non-decreasing in ``k``.
-    arc_segments : int, optional
-        Segments of the rounded arc at each reflex edge.
     cap_rings, cap_azimuths : int, optional
         Resolution of the spherical cap at each reflex vertex.
 
@@ -104,8 +99,7 @@ def robust_offset(
     list of (vertices (n, 3) float64 mm, faces (m, 3) int64)
         One outward-oriented mesh per layer, possibly empty or with several components.
     """
-    solid = _to_manifold(vertices, faces).as_original()
-    solid_id = int(solid.original_id())
+    solid = to_manifold(vertices, faces)
     if solid.status() != m3d.Error.NoError:
         raise ValueError(
             f"vertices/faces must form a closed oriented manifold, got {solid.status()}"
@@ -115,7 +109,7 @@ def robust_offset(
     bend = bend_angles(normals, vertices, adj)
     degenerate = ~np.any(normals != 0, axis=1)
     edge_sel = np.flatnonzero(
-        (bend < FLAT_EDGE_RAD) | degenerate[adj.face_left] | degenerate[adj.face_right]
+        (bend < -REFLEX_EDGE_RAD) | degenerate[adj.face_left] | degenerate[adj.face_right]
     )
     corner_vertex = faces.reshape(-1)
     corner_face = np.repeat(np.arange(len(faces)), 3)
@@ -138,20 +132,21 @@ def robust_offset(
     ball_vertices = np.flatnonzero(full_ball)
     prism_faces = np.flatnonzero(~degenerate)
     out: list[tuple[FloatArray, IntArray]] = []
+    core = solid.as_original()
     for d in depth:
         vdepth = np.zeros(len(vertices))
         np.maximum.at(vdepth, corner_vertex, d[corner_face])
         edepth = np.maximum(d[adj.face_left], d[adj.face_right])
-        pieces = [
-            _prisms(vertices[faces[prism_faces]], normals[prism_faces], d[prism_faces]),
-            _sectors(
+        pieces: list[Group] = [
+            prisms(vertices[faces[prism_faces]], normals[prism_faces], d[prism_faces]),
+            *sectors(
                 vertices[adj.edges[edge_sel]],
                 normals[adj.face_left[edge_sel]],
                 normals[adj.face_right[edge_sel]],
                 edepth[edge_sel],
-                arc_segments,
+                ARC_STEP_RAD,
             ),
-            _vertex_caps(
+            vertex_caps(
                 vertices[cap_vertices],
                 vdepth[cap_vertices],
                 axis[cap_vertices],
@@ -159,39 +154,38 @@ def robust_offset(
                 cap_rings,
                 cap_azimuths,
             ),
-            _balls(vertices[ball_vertices], vdepth[ball_vertices], 3),
+            balls(vertices[ball_vertices], vdepth[ball_vertices], 3),
         ]
         min_thickness = SLIVER_FRACTION * float(d.min())
-        batches = [mf for pts, tris in pieces for mf in _batched_manifolds(pts, tris)]
-        core = m3d.Manifold.batch_boolean([solid, *batches], m3d.OpType.Subtract)
-        vert, tri, leftover = _mesh_arrays(core, solid_id, min_thickness)
+        # Nested by construction: layer k's core is cut from layer k - 1's.
+        base_id = int(core.original_id())
+        core = core - union_pieces(pieces)
+        vert, tri, leftover = _mesh_arrays(core, base_id, min_thickness)
         for _ in range(REPAIR_ROUNDS):
             if not np.any(leftover):
                 break
-            # Original surface must never survive (every face's prism covers it): the
-            # Boolean mis-classified a region. Subtract the pieces around it once more.
+            # The previous boundary lies shallower than every piece reaches, so none of it
+            # may survive: the Boolean mis-classified a region. Subtract the pieces
+            # around it once more.
             near = scipy.spatial.cKDTree(vert[tri[leftover]].reshape(-1, 3))
-            local = [
-                mf
-                for pts, tris in pieces
-                for mf in _batched_manifolds(pts[_near(pts, near, float(d.max()))], tris)
-            ]
-            core = m3d.Manifold.batch_boolean([core, *local], m3d.OpType.Subtract)
-            vert, tri, leftover = _mesh_arrays(core, solid_id, min_thickness)
+            local = [(p[_near(p, near, float(d.max()))], t) for p, t in pieces]
+            core = core - union_pieces(local)
+            vert, tri, leftover = _mesh_arrays(core, base_id, min_thickness)
         out.append((vert, tri))
+        core = to_manifold(vert, tri).as_original()
     return out
 
 
 def _mesh_arrays(
-    core: m3d.Manifold, solid_id: int, min_thickness: float
+    core: m3d.Manifold, base_id: int, min_thickness: float
 ) -> tuple[FloatArray, IntArray, npt.NDArray[np.bool_]]:
-    """Return sliver-free vertices and triangles, and which triangles stem from the solid.
+    """Return sliver-free vertices and triangles, and which triangles stem from the base.
 
     Parameters
     ----------
     core : manifold3d.Manifold
-    solid_id : int
-        Original ID of the input solid.
+    base_id : int
+        Original ID of the solid the pieces were cut from.
     min_thickness : float, mm
         See :func:`_drop_slivers`.
 
@@ -199,7 +193,7 @@ def _mesh_arrays(
     -------
     vertices : (n, 3) float64, mm
     faces : (m, 3) int64
-    from_solid : (m,) bool
+    from_base : (m,) bool
     """
     mesh = core.to_mesh64()
     vert = np.ascontiguousarray(np.asarray(mesh.vert_properties)[:, :3], dtype=np.float64)
@@ -208,7 +202,7 @@ def _mesh_arrays(
     run_index = np.asarray(mesh.run_index, dtype=np.int64) // 3
     tri_id = np.repeat(run_id, np.diff(run_index)) if run_id.size else np.full(len(tri), -1)
     vert, tri, keep = _drop_slivers(vert, tri, min_thickness)
-    return vert, tri, tri_id[keep] == solid_id
+    return vert, tri, tri_id[keep] == base_id
 
 
 def _near(
@@ -274,256 +268,3 @@ def _drop_slivers(
     )
 
 
-def _to_manifold(vertices: FloatArray, faces: IntArray) -> m3d.Manifold:
-    mesh = m3d.Mesh64(
-        vert_properties=np.ascontiguousarray(vertices, dtype=np.float64),
-        tri_verts=np.ascontiguousarray(faces, dtype=np.uint64),
-    )
-    return m3d.Manifold(mesh)
-
-
-def _ring_prism_topology(m: int) -> IntArray:
-    """Triangles of a prism over a convex ``m``-gon: ring 0 is ``0..m-1``, ring 1 ``m..2m-1``.
-
-    Outward for one of the two ring orders; :func:`_orient_rings` swaps the rings of
-    pieces whose signed volume is negative.
-    """
-    j = np.arange(1, m - 1)
-    bottom = np.stack([np.zeros_like(j), j + 1, j], axis=1)
-    top = np.stack([np.full_like(j, m), m + j, m + j + 1], axis=1)
-    i = np.arange(m)
-    i1 = (i + 1) % m
-    side = np.concatenate(
-        [np.stack([i, i1, m + i1], axis=1), np.stack([i, m + i1, m + i], axis=1)]
-    )
-    return np.asarray(np.concatenate([bottom, top, side]), dtype=np.int64)
-
-
-def _orient_rings(points: FloatArray, tris: IntArray, m: int) -> FloatArray:
-    """Swap the two rings of every piece whose signed volume is negative.
-
-    Parameters
-    ----------
-    points : (N, 2m, 3) float64, mm
-    tris : (T, 3) int64
-    m : int
-
-    Returns
-    -------
-    (N, 2m, 3) float64, mm
-    """
-    t = points[:, tris]  # (N, T, 3, 3)
-    c = points.mean(axis=1)[:, None, :]
-    vol = np.einsum(
-        "ntj,ntj->n", t[:, :, 0] - c, np.cross(t[:, :, 1] - c, t[:, :, 2] - c)
-    )
-    flip = vol < 0
-    out = points.copy()
-    out[flip] = np.concatenate([points[flip, m:], points[flip, :m]], axis=1)
-    return out
-
-
-def _prisms(
-    tri: FloatArray, normals: FloatArray, d: FloatArray
-) -> tuple[FloatArray, IntArray]:
-    """Return face prisms ``T_f +- D_f n_f`` as ``(N, 6, 3)`` points and shared triangles.
-
-    Each triangle is first grown about its incentre so that every edge moves out by
-    ``GROW_FRACTION * D_f`` in its plane: neighbouring pieces then overlap instead of
-    sharing faces exactly, and the surface's edges lie strictly inside the pieces, which
-    keeps the Booleans away from coincident geometry. The cap stays exactly on the moved
-    plane.
-    """
-    edge_len = np.linalg.norm(np.roll(tri, -1, axis=1) - np.roll(tri, 1, axis=1), axis=2)
-    perimeter = edge_len.sum(axis=1)
-    incentre = np.einsum("ni,nij->nj", edge_len, tri) / perimeter[:, None]
-    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    inradius = area2 / perimeter
-    reach = np.linalg.norm(tri - incentre[:, None, :], axis=2).max(axis=1)
-    # Edges move out by GROW_FRACTION * D, corners by at most ten times that (slivers).
-    grow = 1.0 + GROW_FRACTION * d * np.minimum(1.0 / inradius, 10.0 / reach)
-    tri = incentre[:, None, :] + grow[:, None, None] * (tri - incentre[:, None, :])
-    down = (d[:, None] * normals)[:, None, :]
-    pts = np.concatenate([tri - down, tri + OUTSIDE_FRACTION * down], axis=1)
-    tris = _ring_prism_topology(3)
-    return _orient_rings(pts, tris, 3), tris
-
-
-def _sectors(
-    ends: FloatArray, n1: FloatArray, n2: FloatArray, r: FloatArray, arc_segments: int
-) -> tuple[FloatArray, IntArray]:
-    """Return edge sector prisms covering the arc from ``-n1`` to ``-n2`` plus a margin.
-
-    Each piece is the segment ``ends`` swept over a circular sector of radius ``r`` about
-    the edge, with ring vertices exactly at ``-n1`` and ``-n2`` and ``arc_segments`` equal
-    steps between them; :data:`MARGIN_RAD` is added on both sides (capped so the sector
-    stays convex), so nearly flat edges still get a solid piece.
-
-    Parameters
-    ----------
-    ends : (N, 2, 3) float64, mm
-    n1, n2 : (N, 3) float64
-        Unit normals of the two faces (zero rows for degenerate faces).
-    r : (N,) float64, mm
-    arc_segments : int
-
-    Returns
-    -------
-    points : (N, 2m, 3) float64, mm, with ``m = arc_segments + 4``
-    tris : (T, 3) int64
-    """
-    t = ends[:, 1] - ends[:, 0]
-    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
-    helper = np.where(np.abs(t[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    alt = np.cross(t, helper)
-    alt /= np.linalg.norm(alt, axis=1, keepdims=True)
-    u0 = -n1
-    bad1 = np.linalg.norm(u0, axis=1) < 0.5
-    u0[bad1] = alt[bad1]
-    target = -n2
-    bad2 = np.linalg.norm(target, axis=1) < 0.5
-    w = np.cross(t, u0)
-    phi2 = np.arctan2(np.einsum("ij,ij->i", target, w), np.einsum("ij,ij->i", target, u0))
-    phi2[bad2] = 0.0
-    w *= np.where(phi2 < 0, -1.0, 1.0)[:, None]
-    span = np.abs(phi2)
-    # Degenerate neighbours: a half disc; otherwise the arc plus a margin, at most pi.
-    margin = np.minimum(MARGIN_RAD, 0.5 * np.maximum(np.pi - span, 0.0))
-    margin[bad1 | bad2] = 0.5 * np.pi
-    span[bad1 | bad2] = 0.0
-    k = np.arange(arc_segments + 1) / arc_segments
-    ang = np.concatenate(
-        [-margin[:, None], span[:, None] * k, (span + margin)[:, None]], axis=1
-    )
-    dirs = np.cos(ang)[..., None] * u0[:, None, :] + np.sin(ang)[..., None] * w[:, None, :]
-    dirs[:, 1] = u0  # exactly -n1
-    good = ~(bad1 | bad2)
-    dirs[good, arc_segments + 1] = target[good]  # exactly -n2
-    # The axis corner sits slightly outside the surface and the ends slightly beyond the
-    # edge, so the edge itself lies strictly inside the piece (see _prisms).
-    outward = -(u0 + target)
-    outward /= np.maximum(np.linalg.norm(outward, axis=1, keepdims=True), 1e-300)
-    axis_pt = (GROW_FRACTION * r)[:, None, None] * outward[:, None, :]
-    ring = np.concatenate([axis_pt, r[:, None, None] * dirs], axis=1)
-    m = ring.shape[1]
-    ext = (GROW_FRACTION * r)[:, None] * t
-    pts = np.concatenate(
-        [(ends[:, 0] - ext)[:, None] + ring, (ends[:, 1] + ext)[:, None] + ring], axis=1
-    )
-    tris = _ring_prism_topology(m)
-    return _orient_rings(pts, tris, m), tris
-
-
-def _vertex_caps(
-    centres: FloatArray,
-    r: FloatArray,
-    axis: FloatArray,
-    half_angle: FloatArray,
-    rings: int,
-    azimuths: int,
-) -> tuple[FloatArray, IntArray]:
-    """Return cones capped by spherical caps: ``hull(v, v + r * cap)`` about ``axis``.
-
-    Parameters
-    ----------
-    centres : (N, 3) float64, mm
-    r : (N,) float64, mm
-    axis : (N, 3) float64
-        Unit cap axes.
-    half_angle : (N,) float64, radians in ``(0, pi / 2]``
-        Angular radius of each cap.
-    rings, azimuths : int
-        Cap resolution.
-
-    Returns
-    -------
-    points : (N, 2 + rings * azimuths, 3) float64, mm
-        Apex, pole, then rings from the pole outwards.
-    tris : (T, 3) int64
-    """
-    helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    e1 = np.cross(axis, helper)
-    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    e2 = np.cross(axis, e1)
-    polar = half_angle[:, None, None] * (np.arange(1, rings + 1) / rings)[None, :, None]
-    az = (2 * np.pi * np.arange(azimuths) / azimuths)[None, None, :]
-    sp = np.sin(polar)
-    dirs = (
-        np.cos(polar)[..., None] * axis[:, None, None, :]
-        + (sp * np.cos(az))[..., None] * e1[:, None, None, :]
-        + (sp * np.sin(az))[..., None] * e2[:, None, None, :]
-    ).reshape(len(centres), rings * azimuths, 3)
-    cap = np.concatenate([axis[:, None, :], dirs], axis=1) * r[:, None, None]
-    apex = -(GROW_FRACTION * r)[:, None, None] * axis[:, None, :]  # just outside the surface
-    pts = np.concatenate([apex, cap], axis=1) + centres[:, None, :]
-    return pts, _cap_topology(rings, azimuths)
-
-
-def _cap_topology(rings: int, azimuths: int) -> IntArray:
-    """Outward triangles of the apex (0) + pole (1) + rings (2 ...) cap polytope."""
-    a = np.arange(azimuths)
-    a1 = (a + 1) % azimuths
-    tris = [np.stack([np.ones_like(a), 2 + a, 2 + a1], axis=1)]
-    for i in range(rings - 1):
-        p, q = 2 + i * azimuths, 2 + (i + 1) * azimuths
-        tris.append(np.stack([p + a, q + a, q + a1], axis=1))
-        tris.append(np.stack([p + a, q + a1, p + a1], axis=1))
-    last = 2 + (rings - 1) * azimuths
-    tris.append(np.stack([np.zeros_like(a), last + a1, last + a], axis=1))
-    return np.asarray(np.concatenate(tris), dtype=np.int64)
-
-
-def _balls(
-    centres: FloatArray, r: FloatArray, subdivisions: int
-) -> tuple[FloatArray, IntArray]:
-    """Return inscribed icospheres of radius ``r`` about ``centres``."""
-    ico = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
-    dirs = np.asarray(ico.vertices, dtype=np.float64)
-    pts = centres[:, None, :] + r[:, None, None] * dirs[None]
-    return pts, np.asarray(ico.faces, dtype=np.int64)
-
-
-def _batched_manifolds(points: FloatArray, tris: IntArray) -> list[m3d.Manifold]:
-    """Pack same-topology convex pieces into manifolds of pairwise disjoint pieces.
-
-    Pieces are bucketed by size class (power of two of their extent) and hashed to cells
-    of twice that size; pieces in cells of equal index parity and equal rank within their
-    cell are at least a cell apart, hence disjoint.
-
-    Parameters
-    ----------
-    points : (N, P, 3) float64, mm
-    tris : (T, 3) int64
-
-    Returns
-    -------
-    list of manifold3d.Manifold
-    """
-    if points.shape[0] == 0:
-        return []
-    lo = points.min(axis=1)
-    hi = points.max(axis=1)
-    ext = np.maximum((hi - lo).max(axis=1), 1e-12)
-    size_class = np.ceil(np.log2(ext)).astype(np.int64)
-    cell = np.exp2(size_class.astype(np.float64)) * 1.001
-    idx = np.floor(lo / cell[:, None]).astype(np.int64)
-    parity = (idx & 1) @ np.array([1, 2, 4])
-    key = np.stack([size_class, idx[:, 0], idx[:, 1], idx[:, 2]], axis=1)
-    order = np.lexsort(key.T[::-1])
-    sk = key[order]
-    new_cell = np.ones(len(order), dtype=bool)
-    new_cell[1:] = np.any(sk[1:] != sk[:-1], axis=1)
-    start = np.maximum.accumulate(np.where(new_cell, np.arange(len(order)), 0))
-    rank = np.empty(len(order), dtype=np.int64)
-    rank[order] = np.arange(len(order)) - start
-    colour = np.stack([size_class, parity, rank], axis=1)
-    _, batch = np.unique(colour, axis=0, return_inverse=True)
-    batch = batch.reshape(-1)
-    n_pts = points.shape[1]
-    result: list[m3d.Manifold] = []
-    for b in range(int(batch.max()) + 1):
-        sel = np.flatnonzero(batch == b)
-        verts = points[sel].reshape(-1, 3)
-        faces = (tris[None] + (np.arange(sel.size) * n_pts)[:, None, None]).reshape(-1, 3)
-        result.append(_to_manifold(verts, faces))
-    return result
