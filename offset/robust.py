@@ -49,6 +49,8 @@ References
 
 from __future__ import annotations
 
+import warnings
+
 import manifold3d as m3d
 import numpy as np
 import numpy.typing as npt
@@ -57,21 +59,24 @@ import scipy.sparse.csgraph
 import scipy.spatial
 
 from offset._validate import FloatArray, IntArray
-from offset.adjacency import bend_angles, edge_adjacency, face_normals
-from offset.pieces import MARGIN_RAD, Group, balls, prisms, sectors, vertex_caps
-from offset.union import to_manifold, union_pieces
+from offset.band import features, layer_pieces
+from offset.intersections import intersecting_pairs
+from offset.union import LEAF, to_manifold, union_pieces
 
-#: Reflex edges bending more than this (radians) get a sector; flatter ones are covered
-#: by the overlap of the two grown prisms (``2 GROW_FRACTION`` wide at the full depth).
-REFLEX_EDGE_RAD = 1e-3
-#: Largest angular step of the rounded arcs (radians): chords stay within
-#: ``1 - cos(ARC_STEP_RAD / 2)`` (0.2 %) of the depth.
-ARC_STEP_RAD = np.radians(7.5)
 #: Extra subtraction rounds where a Boolean left part of the previous boundary behind.
 REPAIR_ROUNDS = 3
 #: Components thinner on average than this fraction of the depth, or smaller than this
 #: fraction of the extent cubed, are dropped as slivers.
 SLIVER_FRACTION = 1e-6
+#: Tolerance (fraction of the smallest depth) to which a crossing shell is simplified:
+#: manifold3d collapses edges whose removal moves the surface less than this.
+SIMPLIFY_FRACTION = 2e-7
+#: Leaf sizes of the union tree tried in turn while a layer's shell crosses itself.
+LEAF_SIZES = (LEAF, 13, 11, 19)
+
+
+class ShellDefectWarning(UserWarning):
+    """A robust shell still crosses itself after every retry (see :data:`LEAF_SIZES`)."""
 
 
 def robust_offset(
@@ -98,82 +103,84 @@ def robust_offset(
     -------
     list of (vertices (n, 3) float64 mm, faces (m, 3) int64)
         One outward-oriented mesh per layer, possibly empty or with several components.
+
+    Warns
+    -----
+    ShellDefectWarning
+        When a shell still has crossing triangles after every union order was tried.
     """
     solid = to_manifold(vertices, faces)
     if solid.status() != m3d.Error.NoError:
         raise ValueError(
             f"vertices/faces must form a closed oriented manifold, got {solid.status()}"
         )
-    normals, _ = face_normals(vertices, faces)
-    adj = edge_adjacency(faces)
-    bend = bend_angles(normals, vertices, adj)
-    degenerate = ~np.any(normals != 0, axis=1)
-    edge_sel = np.flatnonzero(
-        (bend < -REFLEX_EDGE_RAD) | degenerate[adj.face_left] | degenerate[adj.face_right]
-    )
-    corner_vertex = faces.reshape(-1)
-    corner_face = np.repeat(np.arange(len(faces)), 3)
-    ball_mask = np.zeros(len(vertices), dtype=bool)
-    ball_mask[adj.edges[edge_sel].reshape(-1)] = True
-    # Cap axis: mean inward normal; half angle: widest incident normal plus a margin.
-    axis = np.zeros_like(vertices)
-    np.add.at(axis, corner_vertex, -normals[corner_face])
-    axis_len = np.linalg.norm(axis, axis=1)
-    axis /= np.maximum(axis_len, 1e-300)[:, None]
-    cos_c = np.full(len(vertices), 1.0)
-    np.minimum.at(
-        cos_c, corner_vertex, np.einsum("ij,ij->i", axis[corner_vertex], -normals[corner_face])
-    )
-    half = np.arccos(np.clip(cos_c, -1.0, 1.0)) + MARGIN_RAD
-    has_deg = np.zeros(len(vertices), dtype=bool)
-    has_deg[corner_vertex[degenerate[corner_face]]] = True
-    full_ball = ball_mask & ((half > np.pi / 2) | (axis_len < 1e-6) | has_deg)
-    cap_vertices = np.flatnonzero(ball_mask & ~full_ball)
-    ball_vertices = np.flatnonzero(full_ball)
-    prism_faces = np.flatnonzero(~degenerate)
+    feat = features(vertices, faces)
     out: list[tuple[FloatArray, IntArray]] = []
-    core = solid.as_original()
-    for d in depth:
-        vdepth = np.zeros(len(vertices))
-        np.maximum.at(vdepth, corner_vertex, d[corner_face])
-        edepth = np.maximum(d[adj.face_left], d[adj.face_right])
-        pieces: list[Group] = [
-            prisms(vertices[faces[prism_faces]], normals[prism_faces], d[prism_faces]),
-            *sectors(
-                vertices[adj.edges[edge_sel]],
-                normals[adj.face_left[edge_sel]],
-                normals[adj.face_right[edge_sel]],
-                edepth[edge_sel],
-                ARC_STEP_RAD,
-            ),
-            vertex_caps(
-                vertices[cap_vertices],
-                vdepth[cap_vertices],
-                axis[cap_vertices],
-                half[cap_vertices],
-                cap_rings,
-                cap_azimuths,
-            ),
-            balls(vertices[ball_vertices], vdepth[ball_vertices], 3),
-        ]
-        min_thickness = SLIVER_FRACTION * float(d.min())
-        # Nested by construction: layer k's core is cut from layer k - 1's.
-        base_id = int(core.original_id())
-        core = core - union_pieces(pieces)
-        vert, tri, leftover = _mesh_arrays(core, base_id, min_thickness)
-        for _ in range(REPAIR_ROUNDS):
-            if not np.any(leftover):
+    base = solid.as_original()
+    for k, d in enumerate(depth):
+        pieces = layer_pieces(feat, d, cap_rings, cap_azimuths)
+        for leaf in LEAF_SIZES:
+            # Nested by construction: layer k's core is cut from layer k - 1's.
+            core, vert, tri = _cut(base, pieces, float(d.min()), float(d.max()), leaf)
+            crossing = intersecting_pairs(vert, tri).shape[0]
+            if crossing == 0:
                 break
-            # The previous boundary lies shallower than every piece reaches, so none of it
-            # may survive: the Boolean mis-classified a region. Subtract the pieces
-            # around it once more.
-            near = scipy.spatial.cKDTree(vert[tri[leftover]].reshape(-1, 3))
-            local = [(p[_near(p, near, float(d.max()))], t) for p, t in pieces]
-            core = core - union_pieces(local)
-            vert, tri, leftover = _mesh_arrays(core, base_id, min_thickness)
+            # Crossings of sub-micrometre triangles: collapse them and check again.
+            vert, tri, _ = _mesh_arrays(
+                to_manifold(vert, tri).simplify(SIMPLIFY_FRACTION * float(d.min())), -1,
+                SLIVER_FRACTION * float(d.min()),
+            )
+            crossing = intersecting_pairs(vert, tri).shape[0]
+            if crossing == 0:
+                break
+        else:
+            warnings.warn(
+                f"layer {k + 1}: {crossing} crossing triangle pairs remain",
+                ShellDefectWarning,
+                stacklevel=3,
+            )
         out.append((vert, tri))
-        core = to_manifold(vert, tri).as_original()
+        base = to_manifold(vert, tri).as_original()
     return out
+
+
+def _cut(
+    base: m3d.Manifold, pieces: list[tuple[FloatArray, IntArray]], d_min: float,
+    d_max: float, leaf: int
+) -> tuple[m3d.Manifold, FloatArray, IntArray]:
+    """Return ``base`` minus the union of ``pieces``, and its cleaned vertex / face arrays.
+
+    Parameters
+    ----------
+    base : manifold3d.Manifold
+        Marked original (its faces carry one original ID).
+    pieces : list of (points (N, P, 3) float64 mm, tris (T, 3) int64)
+    d_min, d_max : float, mm
+        Smallest and largest depth of the layer.
+    leaf : int
+        Leaf size of the union tree (:func:`offset.union.union_pieces`).
+
+    Returns
+    -------
+    core : manifold3d.Manifold
+    vertices : (n, 3) float64, mm
+    faces : (m, 3) int64
+    """
+    min_thickness = SLIVER_FRACTION * d_min
+    base_id = int(base.original_id())
+    core = base - union_pieces(pieces, leaf=leaf)
+    vert, tri, leftover = _mesh_arrays(core, base_id, min_thickness)
+    for _ in range(REPAIR_ROUNDS):
+        if not np.any(leftover):
+            break
+        # The previous boundary lies shallower than every piece reaches, so none of it
+        # may survive: the Boolean mis-classified a region. Subtract the pieces around
+        # it once more.
+        near = scipy.spatial.cKDTree(vert[tri[leftover]].reshape(-1, 3))
+        local = [(p[_near(p, near, d_max)], t) for p, t in pieces]
+        core = core - union_pieces(local, leaf=leaf)
+        vert, tri, leftover = _mesh_arrays(core, base_id, min_thickness)
+    return core, vert, tri
 
 
 def _mesh_arrays(

@@ -43,7 +43,9 @@ def morton_order(points: FloatArray) -> IntArray:
     return np.asarray(np.argsort(code, kind="stable"), dtype=np.int64)
 
 
-def union_pieces(groups: list[tuple[FloatArray, IntArray]]) -> m3d.Manifold:
+def union_pieces(
+    groups: list[tuple[FloatArray, IntArray]], *, leaf: int = LEAF
+) -> m3d.Manifold:
     """Return the union of closed pieces given as same-topology groups.
 
     Parameters
@@ -51,6 +53,10 @@ def union_pieces(groups: list[tuple[FloatArray, IntArray]]) -> m3d.Manifold:
     groups : list of (points (N, P, 3) float64 mm, tris (T, 3) int64)
         Each group holds ``N`` closed outward pieces sharing the triangle list ``tris``
         over their ``P`` points; ``P`` and ``T`` may differ between groups.
+    leaf : int, optional
+        Pieces united by one batch Boolean at the leaves of the tree. Manifold3d's
+        results depend (within its tolerance) on the order of the Booleans; another leaf
+        size gives another order.
 
     Returns
     -------
@@ -77,8 +83,8 @@ def union_pieces(groups: list[tuple[FloatArray, IntArray]]) -> m3d.Manifold:
     shift = np.repeat(new_v_start, n_tri[order])
     verts = flat_v[v_idx]
     tris = flat_f[f_idx] + shift[:, None]
-    # Leaves: LEAF consecutive pieces; their points and triangles are contiguous.
-    cut = np.arange(0, len(order), LEAF)
+    # Leaves: `leaf` consecutive pieces; their points and triangles are contiguous.
+    cut = np.arange(0, len(order), leaf)
     v_cut = np.r_[new_v_start[cut], len(verts)]
     f_cut = np.r_[(np.cumsum(n_tri[order]) - n_tri[order])[cut], len(tris)]
     level = [

@@ -1,0 +1,126 @@
+"""Which convex pieces make up the band a layer removes (see :mod:`offset.robust`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from offset._validate import FloatArray, IntArray
+from offset.adjacency import bend_angles, edge_adjacency, face_normals
+from offset.pieces import MARGIN_RAD, Group, balls, prisms, sectors, vertex_caps
+
+#: Edges bending more than this (radians) inward get a sector. Even nearly flat reflex
+#: edges need one: skipping those below 1e-3 rad left thin cracks at saddle vertices.
+REFLEX_EDGE_RAD = 0.0
+#: Largest angular step of the rounded arcs (radians): chords stay within
+#: ``1 - cos(ARC_STEP_RAD / 2)`` (0.2 %) of the depth.
+ARC_STEP_RAD = np.radians(7.5)
+
+
+@dataclass(frozen=True)
+class Features:
+    """Per-mesh data the pieces of every layer are built from.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+    normals : (F, 3) float64
+        Unit outward normals, zero rows for degenerate faces.
+    prism_faces : (P,) int64
+        Non-degenerate faces (each gets a prism).
+    edge_ends : (E, 2) int64
+        Vertex pairs of the edges that get a sector (reflex, or next to a degenerate face).
+    edge_faces : (E, 2) int64
+        The two faces of each such edge.
+    cap_vertices, ball_vertices : (C,), (B,) int64
+        Ends of those edges, with a capped cone or a whole ball (normal cone wider than
+        a hemisphere, or next to a degenerate face).
+    axis : (V, 3) float64
+        Unit mean inward normal per vertex.
+    half_angle : (V,) float64, radians
+        Widest incident inward normal from ``axis`` plus :data:`offset.pieces.MARGIN_RAD`.
+    """
+
+    vertices: FloatArray
+    faces: IntArray
+    normals: FloatArray
+    prism_faces: IntArray
+    edge_ends: IntArray
+    edge_faces: IntArray
+    cap_vertices: IntArray
+    ball_vertices: IntArray
+    axis: FloatArray
+    half_angle: FloatArray
+
+
+def features(vertices: FloatArray, faces: IntArray) -> Features:
+    """Return the :class:`Features` of a closed, outward-oriented mesh.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+    """
+    normals, _ = face_normals(vertices, faces)
+    adj = edge_adjacency(faces)
+    bend = bend_angles(normals, vertices, adj)
+    degenerate = ~np.any(normals != 0, axis=1)
+    edge_sel = np.flatnonzero(
+        (bend < -REFLEX_EDGE_RAD) | degenerate[adj.face_left] | degenerate[adj.face_right]
+    )
+    corner_vertex = faces.reshape(-1)
+    corner_face = np.repeat(np.arange(len(faces)), 3)
+    ball_mask = np.zeros(len(vertices), dtype=bool)
+    ball_mask[adj.edges[edge_sel].reshape(-1)] = True
+    # Cap axis: mean inward normal; half angle: widest incident normal plus a margin.
+    axis = np.zeros_like(vertices)
+    np.add.at(axis, corner_vertex, -normals[corner_face])
+    axis_len = np.linalg.norm(axis, axis=1)
+    axis /= np.maximum(axis_len, 1e-300)[:, None]
+    cos_c = np.full(len(vertices), 1.0)
+    np.minimum.at(
+        cos_c, corner_vertex, np.einsum("ij,ij->i", axis[corner_vertex], -normals[corner_face])
+    )
+    half = np.arccos(np.clip(cos_c, -1.0, 1.0)) + MARGIN_RAD
+    has_deg = np.zeros(len(vertices), dtype=bool)
+    has_deg[corner_vertex[degenerate[corner_face]]] = True
+    full_ball = ball_mask & ((half > np.pi / 2) | (axis_len < 1e-6) | has_deg)
+    return Features(
+        vertices=vertices,
+        faces=faces,
+        normals=normals,
+        prism_faces=np.flatnonzero(~degenerate),
+        edge_ends=adj.edges[edge_sel],
+        edge_faces=np.stack([adj.face_left[edge_sel], adj.face_right[edge_sel]], axis=1),
+        cap_vertices=np.flatnonzero(ball_mask & ~full_ball),
+        ball_vertices=np.flatnonzero(full_ball),
+        axis=axis,
+        half_angle=half,
+    )
+
+
+def layer_pieces(feat: Features, d: FloatArray, cap_rings: int, cap_azimuths: int) -> list[Group]:
+    """Return the pieces whose union is the band of depth `d` ``(F,) float64 mm``.
+
+    Prisms take their face's depth, sectors the larger of their two faces', vertex
+    pieces the deepest incident face's.
+    """
+    v, f = feat.vertices, feat.faces
+    vdepth = np.zeros(len(v))
+    np.maximum.at(vdepth, f.reshape(-1), np.repeat(d, 3))
+    cv, bv = feat.cap_vertices, feat.ball_vertices
+    return [
+        prisms(v[f[feat.prism_faces]], feat.normals[feat.prism_faces], d[feat.prism_faces]),
+        *sectors(
+            v[feat.edge_ends],
+            feat.normals[feat.edge_faces[:, 0]],
+            feat.normals[feat.edge_faces[:, 1]],
+            d[feat.edge_faces].max(axis=1),
+            ARC_STEP_RAD,
+        ),
+        vertex_caps(v[cv], vdepth[cv], feat.axis[cv], feat.half_angle[cv], cap_rings,
+                    cap_azimuths),
+        balls(v[bv], vdepth[bv], 3),
+    ]
