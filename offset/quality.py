@@ -86,9 +86,11 @@ def equidistance(
         ``plane_deviation_mm`` (the same in mm for points whose nearest point is inside a
         face, i.e. their distance from the moved face plane), and ``by_region``: the same
         percent statistics and the sample share for points nearest to a face interior, a
-        convex edge, a reflex edge and a vertex.
+        convex edge, a reflex edge and a vertex. ``worst`` names the sample of largest
+        error: ``point_mm`` (on the shell), ``nearest_mm`` (on the surface), ``region``
+        and ``error_pct``.
     """
-    _, distance, face, kind = nearest_feature(original, points)
+    closest, distance, face, kind = nearest_feature(original, points)
     want = depth[face]
     err_mm = np.abs(distance - want)
     err_pct = 100.0 * err_mm / want
@@ -99,11 +101,18 @@ def equidistance(
         name: {"share": float(np.mean(region == name)), **percentiles(err_pct[region == name])}
         for name in ("face", "convex_edge", "reflex_edge", "vertex")
     }
+    worst = int(np.argmax(err_pct))
     return {
         "n_samples": int(points.shape[0]),
         "error_pct": percentiles(err_pct),
         "plane_deviation_mm": percentiles(err_mm[kind == 0]),
         "by_region": by_region,
+        "worst": {
+            "point_mm": [float(x) for x in points[worst]],
+            "nearest_mm": [float(x) for x in closest[worst]],
+            "region": str(region[worst]),
+            "error_pct": float(err_pct[worst]),
+        },
     }
 
 

@@ -5,37 +5,51 @@ face's band, each of its own depth, removed from the solid ``P``); its boundary 
 ``k``. This is the classical offset-by-Minkowski-sum definition [1]_ with a per-face
 radius. We realise it with mesh Booleans (manifold3d [2]_, float64 input and output)
 rather than by intersecting neighbour planes (:mod:`offset.paper`) or on a grid: the
-Boolean output is by construction closed, oriented and free of self-intersections, it is
-nested because the removed set only grows with ``D_k``, and where the depth exceeds the
-local thickness the core is simply empty there (the band fills the part). A level set
-[3]_ would also be robust but chamfers convex creases to the voxel size, which breaks
-the exact flat faces and creases asked for here. The removed set is the union of convex
-pieces:
+Boolean output is closed and oriented by construction, where the depth exceeds the local
+thickness the core is simply empty there (the band fills the part), and layer ``k``'s core
+is cut from layer ``k - 1``'s, so the shells are nested by construction. A level set [3]_
+would also be robust but chamfers convex creases to the voxel size, which breaks the exact
+flat faces and creases asked for here. The removed set is the union of convex pieces
+(:mod:`offset.band`, :mod:`offset.pieces`):
 
 * a prism per face, ``T_f`` swept along its normal to ``-D_k(f)``: its cap is exactly the
-  moved plane, so flat regions and convex creases come out exact;
-* a circular sector prism per reflex or nearly flat edge, radius the larger depth of its
+  moved plane, so flat regions and convex creases come out exact (at a convex edge the
+  two prisms overlap, so no other piece is needed there);
+* a circular sector prism per reflex edge (any inward bend), radius the larger depth of its
   two faces, with corners exactly at ``-n_1`` and ``-n_2`` and the arc between them (the
-  ideal rounded region) in ``arc_segments`` equal steps;
-* a cone with a spherical cap (or a whole icosphere where the normal cone is wider than a
-  hemisphere) at each vertex of such an edge, radius the deepest incident face.
+  ideal rounded region) in equal steps of at most ``ARC_STEP_RAD`` (7.5 degrees);
+* a cone with a spherical cap (4 rings of 16 points, or a whole icosphere where the normal
+  cone is wider than a hemisphere) at each vertex of such an edge, radius the deepest
+  incident face.
 
-All polytopes are inscribed in the exact swept region, so the shell is at most
-``D (1 - cos(step / 2))`` shallower than the ideal at reflex edges and vertices, and never
-deeper except by the overlap below (at most ``5e-5 D``, at reflex features). Pieces
-overlap their neighbours by ``GROW_FRACTION * D`` along the surface (sliver triangles'
-corners by at most ten times that) so that no surface edge lies exactly on a piece
-boundary; without it, Booleans left slivers of material along reflex edges. Same-topology pieces
-are packed in batches of pairwise disjoint pieces (spatial hashing by cell parity and rank
-in a cell) into single manifolds, so the Python work scales with the number of batches,
-not of faces; the Boolean itself runs in C++. Two guards follow the Boolean: components
-of about zero volume are dropped, and where part of the original surface survived (a
-mis-classified region) the nearby pieces are subtracted once more.
+Error bounds: all polytopes are inscribed in the exact swept region, so the shell is never
+deeper than asked except by the overlap below (at most ``5e-5 D``, at reflex features),
+and at most ``D (1 - cos(3.75 deg)) = 0.21 % D`` shallower at reflex edges and about
+``4 % D`` at reflex vertices with a wide normal cone (cap facets); face interiors and
+convex creases are exact. Pieces overlap their neighbours by ``GROW_FRACTION * D`` along
+the surface (sliver triangles' corners by at most ten times that) so that no surface edge
+lies exactly on a piece boundary; without it, Booleans left slivers of material along
+reflex edges.
+
+The union is built bottom-up along a Morton curve (:mod:`offset.union`): runs of 16
+neighbouring pieces first, then neighbouring results pairwise, each Boolean evaluated
+eagerly; one batch Boolean over everything (manifold3d's own grouping) was 2-3 times
+slower. Guards after the Boolean: components of about zero volume are dropped; where part
+of the previous boundary survived (a mis-classified region) the nearby pieces are
+subtracted once more; and the shell is checked for crossing triangles
+(:func:`offset.intersections.intersecting_pairs`). manifold3d guarantees a manifold
+result, but not a geometrically embedded one: near-coplanar overlaps of pieces (nearly
+flat reflex edges) occasionally give sub-micrometre crossing triangles or a folded
+triangle, and which ones depends on the order of the Booleans. A crossing shell is first
+simplified to ``SIMPLIFY_FRACTION * D`` (manifold3d edge collapse), then, if it still
+crosses, recomputed with another leaf size of the union tree; a
+:class:`ShellDefectWarning` is raised if crossings remain after every order.
 
 The input must be a closed, consistently oriented surface without self-intersections; a
 self-intersecting input (e.g. the Khronos duck's bill) bounds no well-defined solid and
-gives local defects there. The cost is that of the Booleans: about 10 s per layer for
-the 3674-face bunny, roughly linear in the number of faces.
+gives local defects there. The cost is that of the union, about 1 ms per piece on two
+cores (manifold3d runs in parallel): for the 5856-face spot at 100 mm about 12 s per
+layer, plus the crossing check and any retries; see ``benchmarks/bench_offset.py``.
 
 References
 ----------
@@ -121,7 +135,7 @@ def robust_offset(
         pieces = layer_pieces(feat, d, cap_rings, cap_azimuths)
         for leaf in LEAF_SIZES:
             # Nested by construction: layer k's core is cut from layer k - 1's.
-            core, vert, tri = _cut(base, pieces, float(d.min()), float(d.max()), leaf)
+            vert, tri = _cut(base, pieces, float(d.min()), float(d.max()), leaf)
             crossing = intersecting_pairs(vert, tri).shape[0]
             if crossing == 0:
                 break
@@ -147,8 +161,8 @@ def robust_offset(
 def _cut(
     base: m3d.Manifold, pieces: list[tuple[FloatArray, IntArray]], d_min: float,
     d_max: float, leaf: int
-) -> tuple[m3d.Manifold, FloatArray, IntArray]:
-    """Return ``base`` minus the union of ``pieces``, and its cleaned vertex / face arrays.
+) -> tuple[FloatArray, IntArray]:
+    """Return ``base`` minus the union of ``pieces``, cleaned, as vertex / face arrays.
 
     Parameters
     ----------
@@ -162,7 +176,6 @@ def _cut(
 
     Returns
     -------
-    core : manifold3d.Manifold
     vertices : (n, 3) float64, mm
     faces : (m, 3) int64
     """
@@ -180,7 +193,7 @@ def _cut(
         local = [(p[_near(p, near, d_max)], t) for p, t in pieces]
         core = core - union_pieces(local, leaf=leaf)
         vert, tri, leftover = _mesh_arrays(core, base_id, min_thickness)
-    return core, vert, tri
+    return vert, tri
 
 
 def _mesh_arrays(
