@@ -72,9 +72,11 @@ def _candidate_pairs(lo: FloatArray, hi: FloatArray) -> tuple[IntArray, IntArray
     rank = np.arange(owner.size) - np.repeat(np.cumsum(per) - per, per)
     nx, ny = n[owner, 0], n[owner, 1]
     cell = i0[owner] + np.stack([rank % nx, (rank // nx) % ny, rank // (nx * ny)], axis=1)
-    _, key = np.unique(cell, axis=0, return_inverse=True)
-    order = np.argsort(key.reshape(-1), kind="stable")
-    key_sorted = key.reshape(-1)[order]
+    cell -= cell.min(axis=0)
+    span = cell.max(axis=0) + 1
+    key = (cell[:, 0] * span[1] + cell[:, 1]) * span[2] + cell[:, 2]  # one int64 per cell
+    order = np.argsort(key, kind="stable")
+    key_sorted = key[order]
     start = np.flatnonzero(np.r_[True, key_sorted[1:] != key_sorted[:-1]])
     size_g = np.diff(np.r_[start, key_sorted.size])
     pos_rank: IntArray = np.arange(key_sorted.size) - np.repeat(start, size_g)
