@@ -16,6 +16,9 @@ REFLEX_EDGE_RAD = 0.0
 #: Largest angular step of the rounded arcs (radians): chords stay within
 #: ``1 - cos(ARC_STEP_RAD / 2)`` (0.2 %) of the depth.
 ARC_STEP_RAD = np.radians(7.5)
+#: Largest angular step between neighbouring points of the vertex caps (radians): facets
+#: stay within ``1 - cos(CAP_STEP_RAD / sqrt(2))`` (1.1 %) of the depth.
+CAP_STEP_RAD = np.radians(12.0)
 
 
 @dataclass(frozen=True)
@@ -101,7 +104,7 @@ def features(vertices: FloatArray, faces: IntArray) -> Features:
     )
 
 
-def layer_pieces(feat: Features, d: FloatArray, cap_rings: int, cap_azimuths: int) -> list[Group]:
+def layer_pieces(feat: Features, d: FloatArray) -> list[Group]:
     """Return the pieces whose union is the band of depth `d` ``(F,) float64 mm``.
 
     Prisms take their face's depth, sectors the larger of their two faces', vertex
@@ -120,7 +123,6 @@ def layer_pieces(feat: Features, d: FloatArray, cap_rings: int, cap_azimuths: in
             d[feat.edge_faces].max(axis=1),
             ARC_STEP_RAD,
         ),
-        vertex_caps(v[cv], vdepth[cv], feat.axis[cv], feat.half_angle[cv], cap_rings,
-                    cap_azimuths),
+        *vertex_caps(v[cv], vdepth[cv], feat.axis[cv], feat.half_angle[cv], CAP_STEP_RAD),
         balls(v[bv], vdepth[bv], 3),
     ]

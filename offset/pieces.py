@@ -131,14 +131,15 @@ def sectors(
 
 
 def vertex_caps(
-    centres: FloatArray,
-    r: FloatArray,
-    axis: FloatArray,
-    half_angle: FloatArray,
-    rings: int,
-    azimuths: int,
-) -> Group:
+    centres: FloatArray, r: FloatArray, axis: FloatArray, half_angle: FloatArray,
+    max_step: float,
+) -> list[Group]:
     """Return cones capped by spherical caps: ``hull(v, v + r * cap)`` about ``axis``.
+
+    Each cap has ``ceil(half_angle / max_step)`` rings and enough points per ring (at
+    least 6, a multiple of 2) that neighbouring points are at most `max_step` apart on
+    the widest ring, so every facet of the cap stays within
+    ``r (1 - cos(max_step / sqrt(2)))`` of the sphere.
 
     Parameters
     ----------
@@ -148,15 +149,30 @@ def vertex_caps(
         Unit cap axes.
     half_angle : (N,) float64, radians in ``(0, pi / 2]``
         Angular radius of each cap.
-    rings, azimuths : int
-        Cap resolution.
+    max_step : float, radians
 
     Returns
     -------
-    points : (N, 2 + rings * azimuths, 3) float64, mm
-        Apex, pole, then rings from the pole outwards.
-    tris : (T, 3) int64
+    list of (points (n, 2 + rings * azimuths, 3) float64 mm, tris (T, 3) int64)
+        One group per resolution; points are apex, pole, then rings from the pole out.
     """
+    rings = np.maximum(np.ceil(half_angle / max_step), 1).astype(np.int64)
+    widest = np.sin(np.minimum(half_angle, np.pi / 2))
+    azimuths = 2 * np.maximum(np.ceil(np.pi * widest / max_step), 3).astype(np.int64)
+    groups: list[Group] = []
+    for n_ring, n_az in np.unique(np.stack([rings, azimuths], axis=1), axis=0):
+        sel = np.flatnonzero((rings == n_ring) & (azimuths == n_az))
+        groups.append(
+            _caps(centres[sel], r[sel], axis[sel], half_angle[sel], int(n_ring), int(n_az))
+        )
+    return groups
+
+
+def _caps(
+    centres: FloatArray, r: FloatArray, axis: FloatArray, half_angle: FloatArray,
+    rings: int, azimuths: int,
+) -> Group:
+    """Return caps of one resolution, see :func:`vertex_caps`."""
     helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
     e1 = np.cross(axis, helper)
     e1 /= np.linalg.norm(e1, axis=1, keepdims=True)

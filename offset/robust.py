@@ -18,18 +18,19 @@ flat faces and creases asked for here. The removed set is the union of convex pi
 * a circular sector prism per reflex edge (any inward bend), radius the larger depth of its
   two faces, with corners exactly at ``-n_1`` and ``-n_2`` and the arc between them (the
   ideal rounded region) in equal steps of at most ``ARC_STEP_RAD`` (7.5 degrees);
-* a cone with a spherical cap (4 rings of 16 points, or a whole icosphere where the normal
-  cone is wider than a hemisphere) at each vertex of such an edge, radius the deepest
-  incident face.
+* a cone with a spherical cap (points at most ``CAP_STEP_RAD``, 12 degrees, apart; or a
+  whole icosphere where the normal cone is wider than a hemisphere) at each vertex of
+  such an edge, radius the deepest incident face.
 
 Error bounds: all polytopes are inscribed in the exact swept region, so the shell is never
 deeper than asked except by the overlap below (at most ``5e-5 D``, at reflex features),
-and at most ``D (1 - cos(3.75 deg)) = 0.21 % D`` shallower at reflex edges and about
-``4 % D`` at reflex vertices with a wide normal cone (cap facets); face interiors and
-convex creases are exact. Pieces overlap their neighbours by ``GROW_FRACTION * D`` along
-the surface (sliver triangles' corners by at most ten times that) so that no surface edge
-lies exactly on a piece boundary; without it, Booleans left slivers of material along
-reflex edges.
+and at most ``D (1 - cos(3.75 deg)) = 0.21 % D`` shallower at reflex edges and
+``D (1 - cos(12 deg / sqrt 2)) = 1.1 % D`` at reflex vertices (cap facets; the whole balls
+used where the normal cone is wider than a hemisphere are icospheres of 642 points, within
+about 0.5 % D); face interiors and convex creases are exact. Pieces overlap their
+neighbours by ``GROW_FRACTION * D`` along the surface (sliver triangles' corners by at
+most ten times that) so that no surface edge lies exactly on a piece boundary; without
+it, Booleans left slivers of material along reflex edges.
 
 The union is built bottom-up along a Morton curve (:mod:`offset.union`): runs of 16
 neighbouring pieces first, then neighbouring results pairwise, each Boolean evaluated
@@ -74,7 +75,7 @@ import scipy.spatial
 
 from offset._validate import FloatArray, IntArray
 from offset.band import features, layer_pieces
-from offset.intersections import intersecting_pairs
+from offset.guards import Surface, crossing_count, too_deep_count
 from offset.union import LEAF, to_manifold, union_pieces
 
 #: Extra subtraction rounds where a Boolean left part of the previous boundary behind.
@@ -90,16 +91,13 @@ LEAF_SIZES = (LEAF, 13, 11, 19)
 
 
 class ShellDefectWarning(UserWarning):
-    """A robust shell still crosses itself after every retry (see :data:`LEAF_SIZES`)."""
+    """A robust shell is still defective after every retry (see :data:`LEAF_SIZES`)."""
 
 
 def robust_offset(
     vertices: FloatArray,
     faces: IntArray,
     depth: FloatArray,
-    *,
-    cap_rings: int = 4,
-    cap_azimuths: int = 16,
 ) -> list[tuple[FloatArray, IntArray]]:
     """Return the boundary of the robust core for every cumulative depth.
 
@@ -110,8 +108,6 @@ def robust_offset(
         Closed, outward-oriented triangles.
     depth : (K, F) float64, mm
         Cumulative depth ``D_k(f)`` per layer and face, non-decreasing in ``k``.
-    cap_rings, cap_azimuths : int, optional
-        Resolution of the spherical cap at each reflex vertex.
 
     Returns
     -------
@@ -121,7 +117,8 @@ def robust_offset(
     Warns
     -----
     ShellDefectWarning
-        When a shell still has crossing triangles after every union order was tried.
+        When a shell still has crossing triangles, or triangles deeper than asked (see
+        :func:`offset.guards.too_deep_count`), after every union order was tried.
     """
     solid = to_manifold(vertices, faces)
     if solid.status() != m3d.Error.NoError:
@@ -129,27 +126,34 @@ def robust_offset(
             f"vertices/faces must form a closed oriented manifold, got {solid.status()}"
         )
     feat = features(vertices, faces)
+    surface = Surface(vertices, faces)
     out: list[tuple[FloatArray, IntArray]] = []
     base = solid.as_original()
     for k, d in enumerate(depth):
-        pieces = layer_pieces(feat, d, cap_rings, cap_azimuths)
+        pieces = layer_pieces(feat, d)
+        best: tuple[tuple[int, int], FloatArray, IntArray] | None = None
         for leaf in LEAF_SIZES:
             # Nested by construction: layer k's core is cut from layer k - 1's.
             vert, tri = _cut(base, pieces, float(d.min()), float(d.max()), leaf)
-            crossing = intersecting_pairs(vert, tri).shape[0]
-            if crossing == 0:
+            crossing = crossing_count(vert, tri)
+            if crossing:
+                # Crossings of sub-micrometre triangles: collapse them and check again.
+                vert, tri, _ = _mesh_arrays(
+                    to_manifold(vert, tri).simplify(SIMPLIFY_FRACTION * float(d.min())), -1,
+                    SLIVER_FRACTION * float(d.min()),
+                )
+                crossing = crossing_count(vert, tri)
+            deep = too_deep_count(surface, d, vert, tri)
+            if best is None or (crossing, deep) < best[0]:
+                best = ((crossing, deep), vert, tri)
+            if crossing == 0 and deep == 0:
                 break
-            # Crossings of sub-micrometre triangles: collapse them and check again.
-            vert, tri, _ = _mesh_arrays(
-                to_manifold(vert, tri).simplify(SIMPLIFY_FRACTION * float(d.min())), -1,
-                SLIVER_FRACTION * float(d.min()),
-            )
-            crossing = intersecting_pairs(vert, tri).shape[0]
-            if crossing == 0:
-                break
-        else:
+        assert best is not None  # LEAF_SIZES is not empty
+        (crossing, deep), vert, tri = best
+        if crossing or deep:
             warnings.warn(
-                f"layer {k + 1}: {crossing} crossing triangle pairs remain",
+                f"layer {k + 1}: {crossing} crossing triangle pairs, {deep} triangles "
+                "deeper than asked remain",
                 ShellDefectWarning,
                 stacklevel=3,
             )

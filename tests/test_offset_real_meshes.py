@@ -1,12 +1,27 @@
-"""Robust shells of real meshes from ../shared/meshes: closed, oriented, nested, equidistant."""
+"""Robust shells of real meshes from ../shared/meshes: closed, oriented, nested, equidistant.
+
+The issue's done criteria at depths 0.5 and 1.5 mm; each case takes about half a minute
+to a few minutes, hence slow. Truths are independent of the construction: trimesh's
+exact closest points for distances, the crossing test of offset.intersections (itself
+tested against hand-made cases) and winding numbers for nesting.
+"""
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 import pytest
 import trimesh
 
 from offset import offset_shells, shell_report
+
+CASES = {
+    "bunny": ("bunny/bunny.obj", 50.0),
+    "spot": ("spot/spot_triangulated.obj", 100.0),
+    "duck": ("duck/Duck.glb", 50.0),
+    "airplane": ("airplane/colored_airplane.ply", 100.0),
+}
 
 
 def _load(path, size_mm: float) -> trimesh.Trimesh:
@@ -18,12 +33,17 @@ def _load(path, size_mm: float) -> trimesh.Trimesh:
 
 
 @pytest.mark.slow
-def test_bunny_shells_are_valid_nested_and_equidistant(shared_mesh):
-    bunny = _load(shared_mesh("bunny/bunny.obj"), 50.0)
+@pytest.mark.parametrize("name", list(CASES))
+def test_shells_are_valid_nested_and_equidistant(shared_mesh, name):
+    relative, size_mm = CASES[name]
+    mesh = _load(shared_mesh(relative), size_mm)
     thickness = [0.5, 1.0]  # depths 0.5 and 1.5 mm
-    shells = offset_shells(bunny.vertices, bunny.faces, thickness)
-    report = shell_report(bunny.vertices, bunny.faces, thickness, shells, baselines=False,
-                          n_samples=2000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a ShellDefectWarning fails the test
+        shells = offset_shells(mesh.vertices, mesh.faces, thickness)
+    report = shell_report(mesh.vertices, mesh.faces, thickness, shells, baselines=False,
+                          n_samples=4000)
+    clean_input = report["input_self_intersections"] == 0
     for layer in report["layers"]:
         shell = layer["shell"]
         assert shell["closed"]
@@ -31,14 +51,30 @@ def test_bunny_shells_are_valid_nested_and_equidistant(shared_mesh):
         assert shell["self_intersections"] == 0
         assert shell["nested"]
         assert shell["equidistance"]["error_pct"]["p99"] <= 2.0
-        # Never deeper than asked (inscribed polytopes), at most a few % shallower.
-        assert shell["equidistance"]["error_pct"]["max"] <= 5.0
         # Area-weighted, most of the shell lies over face interiors, exactly at D.
         assert shell["equidistance"]["error_pct"]["p50"] <= 1e-6
+        if clean_input:
+            # Never deeper than asked (inscribed pieces), at most the caps' 1.1 % and
+            # a little sampling slack shallower.
+            assert shell["equidistance"]["error_pct"]["max"] <= 2.0
+    if not clean_input:
+        return  # the duck's bill crosses itself: no well-defined solid there
     # Independent check on shell vertices: none deeper than D beyond the pieces' overlap
     # allowance (corners grow by at most 1e-2 D, so 5e-5 D deeper).
     rng = np.random.default_rng(0)
-    some = rng.choice(len(shells[1].vertices), size=3000, replace=False)
-    dist = trimesh.proximity.closest_point(bunny, shells[1].vertices[some])[1]
-    assert np.all(dist <= 1.5 * (1 + 1e-4))
-    assert np.all(dist >= 1.5 * (1 - 0.05))
+    for shell, depth in zip(shells, [0.5, 1.5], strict=True):
+        some = rng.choice(len(shell.vertices), size=min(3000, len(shell.vertices)),
+                          replace=False)
+        dist = trimesh.proximity.closest_point(mesh, shell.vertices[some])[1]
+        assert np.all(dist <= depth * (1 + 1e-4))
+        assert np.all(dist >= depth * (1 - 0.02))
+
+
+@pytest.mark.slow
+def test_duck_input_defect_is_reported(shared_mesh):
+    """The duck's bill crosses itself: the report says so instead of hiding it."""
+    duck = _load(shared_mesh("duck/Duck.glb"), 50.0)
+    shells = offset_shells(duck.vertices, duck.faces, [0.5])
+    report = shell_report(duck.vertices, duck.faces, [0.5], shells, baselines=False,
+                          n_samples=500)
+    assert report["input_self_intersections"] > 0
