@@ -35,16 +35,18 @@ it, Booleans left slivers of material along reflex edges.
 The union is built bottom-up along a Morton curve (:mod:`offset.union`): runs of 16
 neighbouring pieces first, then neighbouring results pairwise, each Boolean evaluated
 eagerly; one batch Boolean over everything (manifold3d's own grouping) was 2-3 times
-slower. Guards after the Boolean: components of about zero volume are dropped; where part
-of the previous boundary survived (a mis-classified region) the nearby pieces are
-subtracted once more; and the shell is checked for crossing triangles
-(:func:`offset.intersections.intersecting_pairs`). manifold3d guarantees a manifold
-result, but not a geometrically embedded one: near-coplanar overlaps of pieces (nearly
-flat reflex edges) occasionally give sub-micrometre crossing triangles or a folded
-triangle, and which ones depends on the order of the Booleans. A crossing shell is first
-simplified to ``SIMPLIFY_FRACTION * D`` (manifold3d edge collapse), then, if it still
-crosses, recomputed with another leaf size of the union tree; a
-:class:`ShellDefectWarning` is raised if crossings remain after every order.
+slower. Guards after the Boolean (:mod:`offset.guards`): components of about zero volume
+are dropped; where part of the previous boundary survived (a mis-classified region) the
+nearby pieces are subtracted once more; and the shell is checked for crossing triangles
+(:func:`offset.intersections.intersecting_pairs`) and for triangles whose centroid lies
+deeper than any piece reaches. manifold3d guarantees a manifold result, but not a
+geometrically embedded or exact one: near-coplanar overlaps of pieces (nearly flat reflex
+edges) occasionally give sub-micrometre crossing triangles, a folded triangle, or a thin
+crack cut into the core, and which ones depends on the order of the Booleans. A crossing
+shell is first simplified to ``SIMPLIFY_FRACTION * D`` (manifold3d edge collapse); a shell
+still crossing or cracked is recomputed with another leaf size of the union tree
+(:data:`LEAF_SIZES`), the best attempt is kept, and a :class:`ShellDefectWarning` is
+raised if defects remain after every order.
 
 The input must be a closed, consistently oriented surface without self-intersections; a
 self-intersecting input (e.g. the Khronos duck's bill) bounds no well-defined solid and
