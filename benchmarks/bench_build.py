@@ -86,7 +86,7 @@ def accuracy(args: argparse.Namespace) -> dict[str, object]:
     from voxel.vdb_writer import describe_grids
 
     mesh = scaled_model(args.model, args.size_mm)
-    config = BuildConfig(voxel_mm=printer_voxel_mm("j750"), printer="j750", slab_mb=args.slab_mb)
+    config = _config(args)
     out = Path(args.out or tempfile.mkdtemp(prefix=f"shellvox-{args.model}-"))
     started = time.perf_counter()
     manifest = build_stack(mesh, config, out, progress=args.progress)
@@ -190,9 +190,7 @@ def accuracy(args: argparse.Namespace) -> dict[str, object]:
 
 def _child_build(args: argparse.Namespace) -> dict[str, object]:
     mesh = scaled_model(args.model, args.size_mm, stretch_z=args.stretch_z)
-    config = BuildConfig(
-        voxel_mm=printer_voxel_mm("j750"), slab_mb=args.slab_mb, write_vdb=not args.no_vdb
-    )
+    config = _config(args)
     with tempfile.TemporaryDirectory() as out:
         started = time.perf_counter()
         manifest = build_stack(mesh, config, Path(out), progress=False)
@@ -203,7 +201,7 @@ def _child_build(args: argparse.Namespace) -> dict[str, object]:
         "grid_zyx": manifest["grid"]["shape_zyx"],
         "slab_rows": manifest["slab_rows"],
         "seconds": round(seconds, 1),
-        "shell_seconds": round(manifest["seconds"]["shells"], 1),
+        "shell_seconds": round(manifest["seconds"].get("shells", 0.0), 1),
         "peak_rss_mb": round(peak_kb / 1024, 1),
     }
 
@@ -222,6 +220,9 @@ def memory(args: argparse.Namespace) -> dict[str, object]:
             str(stretch),
             "--slab-mb",
             str(args.slab_mb),
+            "--layers",
+            args.layers,
+            "--shell-meshes" if args.shell_meshes else "--no-shell-meshes",
         ] + (["--no-vdb"] if args.no_vdb else [])
         result = subprocess.run(command, check=True, capture_output=True, text=True)
         runs.append(json.loads(result.stdout.strip().splitlines()[-1]))
@@ -243,25 +244,43 @@ def speed(args: argparse.Namespace) -> dict[str, object]:
         halfWidth=3.0,
     )
     vdb_seconds = time.perf_counter() - started
-    config = BuildConfig(voxel_mm=(vx, vy, vz), printer="j750", slab_mb=args.slab_mb)
+    config = _config(args)
     with tempfile.TemporaryDirectory() as out:
         started = time.perf_counter()
         manifest = build_stack(mesh, config, Path(out), progress=args.progress)
         build_seconds = time.perf_counter() - started
+        sizes = {
+            str(p.relative_to(out)): p.stat().st_size for p in Path(out).rglob("*") if p.is_file()
+        }
     return {
         "model": args.model,
         "size_mm": args.size_mm,
+        "layer_rule": config.layer_rule,
+        "shell_meshes": config.shell_meshes,
         "grid_zyx": manifest["grid"]["shape_zyx"],
+        "voxels": int(np.prod(manifest["grid"]["shape_zyx"])),
         "build_seconds": round(build_seconds, 1),
         "build_breakdown": manifest["seconds"],
-        "build_without_shells_seconds": round(build_seconds - manifest["seconds"]["shells"], 1),
-        "openvdb_mesh_to_level_set_seconds": round(vdb_seconds, 1),
+        "nearest_queries": manifest["diagnostics"]["nearest_queries"],
+        "shell_agreement": manifest.get("shell_agreement"),
+        "voxel_counts": manifest["voxel_counts"],
+        "file_bytes": sizes,
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "openvdb_mesh_to_level_set_seconds": round(vdb_seconds, 2),
         "openvdb_active_voxels": int(level_set.activeVoxelCount()),
         "ratio": round(build_seconds / vdb_seconds, 2),
-        "ratio_without_shells": round(
-            (build_seconds - manifest["seconds"]["shells"]) / vdb_seconds, 2
-        ),
     }
+
+
+def _config(args: argparse.Namespace) -> BuildConfig:
+    return BuildConfig(
+        voxel_mm=printer_voxel_mm("j750"),
+        printer="j750",
+        slab_mb=args.slab_mb,
+        write_vdb=not args.no_vdb,
+        layer_rule=args.layers,
+        shell_meshes=args.shell_meshes or args.layers == "shells",
+    )
 
 
 def main() -> None:
@@ -273,6 +292,8 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=20000, help="voxels sampled per layer")
     parser.add_argument("--slab-mb", type=float, default=512.0)
     parser.add_argument("--no-vdb", action="store_true")
+    parser.add_argument("--layers", choices=("distance", "shells"), default="distance")
+    parser.add_argument("--shell-meshes", action=argparse.BooleanOptionalAction, default=True)
     parser.add_argument("--out", help="keep the build here")
     parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None)
     args = parser.parse_args()
