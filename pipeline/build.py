@@ -33,7 +33,7 @@ from voxel.colour import srgb_to_linear
 from voxel.grid import GridSpec
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
-from voxel.slab import StackModel, compute_slab, search_voxels
+from voxel.slab import StackModel, compute_slab
 from voxel.tiff_writer import TiffStackWriter
 from voxel.vdb_writer import VdbStackWriter
 
@@ -89,9 +89,7 @@ def build_stack(
             shells, seconds["shells"] = timed_shells(mesh.vertices, mesh.faces, thickness, config)
         elif config.shell_meshes:  # beside the voxels, in another process
             pool = stack.enter_context(multiprocessing.get_context("spawn").Pool(1))
-            pending = pool.apply_async(
-                timed_shells, (mesh.vertices, mesh.faces, thickness, config)
-            )
+            pending = pool.apply_async(timed_shells, (mesh.vertices, mesh.faces, thickness, config))
         model = StackModel(
             surfaces=(
                 (mesh.vertices, mesh.faces),
@@ -104,11 +102,15 @@ def build_stack(
             depth_mm=depth if by_distance else None,
         )
         n_z = grid.shape_zyx[0]
-        halo = search_voxels(model, grid)[0]
-        rows = slab_rows_for(grid, config.slab_mb, halo)
+        rows = slab_rows_for(grid, config.slab_mb)
         sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / rows))
         counts = np.zeros(model.n_bands + 2, dtype=np.int64)
-        diagnostics = {"unbalanced_rows": 0, "nesting_violations": 0, "nearest_queries": 0}
+        diagnostics = {
+            "unbalanced_rows": 0,
+            "nesting_violations": 0,
+            "nearest_queries": 0,
+            "block_queries": 0,
+        }
         slab_seconds = 0.0
         manifest_path = stack.enter_context(atomic_path(out_dir / "manifest.json"))
         samples = 4 if config.alpha else 3
@@ -146,6 +148,7 @@ def build_stack(
             diagnostics["unbalanced_rows"] += slab.n_unbalanced_rows
             diagnostics["nesting_violations"] += slab.n_nesting_violations
             diagnostics["nearest_queries"] += slab.n_nearest_queries
+            diagnostics["block_queries"] += slab.n_block_queries
             layers_tif.write_slab(slab.layers)
             colour_tif.write_slab(slab.rgba[..., :samples])
             if vdb is not None:
@@ -211,7 +214,6 @@ def build_stack(
             "colour.tif": {"bigtiff": colour_tif.bigtiff, "samples": samples},
         }
         manifest["slab_rows"] = rows
-        manifest["halo_rows"] = halo
         manifest_path.write_text(json.dumps(manifest, indent=2), encoding="utf-8")
     manifest["file_bytes"] = {
         str(path.relative_to(out_dir)): path.stat().st_size
@@ -305,7 +307,7 @@ def timed_shells(
     return shells, time.perf_counter() - tick
 
 
-def slab_rows_for(grid: GridSpec, slab_mb: float, halo_rows: int) -> int:
-    """Return the slab height (rows) whose working arrays, halo included, fit ``slab_mb`` MiB."""
+def slab_rows_for(grid: GridSpec, slab_mb: float) -> int:
+    """Return the slab height (rows) whose working arrays fit ``slab_mb`` MiB."""
     per_row = grid.shape_zyx[1] * grid.shape_zyx[2] * BYTES_PER_VOXEL
-    return max(1, math.floor(slab_mb * 2**20 / per_row) - 2 * halo_rows)
+    return max(1, math.floor(slab_mb * 2**20 / per_row))

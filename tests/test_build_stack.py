@@ -113,7 +113,9 @@ def test_distance_layers_agree_with_the_shells(built):
     agreement = manifest["shell_agreement"]
     # both realise the same bands of the same ball: they may differ only near boundaries
     assert agreement["samples"] > 5000
-    assert agreement["samples_clear"] > 0.5 * agreement["samples"]
+    # bands 0.4 and 0.6 mm thick, clear = farther than the 0.2 mm voxel diagonal from a
+    # limit: about half the samples
+    assert agreement["samples_clear"] > 0.3 * agreement["samples"]
     assert agreement["agreement_clear"] >= 0.999
     assert set(agreement["per_layer"]) == {"1", "2", "3"}
 

@@ -137,6 +137,34 @@ def nearest_on_surface(surface: SurfaceIndex, points_mm: NDArray[np.float64]) ->
     return Nearest(face_ids, barycentric, distance)
 
 
+def distance_to_surface(
+    surface: SurfaceIndex, points_mm: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Return the exact unsigned distance of each query point to the surface.
+
+    Parameters
+    ----------
+    surface : SurfaceIndex
+        The indexed mesh.
+    points_mm : (N, 3) float64, mm
+        Query points ``(x, y, z)``.
+
+    Returns
+    -------
+    (N,) float64, mm
+    """
+    points = np.asarray(points_mm, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise ValueError(f"points_mm must be (N, 3), got shape {points.shape}")
+    distance = np.zeros(len(points), dtype=np.float64)
+    for start in range(0, len(points), POINTS_PER_CHUNK):
+        part = slice(start, start + POINTS_PER_CHUNK)
+        chunk = np.ascontiguousarray(points[part])
+        squared, _, _ = surface.tree.squared_distance(surface.vertices, surface.faces, chunk)
+        distance[part] = np.sqrt(np.maximum(np.asarray(squared, dtype=np.float64), 0.0))
+    return distance
+
+
 def _region_weights(
     d1: NDArray[np.float64],
     d2: NDArray[np.float64],

@@ -9,24 +9,22 @@ Two layer realisations:
   band ``k`` when ``D_{k-1}(f) <= d < D_k(f)``, with ``d`` its exact distance to the
   original surface and ``f`` the face of its nearest point; this is the ideal offset
   (rounded at reflex features, collapsing in thin walls) sampled exactly at the voxel
-  centres. Only inside voxels within ``D_K`` plus a voxel diagonal of an outside voxel
-  (box-shaped search, a superset of the ball) are queried; the rest are core. A crack or
-  slot narrower than a voxel has no outside voxel centre in it and so does not seed a
-  band of its own.
+  centres. Block bounds (:mod:`voxel.blocks`) settle whole blocks that lie in one band
+  or in the core; only voxels in blocks that straddle a band limit, that take colour or
+  that reach into the signed-distance band are queried one by one.
 * **shells** (``depth_mm`` None): a voxel's layer is how many of the nested closed
   surfaces ``surfaces`` contain its centre (exact winding numbers).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
+from voxel.blocks import block_bounds
 from voxel.colour import ColourAt, nearest_colour
 from voxel.grid import GridSpec
 from voxel.nearest import SurfaceIndex, nearest_on_surface
@@ -112,7 +110,9 @@ class SlabResult(NamedTuple):
     n_nesting_violations : int
         Voxels inside a shell but outside the surface around it.
     n_nearest_queries : int
-        Nearest-point queries made.
+        Nearest-point queries made (one per queried voxel).
+    n_block_queries : int
+        Distance queries of block centres (:mod:`voxel.blocks`).
     """
 
     z_start: int
@@ -124,33 +124,15 @@ class SlabResult(NamedTuple):
     n_unbalanced_rows: int
     n_nesting_violations: int
     n_nearest_queries: int
-
-
-def halo_voxels(model: StackModel, grid: GridSpec) -> tuple[int, int, int]:
-    """Return the halo ``(z, y, x)`` in voxels that the signed-distance band needs."""
-    return _box(model.sdf_half_width_mm, grid)
-
-
-def search_voxels(model: StackModel, grid: GridSpec) -> tuple[int, int, int]:
-    """Return the halo ``(z, y, x)`` in voxels of the inside voxels that are queried.
-
-    The sdf band's half width, and in the distance realisation the deepest band plus a
-    voxel diagonal (a voxel centre within ``D_K`` of the surface has an outside voxel
-    centre within ``D_K`` plus a diagonal of it, where the grid resolves the surface).
-    """
-    reach = model.sdf_half_width_mm
-    if model.depth_mm is not None:
-        reach = max(reach, float(model.depth_mm.max()) + float(np.linalg.norm(grid.voxel_mm)))
-    return _box(reach, grid)
-
-
-def _box(reach_mm: float, grid: GridSpec) -> tuple[int, int, int]:
-    vx, vy, vz = grid.voxel_mm
-    return (math.ceil(reach_mm / vz), math.ceil(reach_mm / vy), math.ceil(reach_mm / vx))
+    n_block_queries: int
 
 
 def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -> SlabResult:
     """Return layers, colours and the signed-distance band of rows ``z_start..z_stop``.
+
+    Needs no halo: inside tests run along x rows and distance bounds come from block
+    queries (:mod:`voxel.blocks`), so a slab reads nothing beyond its own rows and any
+    split into slabs gives the same arrays.
 
     Parameters
     ----------
@@ -171,46 +153,38 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
         raise ValueError(
             f"slab rows must satisfy 0 <= z_start < z_stop <= {n_z}, got {z_start}, {z_stop}"
         )
-    sdf_halo = halo_voxels(model, grid)
-    search = search_voxels(model, grid)
-    low, high = max(0, z_start - search[0]), min(n_z, z_stop + search[0])
     vertices, faces = model.surfaces[0]
-    outer = winding_slab(vertices, faces, grid, low, high)
+    outer = winding_slab(vertices, faces, grid, z_start, z_stop)
     unbalanced = outer.n_unbalanced_rows
-    inside_halo = outer.winding > 0
+    inside = outer.winding > 0
     del outer
-    rows = slice(z_start - low, z_stop - low)
-    inside = inside_halo[rows]
+    shape = (inside.shape[0], inside.shape[1], inside.shape[2])
     colour_values = np.asarray(model.colour_layers, dtype=np.uint8)
-    violations = 0
+    half_width = model.sdf_half_width_mm
+    violations = n_block = 0
     if model.depth_mm is None:
         layers, unbalanced_shells, violations = _shell_layers(model, grid, inside, z_start)
         unbalanced += unbalanced_shells
         query = np.isin(layers, colour_values)
-        if max(sdf_halo) > 0:
-            query |= _near(~inside_halo, rows, sdf_halo) & inside
-    elif model.n_bands + 1 in model.colour_layers:
-        query = inside.copy()  # the core takes colour too: every inside voxel is queried
+        if half_width > 0:
+            bounds = block_bounds(model.surface, grid, z_start, z_stop, half_width)
+            query |= bounds.expand(bounds.lower_mm < half_width, shape)
+            n_block = bounds.n_queries
     else:
-        query = _near(~inside_halo, rows, search) & inside
-    if max(sdf_halo) > 0:
-        query |= _near(inside_halo, rows, sdf_halo) & ~inside
-    del inside_halo
+        layers, query, n_block = _distance_plan(model, grid, inside, z_start, z_stop)
     flat = np.flatnonzero(query)
     del query
-    index = np.stack(np.unravel_index(flat, inside.shape), axis=1)
+    index = np.stack(np.unravel_index(flat, shape), axis=1)
     index[:, 0] += z_start
     nearest = nearest_on_surface(model.surface, grid.index_to_world(index))
     del index
     queried_inside = inside.ravel()[flat]
     if model.depth_mm is not None:
-        # band k where D_{k-1}(f) <= d < D_k(f), f the nearest face; unqueried: core
-        layers = np.where(inside, np.uint8(model.n_bands + 1), np.uint8(0))
+        # band k where D_{k-1}(f) <= d < D_k(f), f the nearest face
         depth = model.depth_mm[:, nearest.face_ids[queried_inside]]
         deeper = (nearest.distance_mm[queried_inside][None, :] >= depth).sum(axis=0)
         layers.reshape(-1)[flat[queried_inside]] = (1 + deeper).astype(np.uint8)
 
-    shape = layers.shape
     in_colour = np.isin(layers.ravel()[flat], colour_values)
     rgba = np.zeros((*shape, 4), dtype=np.uint8)
     rgba.reshape(-1, 4)[flat[in_colour]] = nearest_colour(
@@ -221,30 +195,51 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
         ),
         model.colour_at,
     )
-    half_width = np.float32(model.sdf_half_width_mm)
-    sdf = np.where(inside, -half_width, half_width).astype(np.float32)
+    half = np.float32(half_width)
+    sdf = np.where(inside, -half, half).astype(np.float32)
     sdf_band = np.zeros(shape, dtype=bool)
-    close = nearest.distance_mm < model.sdf_half_width_mm
+    close = nearest.distance_mm < half_width
     band_flat = flat[close]
     distance = nearest.distance_mm[close]
     signed = np.where(queried_inside[close], -distance, distance)
     sdf.reshape(-1)[band_flat] = signed.astype(np.float32)
     sdf_band.reshape(-1)[band_flat] = True
     return SlabResult(
-        z_start, z_stop, layers, rgba, sdf, sdf_band, unbalanced, violations, len(flat)
+        z_start, z_stop, layers, rgba, sdf, sdf_band, unbalanced, violations, len(flat), n_block
     )
 
 
-def _near(
-    seeds_halo: NDArray[np.bool_], rows: slice, halo: tuple[int, int, int]
-) -> NDArray[np.bool_]:
-    """Voxels of ``rows`` within a box of ``halo`` voxels (per axis) of a seed voxel."""
-    if max(halo) == 0:
-        return np.asarray(seeds_halo[rows])
-    size = tuple(2 * h + 1 for h in halo)
-    near = ndimage.maximum_filter(seeds_halo.view(np.uint8), size=size, mode="nearest")
-    result: NDArray[np.bool_] = near[rows].view(np.bool_)
-    return result
+def _distance_plan(
+    model: StackModel, grid: GridSpec, inside: NDArray[np.bool_], z_start: int, z_stop: int
+) -> tuple[NDArray[np.uint8], NDArray[np.bool_], int]:
+    """Layers known from block bounds, and the voxels that need their own query.
+
+    A block whose distance bounds ``[lo, hi]`` fit between two band limits for every face
+    (``lo >= max_f D_{b-1}(f)`` and ``hi < min_f D_b(f)``) lies wholly in band ``b``; its
+    inside voxels need no query unless ``b`` takes colour or the block reaches into the
+    signed-distance band. Returns layers ``(Zs, Y, X) uint8`` (0 outside, the block's
+    band inside where known, 0 where queried), the query mask and the block queries made.
+    """
+    assert model.depth_mm is not None
+    shape = (inside.shape[0], inside.shape[1], inside.shape[2])
+    half_width = model.sdf_half_width_mm
+    deepest = model.depth_mm.max(axis=1)
+    shallowest = model.depth_mm.min(axis=1)
+    reach = max(float(deepest[-1]), half_width)
+    bounds = block_bounds(model.surface, grid, z_start, z_stop, reach)
+    lo, hi = bounds.lower_mm, bounds.upper_mm
+    band_lo = 1 + (lo[..., None] >= deepest).sum(axis=-1)
+    band_hi = 1 + (hi[..., None] >= shallowest).sum(axis=-1)
+    code = np.where(band_lo == band_hi, band_lo, 0).astype(np.uint8)
+    code[np.isin(code, np.asarray(model.colour_layers, dtype=np.uint8))] = 0
+    if half_width > 0:
+        code[lo < half_width] = 0
+    known = bounds.expand(code, shape)
+    layers = np.where(inside, known, np.uint8(0))
+    query = inside & (known == 0)
+    if half_width > 0:
+        query |= ~inside & bounds.expand(lo < half_width, shape)
+    return layers, query, bounds.n_queries
 
 
 def _shell_layers(
