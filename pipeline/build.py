@@ -33,7 +33,7 @@ from voxel.colour import srgb_to_linear
 from voxel.grid import GridSpec
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
-from voxel.slab import StackModel, compute_slab
+from voxel.slab import StackModel, aligned_rows, compute_slab
 from voxel.tiff_writer import TiffStackWriter
 from voxel.vdb_writer import VdbStackWriter
 
@@ -102,7 +102,7 @@ def build_stack(
             depth_mm=depth if by_distance else None,
         )
         n_z = grid.shape_zyx[0]
-        rows = slab_rows_for(grid, config.slab_mb)
+        rows = slab_rows_for(grid, config.slab_mb, aligned_rows(model, grid))
         sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / rows))
         counts = np.zeros(model.n_bands + 2, dtype=np.int64)
         diagnostics = {
@@ -307,7 +307,11 @@ def timed_shells(
     return shells, time.perf_counter() - tick
 
 
-def slab_rows_for(grid: GridSpec, slab_mb: float) -> int:
-    """Return the slab height (rows) whose working arrays fit ``slab_mb`` MiB."""
+def slab_rows_for(grid: GridSpec, slab_mb: float, align: int = 1) -> int:
+    """Return the slab height (rows) whose working arrays fit ``slab_mb`` MiB.
+
+    Rounded down to a multiple of ``align`` rows where the budget holds at least that many.
+    """
     per_row = grid.shape_zyx[1] * grid.shape_zyx[2] * BYTES_PER_VOXEL
-    return max(1, math.floor(slab_mb * 2**20 / per_row))
+    rows = max(1, math.floor(slab_mb * 2**20 / per_row))
+    return rows - rows % align if rows >= align else rows

@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from voxel.nearest import SurfaceIndex, closest_barycentric, nearest_on_surface
+from voxel.nearest import (
+    SurfaceIndex,
+    closest_barycentric,
+    distance_to_surface,
+    nearest_faces,
+    nearest_on_surface,
+)
 
 
 def _brute(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -31,6 +37,11 @@ def test_matches_brute_force():
     np.testing.assert_allclose(np.linalg.norm(closest - points, axis=1), hit.distance_mm)
     assert np.all(hit.barycentric >= -1e-12)
     np.testing.assert_allclose(hit.barycentric.sum(axis=1), 1.0)
+    # the cheap halves agree with the brute force too
+    face_ids, distance = nearest_faces(index, points)
+    np.testing.assert_allclose(distance, _brute(mesh.triangles, points), atol=1e-9)
+    np.testing.assert_array_equal(face_ids, hit.face_ids)
+    np.testing.assert_array_equal(distance_to_surface(index, points), distance)
 
 
 def test_barycentric_regions_against_trimesh():

@@ -63,9 +63,7 @@ class BlockBounds(NamedTuple):
     upper_mm: NDArray[np.float64]
     n_queries: int
 
-    def expand(
-        self, values: NDArray[ScalarT], shape: tuple[int, int, int]
-    ) -> NDArray[ScalarT]:
+    def expand(self, values: NDArray[ScalarT], shape: tuple[int, int, int]) -> NDArray[ScalarT]:
         """Return per-block ``values (Bz, By, Bx)`` repeated onto the slab's voxels ``shape``."""
         out = values
         for axis, step in enumerate(self.size):

@@ -116,31 +116,18 @@ def nearest_on_surface(surface: SurfaceIndex, points_mm: NDArray[np.float64]) ->
     >>> hit.barycentric.round(3).tolist(), round(float(hit.distance_mm[0]), 4)
     ([[0.333, 0.333, 0.333]], 1.1547)
     """
-    points = np.asarray(points_mm, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] != 3:
-        raise ValueError(f"points_mm must be (N, 3), got shape {points.shape}")
-    n = len(points)
-    face_ids = np.zeros(n, dtype=np.int64)
-    barycentric = np.zeros((n, 3), dtype=np.float64)
-    distance = np.zeros(n, dtype=np.float64)
-    for start in range(0, n, POINTS_PER_CHUNK):
-        part = slice(start, start + POINTS_PER_CHUNK)
-        chunk = np.ascontiguousarray(points[part])
-        _, ids, _ = surface.tree.squared_distance(surface.vertices, surface.faces, chunk)
-        ids = np.asarray(ids, dtype=np.int64)
-        triangles = surface.vertices[surface.faces[ids]]
-        bary = closest_barycentric(chunk, triangles)
-        closest = np.einsum("nc,nck->nk", bary, triangles)
-        face_ids[part] = ids
-        barycentric[part] = bary
-        distance[part] = np.linalg.norm(chunk - closest, axis=1)
-    return Nearest(face_ids, barycentric, distance)
+    points = _points(points_mm)
+    face_ids, _ = nearest_faces(surface, points)
+    return on_faces(surface, points, face_ids)
 
 
-def distance_to_surface(
+def nearest_faces(
     surface: SurfaceIndex, points_mm: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Return the exact unsigned distance of each query point to the surface.
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Return the face of the exact nearest surface point and the distance to it.
+
+    The cheaper half of :func:`nearest_on_surface` (no barycentric coordinates), for
+    queries that need the distance and the face only.
 
     Parameters
     ----------
@@ -151,18 +138,70 @@ def distance_to_surface(
 
     Returns
     -------
-    (N,) float64, mm
+    face_ids : (N,) int64
+        Face holding the nearest point (one of them where several tie).
+    distance_mm : (N,) float64, mm
+        Unsigned distance to the surface.
     """
-    points = np.asarray(points_mm, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] != 3:
-        raise ValueError(f"points_mm must be (N, 3), got shape {points.shape}")
+    points = _points(points_mm)
+    face_ids = np.zeros(len(points), dtype=np.int64)
     distance = np.zeros(len(points), dtype=np.float64)
     for start in range(0, len(points), POINTS_PER_CHUNK):
         part = slice(start, start + POINTS_PER_CHUNK)
         chunk = np.ascontiguousarray(points[part])
-        squared, _, _ = surface.tree.squared_distance(surface.vertices, surface.faces, chunk)
+        squared, ids, _ = surface.tree.squared_distance(surface.vertices, surface.faces, chunk)
+        face_ids[part] = np.asarray(ids, dtype=np.int64)
         distance[part] = np.sqrt(np.maximum(np.asarray(squared, dtype=np.float64), 0.0))
-    return distance
+    return face_ids, distance
+
+
+def on_faces(
+    surface: SurfaceIndex, points_mm: NDArray[np.float64], face_ids: NDArray[np.int64]
+) -> Nearest:
+    """Return the closest point of each query point within its given face.
+
+    With ``face_ids`` from :func:`nearest_faces` this completes an exact nearest-point
+    query (Ericson's Voronoi-region test [2]_).
+
+    Parameters
+    ----------
+    surface : SurfaceIndex
+        The indexed mesh.
+    points_mm : (N, 3) float64, mm
+        Query points ``(x, y, z)``.
+    face_ids : (N,) int64
+        One face per point.
+
+    Returns
+    -------
+    Nearest
+    """
+    points = _points(points_mm)
+    face_ids = np.asarray(face_ids, dtype=np.int64)
+    barycentric = np.zeros((len(points), 3), dtype=np.float64)
+    distance = np.zeros(len(points), dtype=np.float64)
+    for start in range(0, len(points), POINTS_PER_CHUNK):
+        part = slice(start, start + POINTS_PER_CHUNK)
+        triangles = surface.vertices[surface.faces[face_ids[part]]]
+        bary = closest_barycentric(points[part], triangles)
+        closest = np.einsum("nc,nck->nk", bary, triangles)
+        barycentric[part] = bary
+        distance[part] = np.linalg.norm(points[part] - closest, axis=1)
+    return Nearest(face_ids, barycentric, distance)
+
+
+def _points(points_mm: NDArray[np.float64]) -> NDArray[np.float64]:
+    points = np.asarray(points_mm, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise ValueError(f"points_mm must be (N, 3), got shape {points.shape}")
+    return points
+
+
+def distance_to_surface(
+    surface: SurfaceIndex, points_mm: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Return the exact unsigned distance ``(N,) float64`` mm of points ``(N, 3)`` mm."""
+    return nearest_faces(surface, points_mm)[1]
 
 
 def _region_weights(

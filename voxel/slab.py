@@ -24,10 +24,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.blocks import block_bounds
+from voxel.blocks import COARSE, block_bounds, fine_block_size
 from voxel.colour import ColourAt, nearest_colour
 from voxel.grid import GridSpec
-from voxel.nearest import SurfaceIndex, nearest_on_surface
+from voxel.nearest import SurfaceIndex, nearest_faces, on_faces
 from voxel.winding import winding_slab
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
@@ -127,6 +127,19 @@ class SlabResult(NamedTuple):
     n_block_queries: int
 
 
+def block_reach_mm(model: StackModel) -> float:
+    """Return the distance (mm) within which voxels may need a query (0: none by distance)."""
+    if model.depth_mm is not None:
+        return max(float(model.depth_mm.max()), model.sdf_half_width_mm)
+    return model.sdf_half_width_mm
+
+
+def aligned_rows(model: StackModel, grid: GridSpec) -> int:
+    """Return the rows of a coarse block: slabs of a multiple of them waste no block queries."""
+    reach = block_reach_mm(model)
+    return fine_block_size(grid, reach)[0] * COARSE if reach > 0 else 1
+
+
 def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -> SlabResult:
     """Return layers, colours and the signed-distance band of rows ``z_start..z_stop``.
 
@@ -176,31 +189,28 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     del query
     index = np.stack(np.unravel_index(flat, shape), axis=1)
     index[:, 0] += z_start
-    nearest = nearest_on_surface(model.surface, grid.index_to_world(index))
+    points = grid.index_to_world(index)
     del index
+    face_ids, distance_mm = nearest_faces(model.surface, points)
     queried_inside = inside.ravel()[flat]
     if model.depth_mm is not None:
         # band k where D_{k-1}(f) <= d < D_k(f), f the nearest face
-        depth = model.depth_mm[:, nearest.face_ids[queried_inside]]
-        deeper = (nearest.distance_mm[queried_inside][None, :] >= depth).sum(axis=0)
+        depth = model.depth_mm[:, face_ids[queried_inside]]
+        deeper = (distance_mm[queried_inside][None, :] >= depth).sum(axis=0)
         layers.reshape(-1)[flat[queried_inside]] = (1 + deeper).astype(np.uint8)
 
+    # barycentric coordinates only where a colour is needed
     in_colour = np.isin(layers.ravel()[flat], colour_values)
     rgba = np.zeros((*shape, 4), dtype=np.uint8)
-    rgba.reshape(-1, 4)[flat[in_colour]] = nearest_colour(
-        nearest._replace(
-            face_ids=nearest.face_ids[in_colour],
-            barycentric=nearest.barycentric[in_colour],
-            distance_mm=nearest.distance_mm[in_colour],
-        ),
-        model.colour_at,
-    )
+    nearest = on_faces(model.surface, points[in_colour], face_ids[in_colour])
+    del points
+    rgba.reshape(-1, 4)[flat[in_colour]] = nearest_colour(nearest, model.colour_at)
     half = np.float32(half_width)
     sdf = np.where(inside, -half, half).astype(np.float32)
     sdf_band = np.zeros(shape, dtype=bool)
-    close = nearest.distance_mm < half_width
+    close = distance_mm < half_width
     band_flat = flat[close]
-    distance = nearest.distance_mm[close]
+    distance = distance_mm[close]
     signed = np.where(queried_inside[close], -distance, distance)
     sdf.reshape(-1)[band_flat] = signed.astype(np.float32)
     sdf_band.reshape(-1)[band_flat] = True
@@ -225,8 +235,7 @@ def _distance_plan(
     half_width = model.sdf_half_width_mm
     deepest = model.depth_mm.max(axis=1)
     shallowest = model.depth_mm.min(axis=1)
-    reach = max(float(deepest[-1]), half_width)
-    bounds = block_bounds(model.surface, grid, z_start, z_stop, reach)
+    bounds = block_bounds(model.surface, grid, z_start, z_stop, block_reach_mm(model))
     lo, hi = bounds.lower_mm, bounds.upper_mm
     band_lo = 1 + (lo[..., None] >= deepest).sum(axis=-1)
     band_hi = 1 + (hi[..., None] >= shallowest).sum(axis=-1)
