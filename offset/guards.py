@@ -2,13 +2,15 @@
 
 manifold3d's Booleans always return a closed manifold, but near-coplanar overlaps of
 pieces occasionally give a geometrically wrong one: crossing triangles, or a thin crack
-cut deeper than any piece reaches. Both are found here; :mod:`offset.robust` then tries
+or a fold of the shell cut deeper than any piece reaches. Both are found here;
+:mod:`offset.robust` then recomputes the core around the deep triangles, or tries
 another order of the Booleans.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 import scipy.spatial
 import trimesh
 
@@ -50,6 +52,16 @@ def too_deep_count(
 ) -> int:
     """Return how many shell triangles have their centroid deeper than allowed.
 
+    See :func:`too_deep`.
+    """
+    return int(np.count_nonzero(too_deep(surface, depth, vertices, faces)))
+
+
+def too_deep(
+    surface: Surface, depth: FloatArray, vertices: FloatArray, faces: IntArray
+) -> npt.NDArray[np.bool_]:
+    """Return which shell triangles have their centroid deeper than allowed.
+
     The allowed distance from the surface is ``(1 + DEEP_TOLERANCE)`` times the largest
     depth of the faces around the nearest surface face (its vertices' incident faces),
     so variable depth never counts as a defect. Points within twice the largest depth of
@@ -66,10 +78,10 @@ def too_deep_count(
 
     Returns
     -------
-    int
+    (m,) bool
     """
     if faces.shape[0] == 0:
-        return 0
+        return np.zeros(0, dtype=bool)
     centroid = vertices[faces].mean(axis=1)
     _, dist, face = trimesh.proximity.closest_point(  # type: ignore[no-untyped-call]
         surface.mesh, centroid
@@ -82,4 +94,4 @@ def too_deep_count(
         tree = scipy.spatial.cKDTree(surface.crossing_points)
         near, _ = tree.query(centroid[deep])
         deep[np.flatnonzero(deep)[near <= 2.0 * float(depth.max())]] = False
-    return int(np.count_nonzero(deep))
+    return np.asarray(deep, dtype=bool)
