@@ -47,11 +47,13 @@ shell is first simplified to ``SIMPLIFY_FRACTION * D`` (manifold3d edge collapse
 triangles lie deeper than asked, the core is recomputed locally (:func:`_patch`): in
 boxes around them, from the previous core and only the pieces that reach into the boxes,
 united in another order, and put back in place of the old core there; the boxes grow
-each round (:data:`PATCH_ROUNDS`). On the 100 mm airplane at 0.5 mm this repairs a fold
-of the shell over nearly flat, slightly reflex input edges: a triangle of 0.3 mm^2
-turned upside down between two others, all vertices exactly at ``D`` but the sheet up to
-0.38 % ``D`` (1.9 um) deeper, 8e-4 mm^3 of core removed; the crossing check does not see
-it since the folded layers only touch. A shell still crossing or too deep is recomputed
+each round (:data:`PATCH_ROUNDS`). On the 100 mm airplane at 0.5 mm every union order
+left such a defect over nearly flat, slightly reflex input edges (bends of -0.1 to -3
+degrees), with every vertex at ``D`` (within 4e-5 ``D``) but the triangles between them
+too deep: a quad of about 0.9 mm^2 split along the wrong diagonal, 2.2 % ``D`` (11 um)
+deep at the centroids, 5e-3 mm^3 of core removed; or a fold, a 0.3 mm^2 triangle upside
+down between two others, 0.38 % ``D`` deep (the folded layers only touch, so the
+crossing check does not see it). A shell still crossing or too deep is recomputed
 with another leaf size of the union tree (:data:`LEAF_SIZES`), the best attempt is
 kept, and a :class:`ShellDefectWarning` is raised if defects remain after every order.
 
