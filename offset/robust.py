@@ -303,11 +303,18 @@ def _boxes(tris: FloatArray, pad: float) -> tuple[FloatArray, FloatArray]:
     Triangles whose boxes, padded by `pad`, overlap belong to one cluster.
     """
     t_lo, t_hi = tris.min(axis=1) - pad, tris.max(axis=1) + pad
-    overlap = np.all(
-        (t_lo[:, None] <= t_hi[None]) & (t_hi[:, None] >= t_lo[None]), axis=2
+    centre, half = 0.5 * (t_lo + t_hi), 0.5 * (t_hi - t_lo)
+    # Candidate pairs: centres close enough for the boxes to overlap, then exact test.
+    pairs = scipy.spatial.cKDTree(centre).query_pairs(
+        2.0 * float(np.linalg.norm(half, axis=1).max()), output_type="ndarray"
     )
+    i, j = pairs[:, 0], pairs[:, 1]
+    meet = np.all(np.abs(centre[i] - centre[j]) <= half[i] + half[j], axis=1)
+    n_tri = len(tris)
     _, label = scipy.sparse.csgraph.connected_components(
-        scipy.sparse.csr_matrix(overlap), directed=False
+        scipy.sparse.coo_matrix((np.ones(int(meet.sum())), (i[meet], j[meet])),
+                                shape=(n_tri, n_tri)),
+        directed=False,
     )
     n = int(label.max()) + 1
     lo = np.full((n, 3), np.inf)

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.sparse
+import scipy.sparse.csgraph
 import trimesh
 
 from offset import robust
@@ -87,3 +89,23 @@ def test_robust_offset_repairs_a_dented_cut_without_warning(monkeypatch):
     # pyproject turns warnings into errors: a ShellDefectWarning fails the test.
     [(vert, tri)] = robust.robust_offset(v, f, np.full((1, len(f)), DEPTH))
     _assert_exact_inner_box(vert, tri)
+
+
+def test_boxes_cluster_like_the_dense_overlap_graph():
+    """Clusters of padded boxes equal the components of the all-pairs overlap test."""
+    rng = np.random.default_rng(2)
+    tris = rng.random((300, 1, 3)) * 60 + rng.random((300, 3, 3)) * rng.random((300, 1, 1)) * 4
+    lo, hi = robust._boxes(tris, 0.5)
+    t_lo, t_hi = tris.min(axis=1) - 0.5, tris.max(axis=1) + 0.5
+    overlap = np.all((t_lo[:, None] <= t_hi[None]) & (t_hi[:, None] >= t_lo[None]), axis=2)
+    n, label = scipy.sparse.csgraph.connected_components(
+        scipy.sparse.csr_matrix(overlap), directed=False
+    )
+    assert len(lo) == n < len(tris)
+    expect_lo = np.full((n, 3), np.inf)
+    np.minimum.at(expect_lo, label, t_lo)
+    # Same boxes, whatever the cluster numbering.
+    np.testing.assert_array_equal(
+        lo[np.lexsort(lo.T)], expect_lo[np.lexsort(expect_lo.T)]
+    )
+    assert np.all(hi > lo)
