@@ -112,3 +112,38 @@ def test_atomic_files_get_the_usual_mode(tmp_path):
     finally:
         os.umask(umask)
     assert (tmp_path / "a.json").stat().st_mode & 0o777 == 0o644
+
+
+def test_vdb_skips_empty_slabs_and_crops_to_content(tmp_path):
+    vdb = load_openvdb()
+    layers = np.zeros(GRID.shape_zyx, np.uint8)
+    layers[6, 3, 4] = 1  # one voxel in the last slab, far from the grid origin
+    rgb = np.zeros((*GRID.shape_zyx, 3), np.float32)
+    rgb[6, 3, 4] = (0.1, 0.2, 0.3)
+    sdf = np.full(GRID.shape_zyx, 0.25, np.float32)
+    sdf[6, 3, 4] = -0.05
+    writer = VdbStackWriter(GRID, sdf_half_width_mm=0.25)
+    writer.write_slab(0, layers[:4], rgb[:4], sdf[:4])  # all background
+    writer.write_slab(4, layers[4:], rgb[4:], sdf[4:])
+    summary = writer.write(tmp_path / "v.vdb", {})
+    assert {name: grid["active_voxels"] for name, grid in summary.items()} == {
+        "density": 1,
+        "layer": 1,
+        "color": 1,
+        "sdf": 1,
+    }
+    grids, _ = vdb.readAll(str(tmp_path / "v.vdb"))
+    color = {grid.name: grid for grid in grids}["color"]
+    assert color.getConstAccessor().getValue((4, 3, 6)) == pytest.approx((0.1, 0.2, 0.3))
+
+
+def test_srgb_decoding_matches_colour_science():
+    import colour
+
+    from voxel.colour import srgb_to_linear
+
+    codes = np.arange(256, dtype=np.uint8)
+    expected = colour.models.eotf_sRGB(codes / 255.0)
+    np.testing.assert_allclose(srgb_to_linear(codes), expected, atol=2e-7)
+    with pytest.raises(ValueError, match="uint8"):
+        srgb_to_linear(np.array([0.5]))

@@ -33,6 +33,17 @@ def _xyz(array: NDArray[Any], dtype: type[np.floating[Any]]) -> NDArray[Any]:
     return np.ascontiguousarray(array.transpose(axes), dtype=dtype)
 
 
+def _content_box(mask: NDArray[np.bool_]) -> tuple[slice, slice, slice] | None:
+    """Return the smallest ``(z, y, x)`` box holding every true voxel (None: none)."""
+    spans = []
+    for axis in range(3):
+        hit = np.flatnonzero(mask.any(axis=tuple(a for a in range(3) if a != axis)))
+        if len(hit) == 0:
+            return None
+        spans.append(slice(int(hit[0]), int(hit[-1]) + 1))
+    return (spans[0], spans[1], spans[2])
+
+
 class VdbStackWriter:
     """Accumulate slabs into OpenVDB grids and write them to one ``.vdb`` file.
 
@@ -88,7 +99,13 @@ class VdbStackWriter:
         sdf : (Zs, Y, X) float32, mm
             Signed distance, equal to the half width outside the narrow band.
         """
-        corner = (0, 0, int(z_start))
+        # Only the box holding non-background voxels is copied (every grid's background
+        # is what lies outside the model and its narrow band).
+        box = _content_box((layers > 0) | (sdf < self._half_width))
+        if box is None:
+            return
+        layers, linear_rgb, sdf = layers[box], linear_rgb[box], sdf[box]
+        corner = (box[2].start, box[1].start, int(z_start) + box[0].start)
         self.density.copyFromArray(_xyz(layers > 0, np.float32), ijk=corner, tolerance=0.0)
         self.layer.copyFromArray(_xyz(layers, np.float32), ijk=corner, tolerance=0.0)
         self.color.copyFromArray(
