@@ -29,7 +29,6 @@ from pipeline.errors import ShellvoxWarning
 from pipeline.mesh import ColouredMesh
 from voxel.agreement import shell_agreement
 from voxel.atomic import atomic_path
-from voxel.colour import srgb_to_linear
 from voxel.grid import GridSpec
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
@@ -152,12 +151,11 @@ def build_stack(
             layers_tif.write_slab(slab.layers)
             colour_tif.write_slab(slab.rgba[..., :samples])
             if vdb is not None:
-                linear = srgb_to_linear(slab.rgba[..., :3])
-                # keep black colour voxels active in the sparse grid (background is 0)
                 coloured = np.isin(slab.layers, np.asarray(config.colour_layers, np.uint8))
-                linear[coloured] = np.maximum(linear[coloured], np.float32(1e-7))
                 sdf = np.where(slab.sdf_band, slab.sdf, np.float32(half_width))
-                vdb.write_slab(z_start, slab.layers, linear, sdf.astype(np.float32))
+                vdb.write_slab(
+                    z_start, slab.layers, slab.rgba[..., :3], coloured, sdf.astype(np.float32)
+                )
             slab_seconds += time.perf_counter() - tick
             bar.update(slab.z_stop - slab.z_start)
         bar.close()

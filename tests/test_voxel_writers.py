@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import colour
 import numpy as np
 import pytest
 import tifffile
@@ -47,18 +48,22 @@ def test_vdb_round_trip(tmp_path):
     layers = np.zeros(GRID.shape_zyx, np.uint8)
     layers[2:8, 5:15, 10:20] = 1
     layers[3:7, 7:13, 12:18] = 2
-    rgb = np.zeros((*GRID.shape_zyx, 3), np.float32)
-    rgb[layers == 1] = (0.5, 0.25, 1.0)
+    rgb = np.zeros((*GRID.shape_zyx, 3), np.uint8)
+    rgb[layers == 1] = (188, 137, 255)  # linear (0.5, 0.25, 1.0) to 8 bits
+    coloured = layers == 1
     sdf = np.full(GRID.shape_zyx, 0.25, np.float32)
     sdf[layers == 1] = -0.01
     writer = VdbStackWriter(GRID, sdf_half_width_mm=0.25)
-    writer.write_slab(0, layers[:4], rgb[:4], sdf[:4])
-    writer.write_slab(4, layers[4:], rgb[4:], sdf[4:])
+    writer.write_slab(0, layers[:4], rgb[:4], coloured[:4], sdf[:4])
+    writer.write_slab(4, layers[4:], rgb[4:], coloured[4:], sdf[4:])
     summary = writer.write(tmp_path / "v.vdb", {"tool": "shellvox"})
     grids, _ = vdb.readAll(str(tmp_path / "v.vdb"))
     assert describe_grids(grids) == summary
     assert summary["density"]["active_voxels"] == np.count_nonzero(layers)
     assert summary["color"]["active_voxels"] == np.count_nonzero(layers == 1)
+    stored = {grid.name: grid for grid in grids}["color"].getConstAccessor().getValue((10, 5, 2))
+    expected = colour.models.eotf_sRGB(np.array([188, 137, 255]) / 255.0)
+    np.testing.assert_allclose(stored, expected, atol=1e-6)  # linear light
     assert summary["sdf"]["class"] == "level set"
     by_name = {grid.name: grid for grid in grids}
     for grid in grids:
@@ -118,13 +123,13 @@ def test_vdb_skips_empty_slabs_and_crops_to_content(tmp_path):
     vdb = load_openvdb()
     layers = np.zeros(GRID.shape_zyx, np.uint8)
     layers[6, 3, 4] = 1  # one voxel in the last slab, far from the grid origin
-    rgb = np.zeros((*GRID.shape_zyx, 3), np.float32)
-    rgb[6, 3, 4] = (0.1, 0.2, 0.3)
+    rgb = np.zeros((*GRID.shape_zyx, 3), np.uint8)  # black, yet a colour voxel
     sdf = np.full(GRID.shape_zyx, 0.25, np.float32)
     sdf[6, 3, 4] = -0.05
     writer = VdbStackWriter(GRID, sdf_half_width_mm=0.25)
-    writer.write_slab(0, layers[:4], rgb[:4], sdf[:4])  # all background
-    writer.write_slab(4, layers[4:], rgb[4:], sdf[4:])
+    coloured = layers == 1
+    writer.write_slab(0, layers[:4], rgb[:4], coloured[:4], sdf[:4])  # all background
+    writer.write_slab(4, layers[4:], rgb[4:], coloured[4:], sdf[4:])
     summary = writer.write(tmp_path / "v.vdb", {})
     assert {name: grid["active_voxels"] for name, grid in summary.items()} == {
         "density": 1,
@@ -134,12 +139,10 @@ def test_vdb_skips_empty_slabs_and_crops_to_content(tmp_path):
     }
     grids, _ = vdb.readAll(str(tmp_path / "v.vdb"))
     color = {grid.name: grid for grid in grids}["color"]
-    assert color.getConstAccessor().getValue((4, 3, 6)) == pytest.approx((0.1, 0.2, 0.3))
+    assert color.getConstAccessor().getValue((4, 3, 6)) == pytest.approx((0.0, 0.0, 0.0), abs=1e-6)
 
 
 def test_srgb_decoding_matches_colour_science():
-    import colour
-
     from voxel.colour import srgb_to_linear
 
     codes = np.arange(256, dtype=np.uint8)

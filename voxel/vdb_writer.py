@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel.colour import srgb_to_linear
 from voxel.grid import GridSpec
 from voxel.openvdb_module import load_openvdb
 
@@ -83,7 +84,8 @@ class VdbStackWriter:
         self,
         z_start: int,
         layers: NDArray[np.uint8],
-        linear_rgb: NDArray[np.float32],
+        rgb: NDArray[np.uint8],
+        coloured: NDArray[np.bool_],
         sdf: NDArray[np.float32],
     ) -> None:
         """Copy one slab in.
@@ -94,8 +96,10 @@ class VdbStackWriter:
             First row of the slab.
         layers : (Zs, Y, X) uint8
             Layer index; density is ``layers > 0``.
-        linear_rgb : (Zs, Y, X, 3) float32
-            Linear RGB in ``[0, 1]``, 0 outside the colour layers.
+        rgb : (Zs, Y, X, 3) uint8
+            sRGB colour, 0 outside the colour layers; stored as linear RGB.
+        coloured : (Zs, Y, X) bool
+            Voxels of the colour layers: active in ``color`` even where black.
         sdf : (Zs, Y, X) float32, mm
             Signed distance, equal to the half width outside the narrow band.
         """
@@ -104,7 +108,10 @@ class VdbStackWriter:
         box = _content_box((layers > 0) | (sdf < self._half_width))
         if box is None:
             return
-        layers, linear_rgb, sdf = layers[box], linear_rgb[box], sdf[box]
+        layers, sdf, coloured = layers[box], sdf[box], coloured[box]
+        linear_rgb = srgb_to_linear(rgb[box])
+        # black colour voxels stay active in the sparse grid (its background is 0)
+        linear_rgb[coloured] = np.maximum(linear_rgb[coloured], np.float32(1e-7))
         corner = (box[2].start, box[1].start, int(z_start) + box[0].start)
         self.density.copyFromArray(_xyz(layers > 0, np.float32), ijk=corner, tolerance=0.0)
         self.layer.copyFromArray(_xyz(layers, np.float32), ijk=corner, tolerance=0.0)
