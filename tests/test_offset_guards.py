@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from offset.guards import Surface, crossing_count, too_deep_count
+from offset.guards import Surface, crossing_count, too_deep, too_deep_count
 
 
 def _box(size: float) -> tuple[np.ndarray, np.ndarray]:
@@ -43,3 +43,36 @@ def test_variable_depth_is_not_a_defect():
     shell_v = shell_v.copy()
     shell_v[shell_v[:, 2] > 0, 2] = 3.0
     assert too_deep_count(Surface(v, f), depth, shell_v, shell_f) == 0
+
+
+def test_too_deep_matches_brute_force_nearest_face():
+    # Points inside a crumpled sphere, variable depth: deep exactly when the distance to
+    # the surface (brute force over every face, trimesh's per-triangle closest point)
+    # exceeds the largest depth around the nearest face. Points where nearly tied faces
+    # would disagree are left out.
+    rng = np.random.default_rng(3)
+    sphere = trimesh.creation.icosphere(2, 10.0)
+    v = np.asarray(sphere.vertices) * rng.uniform(0.9, 1.1, (len(sphere.vertices), 1))
+    f = np.asarray(sphere.faces, dtype=np.int64)
+    depth = rng.uniform(0.5, 2.0, len(f))
+    points = v[rng.integers(0, len(v), 400)] * rng.uniform(0.6, 1.0, (400, 1))
+    points += rng.normal(0.0, 0.5, points.shape)
+    shell_f = np.arange(3 * len(points)).reshape(-1, 3)  # degenerate: centroid = point
+    shell_v = np.repeat(points, 3, axis=0)
+    got = too_deep(Surface(v, f), depth, shell_v, shell_f)
+
+    tri = v[f]
+    query = np.repeat(points, len(f), axis=0)  # point-major: every point against every face
+    closest = trimesh.triangles.closest_point(np.tile(tri, (len(points), 1, 1)), query)
+    dist = np.linalg.norm(closest - query, axis=1).reshape(len(points), len(f))
+    vdepth = np.zeros(len(v))
+    np.maximum.at(vdepth, f.reshape(-1), np.repeat(depth, 3))
+    allowed_face = vdepth[f].max(axis=1)
+    nearest = dist.min(axis=1)
+    tied = dist <= nearest[:, None] + 1e-9
+    deep_any = np.any(tied & (nearest[:, None] > 1.001 * allowed_face), axis=1)
+    deep_all = np.all(~tied | (nearest[:, None] > 1.001 * allowed_face), axis=1)
+    clear = deep_any == deep_all
+    assert np.count_nonzero(clear) > 300
+    assert 50 < np.count_nonzero(deep_all[clear]) < np.count_nonzero(clear) - 50
+    np.testing.assert_array_equal(got[clear], deep_all[clear])
