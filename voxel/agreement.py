@@ -20,7 +20,7 @@ import igl
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.nearest import SurfaceIndex, nearest_on_surface
+from voxel.nearest import SurfaceIndex, nearest_faces
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
 
@@ -61,9 +61,9 @@ def shell_agreement(
     layers = np.asarray(layers, dtype=np.int64)
     if len(points) == 0:
         return {"samples": 0}
-    nearest = nearest_on_surface(surface, points)
-    boundary = depth_mm[:, nearest.face_ids]
-    clear = np.all(np.abs(nearest.distance_mm[None, :] - boundary) > clear_mm, axis=0)
+    face_ids, distance_mm = nearest_faces(surface, points)  # no barycentrics needed
+    boundary = depth_mm[:, face_ids]
+    clear = np.all(np.abs(distance_mm[None, :] - boundary) > clear_mm, axis=0)
     by_shells = np.ones(len(points), dtype=np.int64)
     for vertices, faces in shells:
         if len(faces):

@@ -241,8 +241,7 @@ def _distance_plan(
     band_hi = 1 + (hi[..., None] >= shallowest).sum(axis=-1)
     code = np.where(band_lo == band_hi, band_lo, 0).astype(np.uint8)
     code[np.isin(code, np.asarray(model.colour_layers, dtype=np.uint8))] = 0
-    if half_width > 0:
-        code[lo < half_width] = 0
+    code[lo < half_width] = 0  # the sdf band (none when the half width is 0: lo >= 0)
     known = bounds.expand(code, shape)
     layers = np.where(inside, known, np.uint8(0))
     query = inside & (known == 0)
