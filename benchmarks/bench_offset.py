@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import resource
 import sys
 import time
 import warnings
@@ -29,6 +30,8 @@ import numpy as np
 import trimesh
 
 from offset import offset_shells, shell_report
+from offset.intersections import intersecting_pairs
+from offset.robust import ShellDefectWarning
 from voxel.openvdb_module import load_openvdb
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -141,8 +144,19 @@ def speed(size_mm: float, voxel_mm: float, depths: list[float], subdivisions: in
     runs = []
     for depth in depths:
         start = time.perf_counter()
-        (shell,) = offset_shells(vertices, faces, [depth])
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            (shell,) = offset_shells(vertices, faces, [depth])
         robust_s = time.perf_counter() - start
+        defects = [str(w.message) for w in caught if issubclass(w.category, ShellDefectWarning)]
+        shell_mesh = trimesh.Trimesh(shell.vertices, shell.faces, process=False)
+        valid = {
+            "closed": bool(shell_mesh.is_watertight),
+            "oriented": bool(shell_mesh.is_winding_consistent),
+            "self_intersections": len(intersecting_pairs(shell.vertices, shell.faces)),
+            "defect_warnings": defects,
+            "peak_rss_gb_so_far": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
+        }
         half_width = float(np.ceil(depth / voxel_mm) + 2)
         start = time.perf_counter()
         grid = vdb.FloatGrid.createLevelSetFromPolygons(
@@ -150,11 +164,11 @@ def speed(size_mm: float, voxel_mm: float, depths: list[float], subdivisions: in
         )
         vdb_s = time.perf_counter() - start
         print(f"{depth:9.2f} {robust_s:9.2f} {vdb_s:10.2f} {robust_s / vdb_s:7.2f} "
-              f"{len(shell.faces):12d}   (vdb active voxels {grid.activeVoxelCount()})",
+              f"{len(shell.faces):12d}   (vdb active voxels {grid.activeVoxelCount()}) {valid}",
               flush=True)
         runs.append({"depth_mm": depth, "robust_s": robust_s, "openvdb_s": vdb_s,
                      "ratio": robust_s / vdb_s, "shell_faces": len(shell.faces),
-                     "openvdb_active_voxels": int(grid.activeVoxelCount())})
+                     "openvdb_active_voxels": int(grid.activeVoxelCount()), **valid})
     return {"mesh": f"spot, Loop x{subdivisions}", "n_faces": len(faces),
             "size_mm": size_mm, "voxel_mm": voxel_mm, "runs": runs}
 

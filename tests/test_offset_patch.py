@@ -109,3 +109,29 @@ def test_boxes_cluster_like_the_dense_overlap_graph():
         lo[np.lexsort(lo.T)], expect_lo[np.lexsort(expect_lo.T)]
     )
     assert np.all(hi > lo)
+
+
+def test_robust_offset_repairs_a_crossing_cut_without_warning(monkeypatch):
+    """A small closed component crossing the core's top face, in every union order."""
+    cut = robust._cut
+    stray = trimesh.creation.box((0.2, 0.2, 0.2))
+    stray.apply_translation([1.0, -2.0, INNER])  # straddles the top face z = INNER
+
+    def crossing_cut(*args, **kwargs):
+        vert, tri = cut(*args, **kwargs)
+        return (
+            np.concatenate([vert, stray.vertices]),
+            np.concatenate([tri, np.asarray(stray.faces) + len(vert)]),
+        )
+
+    monkeypatch.setattr(robust, "_cut", crossing_cut)
+    v, f = _box(SIZE)
+    # The defect is seen (and not simplified away) before the repair.
+    dirty_v, dirty_f = crossing_cut(
+        to_manifold(v, f).as_original(), layer_pieces(features(v, f), np.full(len(f), DEPTH)),
+        DEPTH, DEPTH, robust.LEAF,
+    )
+    assert robust._uncross(dirty_v, dirty_f, DEPTH)[3] > 0
+    # pyproject turns warnings into errors: a ShellDefectWarning fails the test.
+    [(vert, tri)] = robust.robust_offset(v, f, np.full((1, len(f)), DEPTH))
+    _assert_exact_inner_box(vert, tri)
