@@ -129,7 +129,15 @@ def build_stack(
                 compression_level=level,
             )
         )
-        vdb = VdbStackWriter(grid, sdf_half_width_mm=half_width) if config.write_vdb else None
+        vdb = (
+            VdbStackWriter(
+                grid, sdf_half_width_mm=half_width, spool_dir=out_dir, compression_level=level
+            )
+            if config.write_vdb
+            else None
+        )
+        if vdb is not None:
+            stack.callback(vdb.close)  # the leaf spools go, whatever happens
         vdb_path = stack.enter_context(atomic_path(out_dir / "volume.vdb")) if vdb else None
         bar = stack.enter_context(
             tqdm(

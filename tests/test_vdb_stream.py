@@ -1,0 +1,114 @@
+"""The streamed VDB writer against grids OpenVDB builds in memory from the same arrays.
+
+The reference is OpenVDB's own ``copyFromArray`` (plus ``signedFloodFill`` for the level
+set) and ``openvdb.write``; both files are read back with OpenVDB's reader and compared
+voxel for voxel: values (active and inactive), active states and active counts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from voxel.colour import srgb_to_linear
+from voxel.grid import GridSpec
+from voxel.openvdb_module import load_openvdb
+from voxel.vdb_writer import GRID_NAMES, VdbStackWriter, describe_grids
+
+# 150 voxels in x: two 128^3 internal nodes; y and the last leaf row are partial.
+GRID = GridSpec((-1.0, 2.0, 0.5), (0.05, 0.08, 0.03), (45, 37, 150))
+HALF_WIDTH = 0.12
+
+
+def _volumes() -> tuple[np.ndarray, ...]:
+    """An ellipsoid in three layers, colour in layer 1, a level set band at its surface."""
+    z, y, x = np.indices(GRID.shape_zyx, dtype=np.float64)
+    r = np.sqrt(((x - 75) / 70) ** 2 + ((y - 18) / 17) ** 2 + ((z - 22) / 21) ** 2)
+    layers = np.select([r < 0.45, r < 0.7, r < 1.0], [3, 2, 1], 0).astype(np.uint8)
+    rng = np.random.default_rng(7)
+    rgb = rng.integers(0, 256, (*GRID.shape_zyx, 3)).astype(np.uint8)
+    rgb[:, :, :40] = (0, 0, 0)  # black colour voxels stay active
+    rgb[layers != 1] = 0
+    coloured = layers == 1
+    sdf = np.where(np.abs(r - 1.0) < 0.1, (r - 1.0), HALF_WIDTH).astype(np.float32)
+    return layers, rgb, coloured, sdf
+
+
+def _reference(layers, rgb, coloured, sdf):
+    """Grids built by OpenVDB itself, as the in-memory writer did."""
+    vdb = load_openvdb()
+    xyz = (2, 1, 0)
+    density = vdb.FloatGrid(0.0)
+    density.copyFromArray(np.ascontiguousarray((layers > 0).transpose(xyz), np.float32))
+    layer = vdb.FloatGrid(0.0)
+    layer.copyFromArray(np.ascontiguousarray(layers.transpose(xyz), np.float32))
+    linear = srgb_to_linear(rgb)
+    linear[coloured] = np.maximum(linear[coloured], np.float32(1e-7))
+    color = vdb.Vec3SGrid((0.0, 0.0, 0.0))
+    color.copyFromArray(np.ascontiguousarray(linear.transpose(2, 1, 0, 3), np.float32))
+    level = vdb.FloatGrid(HALF_WIDTH)
+    level.copyFromArray(np.ascontiguousarray(sdf.transpose(xyz), np.float32))
+    level.signedFloodFill()
+    return dict(zip(GRID_NAMES, (density, layer, color, level), strict=True))
+
+
+def _dense(volume, channels: int) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(values (Z, Y, X[, 3]), active (Z, Y, X))`` of a grid over GRID."""
+    shape = GRID.shape_zyx[::-1] + ((3,) if channels == 3 else ())
+    values = np.zeros(shape, np.float32)
+    volume.copyToArray(values, ijk=(0, 0, 0))
+    active = np.zeros(GRID.shape_zyx[::-1], bool)
+    for item in volume.iterOnValues():  # voxels and tiles
+        lo, hi = item["min"], item["max"]
+        active[lo[0] : hi[0] + 1, lo[1] : hi[1] + 1, lo[2] : hi[2] + 1] = True
+    axes = (2, 1, 0, 3) if channels == 3 else (2, 1, 0)
+    return values.transpose(axes), active.transpose(2, 1, 0)
+
+
+@pytest.mark.parametrize("rows", [13, 8, 45])
+def test_streamed_grids_equal_openvdbs_own(tmp_path, rows):
+    vdb = load_openvdb()
+    layers, rgb, coloured, sdf = _volumes()
+    writer = VdbStackWriter(GRID, sdf_half_width_mm=HALF_WIDTH, spool_dir=tmp_path)
+    for start in range(0, GRID.shape_zyx[0], rows):
+        part = slice(start, start + rows)
+        writer.write_slab(start, layers[part], rgb[part], coloured[part], sdf[part])
+    summary = writer.write(tmp_path / "v.vdb", {"creator": "test"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v.vdb"]  # spools removed
+    grids, _ = vdb.readAll(str(tmp_path / "v.vdb"))
+    assert describe_grids(grids) == summary
+    reference = _reference(layers, rgb, coloured, sdf)
+    for volume in grids:
+        ref = reference[volume.name]
+        assert volume.activeVoxelCount() == ref.activeVoxelCount()
+        assert volume.background == pytest.approx(ref.background)
+        assert volume["creator"] == "test"
+        channels = 3 if volume.valueTypeName == "vec3s" else 1
+        got, got_on = _dense(volume, channels)
+        want, want_on = _dense(ref, channels)
+        np.testing.assert_array_equal(got, want, err_msg=volume.name)
+        np.testing.assert_array_equal(got_on, want_on, err_msg=volume.name)
+        np.testing.assert_allclose(volume.transform.voxelSize(), GRID.voxel_mm)
+        np.testing.assert_allclose(
+            volume.transform.indexToWorld((149, 36, 44)),
+            GRID.index_to_world([[44, 36, 149]])[0],
+        )
+    by_name = {volume.name: volume for volume in grids}
+    assert by_name["sdf"]["class"] == "level set"
+    assert by_name["density"]["class"] == "fog volume"
+    assert by_name["color"]["vector_type"] == "invariant"
+    # The core is stored as tiles, not leaves (what keeps the files and memory small).
+    touched = len(np.unique(np.argwhere(layers > 0) // 8, axis=0))  # 8^3 blocks inside
+    assert by_name["density"].leafCount() < touched
+    assert by_name["density"].leafCount() <= reference["density"].leafCount()
+
+
+def test_streamed_writer_rejects_gaps_and_missing_rows(tmp_path):
+    layers, rgb, coloured, sdf = _volumes()
+    writer = VdbStackWriter(GRID, sdf_half_width_mm=HALF_WIDTH, spool_dir=tmp_path)
+    writer.write_slab(0, layers[:8], rgb[:8], coloured[:8], sdf[:8])
+    with pytest.raises(ValueError, match="expected row 8, got 9"):
+        writer.write_slab(9, layers[9:], rgb[9:], coloured[9:], sdf[9:])
+    with pytest.raises(ValueError, match="only 8 of 45 rows"):
+        writer.write(tmp_path / "v.vdb")
+    assert list(tmp_path.iterdir()) == []
