@@ -61,8 +61,9 @@ _MASK_AND_NO_INACTIVE_VALS = 3
 LEAF = 8  # leaf edge, voxels (log2 3)
 _L1 = 128  # 16 leaves (log2 4)
 _L2 = 4096  # 32 level-1 nodes (log2 5)
-#: Bytes of one spooled leaf gathered at a time when copying buffers in tree order.
-_COPY_BYTES = 1 << 25
+#: Spooled bytes gathered at a time when copying leaf buffers in tree order (the byte
+#: index of a batch takes 16 times this).
+_COPY_BYTES = 1 << 22
 
 
 @dataclass
@@ -465,7 +466,8 @@ class _Tree:
         roots = np.unique(nodes2, axis=0)
         roots = roots[np.lexsort(roots.T[::-1])]  # root table: Coord order (x, y, z)
         out.write(struct.pack("<ii", 0, len(roots)))  # no root tiles
-        heads = self._leaf_masks(spool)
+        spool.stream.flush()
+        data = np.memmap(spool.stream.name, dtype=np.uint8, mode="r") if spool.size else None
         leaf_start = np.searchsorted(_order_key(self.origin), _order_key(nodes1), side="left")
         leaf_stop = np.searchsorted(_order_key(self.origin), _order_key(nodes1 + _L1 - 1),
                                     side="right")
@@ -482,7 +484,8 @@ class _Tree:
             for n in in_root:
                 leaves = slice(leaf_start[n], leaf_stop[n])
                 self._write_node1(out, spool, nodes1[n], leaves, tiles_by_node.get(n))
-                out.write(heads[leaves].tobytes())  # LeafNode::writeTopology: value masks
+                if data is not None:  # LeafNode::writeTopology: the value masks
+                    out.write(np.asarray(data[self.offset[leaves, None] + np.arange(64)]).tobytes())
 
     def _write_node1(
         self, out: IO[bytes], spool: _GridSpool, node: NDArray[np.int32], leaves: slice,
@@ -507,14 +510,6 @@ class _Tree:
         else:
             out.write(bytes([_NO_MASK_OR_INACTIVE_VALS]))
         out.write(_zipped(np.ascontiguousarray(values[value_on], dtype="<f4").tobytes(), 6))
-
-    def _leaf_masks(self, spool: _GridSpool) -> NDArray[np.uint8]:
-        """Return every leaf's value mask ``(L, 64)`` uint8, read back from the spool."""
-        spool.stream.flush()
-        if len(self.offset) == 0:
-            return np.zeros((0, 64), np.uint8)
-        data = np.memmap(spool.stream.name, dtype=np.uint8, mode="r")
-        return np.asarray(data[self.offset[:, None] + np.arange(64)])
 
     def write_buffers(self, out: IO[bytes], spool: _GridSpool) -> None:
         """Tree::writeBuffers: every leaf's buffer, in tree order, from the spool."""
