@@ -27,12 +27,13 @@ from pipeline.build_config import BuildConfig
 from pipeline.config import as_json
 from pipeline.errors import ShellvoxWarning
 from pipeline.mesh import ColouredMesh
+from pipeline.slab_runner import SlabRunner, resolve_workers
 from voxel.agreement import shell_agreement
 from voxel.atomic import atomic_path
 from voxel.grid import GridSpec
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
-from voxel.slab import StackModel, aligned_rows, compute_slab
+from voxel.slab import StackModel, aligned_rows
 from voxel.tiff_writer import TiffStackWriter
 from voxel.vdb_writer import VdbStackWriter
 
@@ -102,6 +103,10 @@ def build_stack(
         )
         n_z = grid.shape_zyx[0]
         rows = slab_rows_for(grid, config.slab_mb, aligned_rows(model, grid))
+        # Before any writer thread or progress bar starts: the workers are forked.
+        slabs = stack.enter_context(
+            SlabRunner(model, grid, rows, resolve_workers(config.workers))
+        )
         sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / rows))
         counts = np.zeros(model.n_bands + 2, dtype=np.int64)
         diagnostics = {
@@ -110,7 +115,6 @@ def build_stack(
             "nearest_queries": 0,
             "block_queries": 0,
         }
-        slab_seconds = 0.0
         manifest_path = stack.enter_context(atomic_path(out_dir / "manifest.json"))
         samples = 4 if config.alpha else 3
         level = config.compression_level
@@ -147,9 +151,8 @@ def build_stack(
                 disable=None if progress is None else not progress,
             )
         )
-        for z_start in range(0, n_z, rows):
-            tick = time.perf_counter()
-            slab = compute_slab(model, grid, z_start, min(n_z, z_start + rows))
+        tick = time.perf_counter()
+        for slab in slabs:
             counts += np.bincount(slab.layers.ravel(), minlength=len(counts))[: len(counts)]
             sampler.add(slab.z_start, slab.layers)
             diagnostics["unbalanced_rows"] += slab.n_unbalanced_rows
@@ -162,12 +165,12 @@ def build_stack(
                 coloured = np.isin(slab.layers, np.asarray(config.colour_layers, np.uint8))
                 sdf = np.where(slab.sdf_band, slab.sdf, np.float32(half_width))
                 vdb.write_slab(
-                    z_start, slab.layers, slab.rgba[..., :3], coloured, sdf.astype(np.float32)
+                    slab.z_start, slab.layers, slab.rgba[..., :3], coloured,
+                    sdf.astype(np.float32),
                 )
-            slab_seconds += time.perf_counter() - tick
             bar.update(slab.z_stop - slab.z_start)
         bar.close()
-        seconds["slabs"] = slab_seconds
+        seconds["slabs"] = time.perf_counter() - tick
         tick = time.perf_counter()
         layers_tif.close()
         colour_tif.close()

@@ -36,13 +36,16 @@ class BuildConfig:
     sdf_half_width_voxels : float
         Half width of the ``sdf`` level set's narrow band, in largest-voxel sizes.
     slab_mb : float
-        Memory budget of one slab's working arrays; sets the slab height.
+        Memory budget of one slab's working arrays; sets the slab height. Each worker
+        holds about one slab at a time.
+    workers : int
+        Processes computing slabs at once (0: one per core; 1: in the calling process).
     alpha : bool
         Write ``colour.tif`` as RGBA instead of RGB.
     compression_level : int
         zlib level of the TIFFs (1 fast .. 9 small).
     write_vdb : bool
-        Write ``volume.vdb`` (its grids are held in memory until the end).
+        Write ``volume.vdb`` (streamed like the TIFFs; see :mod:`voxel.vdb_writer`).
     """
 
     voxel_mm: tuple[float, float, float]
@@ -55,6 +58,7 @@ class BuildConfig:
     margin_mm: float = 0.5
     sdf_half_width_voxels: float = 3.0
     slab_mb: float = 512.0
+    workers: int = 0
     alpha: bool = False
     compression_level: int = 6
     write_vdb: bool = True
@@ -74,6 +78,8 @@ class BuildConfig:
             )
         if self.layer_rule not in ("distance", "shells"):
             raise ValueError(f"layer_rule must be 'distance' or 'shells', got {self.layer_rule!r}")
+        if self.workers < 0:
+            raise ValueError(f"workers must be >= 0 (0: one per core), got {self.workers}")
         if not 1 <= self.compression_level <= 9:
             raise ValueError(f"compression_level must be 1..9, got {self.compression_level}")
 

@@ -93,18 +93,44 @@ def test_vdb_matches_manifest(built):
         assert grid["voxel_size_mm"] == pytest.approx(manifest["grid"]["voxel_size_mm"])
 
 
-def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch):
-    import pipeline.build as build
+@pytest.mark.parametrize("workers", [1, 2])
+def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch, workers):
+    import pipeline.slab_runner as slab_runner
 
     def boom(*args, **kwargs):
         raise RuntimeError("slab failed")
 
-    monkeypatch.setattr(build, "compute_slab", boom)
-    config = BuildConfig(voxel_mm=(0.2, 0.2, 0.2), thickness_mm=(0.5,))
+    monkeypatch.setattr(slab_runner, "compute_slab", boom)  # forked workers inherit it
+    config = BuildConfig(
+        voxel_mm=(0.2, 0.2, 0.2), thickness_mm=(0.5,), slab_mb=0.5, workers=workers
+    )
     with pytest.raises(RuntimeError, match="slab failed"):
         build_stack(_ball(), config, tmp_path, progress=False)
     left = [p for p in tmp_path.rglob("*") if p.is_file()]
     assert left == []
+
+
+def test_worker_processes_give_the_same_stack(tmp_path):
+    """Slabs are a pure function: computed in 3 forked workers or here, same bytes."""
+    outputs = {}
+    for workers in (1, 3):
+        config = BuildConfig(
+            voxel_mm=(0.1, 0.15, 0.08), thickness_mm=(0.4, 0.6), slab_mb=1.0,
+            shell_meshes=False, workers=workers,
+        )
+        out = tmp_path / str(workers)
+        manifest = build_stack(_ball(), config, out, progress=False)
+        assert manifest["slab_rows"] * 4 < manifest["grid"]["shape_zyx"][0]  # many slabs
+        outputs[workers] = (
+            tifffile.imread(out / "layers.tif"),
+            tifffile.imread(out / "colour.tif"),
+            manifest["voxel_counts"],
+            manifest["vdb"],
+        )
+    serial, parallel = outputs[1], outputs[3]
+    np.testing.assert_array_equal(serial[0], parallel[0])
+    np.testing.assert_array_equal(serial[1], parallel[1])
+    assert serial[2:] == parallel[2:]
 
 
 def test_distance_layers_agree_with_the_shells(built):

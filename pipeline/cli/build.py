@@ -64,7 +64,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--slab-mb", type=float, default=512.0, help="working memory per slab (default 512)"
     )
     parser.add_argument(
-        "--compression-level", type=int, default=6, help="TIFF zlib level 1..9 (default 6)"
+        "--compression-level", type=int, default=6,
+        help="zlib level of the TIFF and VDB data, 1..9 (default 6)",
+    )
+    parser.add_argument(
+        "--workers", type=int, default=0,
+        help="processes computing slabs (default 0: one per core)",
     )
     parser.add_argument(
         "--progress",
@@ -97,11 +102,11 @@ def config_from_args(args: argparse.Namespace) -> BuildConfig:
             f"expected layer numbers in 1..{len(thickness) + 1}, got {args.colour_layers!r}",
             "pass e.g. --colour-layers 1",
         )
-    if not 1 <= args.compression_level <= 9 or not args.slab_mb > 0:
+    if not 1 <= args.compression_level <= 9 or not args.slab_mb > 0 or args.workers < 0:
         raise InputError(
-            "--compression-level/--slab-mb",
-            f"got {args.compression_level} and {args.slab_mb}",
-            "use a level in 1..9 and a positive slab size",
+            "--compression-level/--slab-mb/--workers",
+            f"got {args.compression_level}, {args.slab_mb} and {args.workers}",
+            "use a level in 1..9, a positive slab size and 0 or more workers",
         )
     return BuildConfig(
         voxel_mm=voxel,
@@ -115,6 +120,7 @@ def config_from_args(args: argparse.Namespace) -> BuildConfig:
         write_vdb=not args.no_vdb,
         slab_mb=args.slab_mb,
         compression_level=args.compression_level,
+        workers=args.workers,
     )
 
 

@@ -1,0 +1,90 @@
+"""Run :func:`voxel.slab.compute_slab` over the Z slabs, in order, here or in worker processes.
+
+Slabs are a pure function of (model, grid, rows), so they can be computed anywhere; the
+caller writes them in z order as they come back. With ``workers > 1`` the slabs run in
+forked processes (the model, with its AABB tree and texture, is inherited, not pickled)
+and at most ``workers + 1`` finished or running slabs exist at a time, so memory stays
+bounded by the slab size times the number of workers.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import multiprocessing
+import os
+from collections.abc import Iterator
+from multiprocessing.pool import AsyncResult
+
+from voxel.grid import GridSpec
+from voxel.slab import SlabResult, StackModel, compute_slab
+
+_WORKER: tuple[StackModel, GridSpec] | None = None
+
+
+def resolve_workers(workers: int) -> int:
+    """Return the number of slab processes: `workers`, or one per core when it is 0.
+
+    Forked workers are only used where ``fork`` is available (Linux); elsewhere 1.
+    """
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return 1
+    return workers if workers > 0 else max(1, len(os.sched_getaffinity(0)))
+
+
+class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
+    """Compute the slabs of a grid, in z order.
+
+    Create it before any threads start (writers, progress bars): workers are forked.
+
+    Parameters
+    ----------
+    model : StackModel
+    grid : GridSpec
+    rows : int
+        Rows per slab.
+    workers : int
+        Processes computing slabs (1: in this process).
+    """
+
+    def __init__(self, model: StackModel, grid: GridSpec, rows: int, workers: int) -> None:
+        self.model, self.grid, self.rows = model, grid, rows
+        n_slabs = -(-grid.shape_zyx[0] // rows)
+        self.workers = max(1, min(workers, n_slabs))
+        self._pool = None
+        if self.workers > 1:
+            global _WORKER
+            _WORKER = (model, grid)  # inherited by the forked workers
+            self._pool = multiprocessing.get_context("fork").Pool(self.workers)
+
+    def __exit__(self, *exc: object) -> None:
+        global _WORKER
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            _WORKER = None
+
+    def __iter__(self) -> Iterator[SlabResult]:
+        n_z = self.grid.shape_zyx[0]
+        ranges = iter([(z, min(n_z, z + self.rows)) for z in range(0, n_z, self.rows)])
+        if self._pool is None:
+            for z_start, z_stop in ranges:
+                yield compute_slab(self.model, self.grid, z_start, z_stop)
+            return
+        pending: collections.deque[AsyncResult[SlabResult]] = collections.deque()
+        for _ in range(self.workers + 1):
+            job = next(ranges, None)
+            if job is not None:
+                pending.append(self._pool.apply_async(_worker_slab, job))
+        while pending:
+            result = pending.popleft().get()
+            job = next(ranges, None)
+            if job is not None:
+                pending.append(self._pool.apply_async(_worker_slab, job))
+            yield result
+
+
+def _worker_slab(z_start: int, z_stop: int) -> SlabResult:
+    assert _WORKER is not None, "slab workers must be forked by SlabRunner"
+    model, grid = _WORKER
+    return compute_slab(model, grid, z_start, z_stop)
