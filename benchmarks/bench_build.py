@@ -18,12 +18,15 @@ same mesh on the same (anisotropic) grid, as a ratio.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import json
+import os
 import resource
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -188,10 +191,52 @@ def accuracy(args: argparse.Namespace) -> dict[str, object]:
     }
 
 
+class _TreeRss:
+    """Sample the summed RSS of this process and all its descendants (Linux /proc).
+
+    Slab workers are separate processes, so ``ru_maxrss`` of the build process alone
+    would understate the build's memory.
+    """
+
+    def __init__(self, interval_s: float = 0.05) -> None:
+        self.peak_kb = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, args=(interval_s,), daemon=True)
+
+    def __enter__(self) -> _TreeRss:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+
+    def _run(self, interval_s: float) -> None:
+        while not self._stop.wait(interval_s):
+            self.peak_kb = max(self.peak_kb, sum(_rss_kb(pid) for pid in _tree(os.getpid())))
+
+
+def _tree(pid: int) -> list[int]:
+    found = [pid]
+    for task in Path(f"/proc/{pid}/task").glob("*/children"):
+        with contextlib.suppress(OSError):
+            for child in task.read_text().split():
+                found += _tree(int(child))
+    return found
+
+
+def _rss_kb(pid: int) -> int:
+    with contextlib.suppress(OSError):
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    return 0
+
+
 def _child_build(args: argparse.Namespace) -> dict[str, object]:
     mesh = scaled_model(args.model, args.size_mm, stretch_z=args.stretch_z)
     config = _config(args)
-    with tempfile.TemporaryDirectory() as out:
+    with tempfile.TemporaryDirectory() as out, _TreeRss() as tree:
         started = time.perf_counter()
         manifest = build_stack(mesh, config, Path(out), progress=False)
         seconds = time.perf_counter() - started
@@ -200,9 +245,11 @@ def _child_build(args: argparse.Namespace) -> dict[str, object]:
         "stretch_z": args.stretch_z,
         "grid_zyx": manifest["grid"]["shape_zyx"],
         "slab_rows": manifest["slab_rows"],
+        "workers": config.workers,
         "seconds": round(seconds, 1),
         "shell_seconds": round(manifest["seconds"].get("shells", 0.0), 1),
-        "peak_rss_mb": round(peak_kb / 1024, 1),
+        "peak_rss_mb": round(max(peak_kb, tree.peak_kb) / 1024, 1),
+        "peak_rss_main_process_mb": round(peak_kb / 1024, 1),
     }
 
 
@@ -223,6 +270,8 @@ def memory(args: argparse.Namespace) -> dict[str, object]:
             "--layers",
             args.layers,
             "--shell-meshes" if args.shell_meshes else "--no-shell-meshes",
+            "--workers",
+            str(args.workers),
         ] + (["--no-vdb"] if args.no_vdb else [])
         result = subprocess.run(command, check=True, capture_output=True, text=True)
         runs.append(json.loads(result.stdout.strip().splitlines()[-1]))
@@ -245,7 +294,7 @@ def speed(args: argparse.Namespace) -> dict[str, object]:
     )
     vdb_seconds = time.perf_counter() - started
     config = _config(args)
-    with tempfile.TemporaryDirectory() as out:
+    with tempfile.TemporaryDirectory() as out, _TreeRss() as tree:
         started = time.perf_counter()
         manifest = build_stack(mesh, config, Path(out), progress=args.progress)
         build_seconds = time.perf_counter() - started
@@ -265,7 +314,10 @@ def speed(args: argparse.Namespace) -> dict[str, object]:
         "shell_agreement": manifest.get("shell_agreement"),
         "voxel_counts": manifest["voxel_counts"],
         "file_bytes": sizes,
-        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "workers": config.workers,
+        "peak_rss_mb": round(
+            max(tree.peak_kb, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) / 1024, 1
+        ),
         "openvdb_mesh_to_level_set_seconds": round(vdb_seconds, 2),
         "openvdb_active_voxels": int(level_set.activeVoxelCount()),
         "ratio": round(build_seconds / vdb_seconds, 2),
@@ -280,6 +332,7 @@ def _config(args: argparse.Namespace) -> BuildConfig:
         write_vdb=not args.no_vdb,
         layer_rule=args.layers,
         shell_meshes=args.shell_meshes or args.layers == "shells",
+        workers=args.workers,
     )
 
 
@@ -292,6 +345,7 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=20000, help="voxels sampled per layer")
     parser.add_argument("--slab-mb", type=float, default=512.0)
     parser.add_argument("--no-vdb", action="store_true")
+    parser.add_argument("--workers", type=int, default=0, help="slab processes (0: per core)")
     parser.add_argument("--layers", choices=("distance", "shells"), default="distance")
     parser.add_argument("--shell-meshes", action=argparse.BooleanOptionalAction, default=True)
     parser.add_argument("--out", help="keep the build here")
