@@ -135,8 +135,6 @@ class VdbStackWriter:
                        open(os.path.join(self._dir.name, name), "w+b"))  # noqa: SIM115
             for name, (value_type, grid_class, background) in zip(GRID_NAMES, kinds, strict=True)
         ]
-        n_y, n_x = grid.shape_zyx[1:]
-        self._pad_yx = (-n_y % LEAF, -n_x % LEAF)
         self._pending: list[tuple[NDArray[Any], ...]] = []  # rows of an unfinished leaf row
         self._next_z = 0
 
@@ -193,13 +191,20 @@ class VdbStackWriter:
     ) -> None:
         """Cut rows ``z0 .. z0 + 8`` (fewer at the top) into leaves of every grid."""
         inside = layers > 0
-        if not inside.any() and not np.any(sdf < self._half_width):
+        # Only the columns holding non-background voxels, from a multiple of 8 on.
+        content = inside | (sdf < self._half_width)
+        ys = np.flatnonzero(content.any(axis=(0, 2)))
+        if len(ys) == 0:
             return
+        xs = np.flatnonzero(content.any(axis=(0, 1)))
+        y0, x0 = int(ys[0]) // LEAF * LEAF, int(xs[0]) // LEAF * LEAF
+        box = (slice(None), slice(y0, int(ys[-1]) + 1), slice(x0, int(xs[-1]) + 1))
+        layers, rgb, coloured, sdf = layers[box], rgb[box], coloured[box], sdf[box]
+        inside = inside[box]
         linear = srgb_to_linear(rgb)
         # black colour voxels stay active in the sparse grid (its background is 0)
         linear[coloured] = np.maximum(linear[coloured], np.float32(1e-7))
         hw = self._half_width
-        pad_z = LEAF - len(layers)
         in_band = sdf < hw
         sdf_value = np.where(in_band, sdf, np.where(inside, -hw, hw)).astype(np.float32)
         volumes = (
@@ -210,36 +215,11 @@ class VdbStackWriter:
         )
         for spool, (values, active, solid) in zip(self._spools, volumes, strict=True):
             bg = np.float32(spool.background)
-            value_leaves, origin = self._leaves(values, z0, pad_z, bg)
-            active_leaves = self._leaves(active, z0, pad_z, False)[0]
-            solid_leaves = None if solid is None else self._leaves(solid, z0, pad_z, False)[0]
+            corner = (x0, y0, z0)
+            value_leaves, origin = _leaves(values, corner, bg)
+            active_leaves = _leaves(active, corner, False)[0]
+            solid_leaves = None if solid is None else _leaves(solid, corner, False)[0]
             self._add(spool, origin, value_leaves, active_leaves, solid_leaves)
-
-    def _leaves(
-        self, volume: NDArray[Any], z0: int, pad_z: int, fill: Any
-    ) -> tuple[NDArray[Any], NDArray[np.int32]]:
-        """Return ``(n, 512[, 3])`` leaf values in OpenVDB's ``x << 6 | y << 3 | z`` order.
-
-        The rows are padded to whole leaves with `fill`; origins ``(n, 3)`` int32 are
-        ``(x, y, z)`` index coordinates of each leaf's first voxel.
-        """
-        pad_y, pad_x = self._pad_yx
-        pads = [(0, pad_z), (0, pad_y), (0, pad_x)] + [(0, 0)] * (volume.ndim - 3)
-        if pad_z or pad_y or pad_x:
-            volume = np.pad(volume, pads, constant_values=fill)
-        _, n_y, n_x = volume.shape[:3]
-        extra = volume.shape[3:]
-        blocks = volume.reshape(LEAF, n_y // LEAF, LEAF, n_x // LEAF, LEAF, *extra)
-        axes = (3, 1, 4, 2, 0, *range(5, 5 + len(extra)))
-        leaves = blocks.transpose(axes).reshape(-1, LEAF**3, *extra)
-        b_x, b_y = np.meshgrid(
-            np.arange(n_x // LEAF, dtype=np.int32), np.arange(n_y // LEAF, dtype=np.int32),
-            indexing="ij",
-        )
-        origin = np.stack(
-            [b_x.ravel() * LEAF, b_y.ravel() * LEAF, np.full(b_x.size, z0, np.int32)], axis=1
-        )
-        return leaves, origin.astype(np.int32)
 
     def _add(
         self,
@@ -394,6 +374,43 @@ def describe_grids(grids: Any) -> dict[str, Any]:
         }
         for volume in grids
     }
+
+
+def _leaves(
+    volume: NDArray[Any], corner: tuple[int, int, int], fill: Any
+) -> tuple[NDArray[Any], NDArray[np.int32]]:
+    """Return ``(n, 512[, 3])`` leaf values in OpenVDB's ``x << 6 | y << 3 | z`` order.
+
+    Parameters
+    ----------
+    volume : (Zs <= 8, Ys, Xs[, 3])
+        Rows starting at index `corner` ``(x, y, z)``, each a multiple of 8; padded to
+        whole leaves with `fill`.
+
+    Returns
+    -------
+    leaves : (n, 512[, 3])
+    origins : (n, 3) int32
+        ``(x, y, z)`` index coordinates of each leaf's first voxel.
+    """
+    pads = [(0, -n % LEAF) for n in volume.shape[:3]] + [(0, 0)] * (volume.ndim - 3)
+    if any(after for _, after in pads):
+        volume = np.pad(volume, pads, constant_values=fill)
+    _, n_y, n_x = volume.shape[:3]
+    extra = volume.shape[3:]
+    blocks = volume.reshape(LEAF, n_y // LEAF, LEAF, n_x // LEAF, LEAF, *extra)
+    axes = (3, 1, 4, 2, 0, *range(5, 5 + len(extra)))
+    leaves = blocks.transpose(axes).reshape(-1, LEAF**3, *extra)
+    b_x, b_y = np.meshgrid(
+        np.arange(n_x // LEAF, dtype=np.int32), np.arange(n_y // LEAF, dtype=np.int32),
+        indexing="ij",
+    )
+    x0, y0, z0 = corner
+    origin = np.stack(
+        [x0 + b_x.ravel() * LEAF, y0 + b_y.ravel() * LEAF, np.full(b_x.size, z0, np.int32)],
+        axis=1,
+    )
+    return leaves, origin.astype(np.int32)
 
 
 def _zipped(raw: bytes, level: int) -> bytes:
