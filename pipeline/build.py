@@ -87,9 +87,6 @@ def build_stack(
         pending = None
         if not by_distance:
             shells, seconds["shells"] = timed_shells(mesh.vertices, mesh.faces, thickness, config)
-        elif config.shell_meshes:  # beside the voxels, in another process
-            pool = stack.enter_context(multiprocessing.get_context("spawn").Pool(1))
-            pending = pool.apply_async(timed_shells, (mesh.vertices, mesh.faces, thickness, config))
         model = StackModel(
             surfaces=(
                 (mesh.vertices, mesh.faces),
@@ -103,10 +100,14 @@ def build_stack(
         )
         n_z = grid.shape_zyx[0]
         rows = slab_rows_for(grid, config.slab_mb, aligned_rows(model, grid))
-        # Before any writer thread or progress bar starts: the workers are forked.
+        # Before any other thread (shell pool, writers, progress bar) starts: the slab
+        # workers are forked.
         slabs = stack.enter_context(
             SlabRunner(model, grid, rows, resolve_workers(config.workers))
         )
+        if by_distance and config.shell_meshes:  # beside the voxels, in another process
+            pool = stack.enter_context(multiprocessing.get_context("spawn").Pool(1))
+            pending = pool.apply_async(timed_shells, (mesh.vertices, mesh.faces, thickness, config))
         sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / rows))
         counts = np.zeros(model.n_bands + 2, dtype=np.int64)
         diagnostics = {
