@@ -164,11 +164,7 @@ def build_stack(
             colour_tif.write_slab(slab.rgba[..., :samples])
             if vdb is not None:
                 coloured = np.isin(slab.layers, np.asarray(config.colour_layers, np.uint8))
-                sdf = np.where(slab.sdf_band, slab.sdf, np.float32(half_width))
-                vdb.write_slab(
-                    slab.z_start, slab.layers, slab.rgba[..., :3], coloured,
-                    sdf.astype(np.float32),
-                )
+                vdb.write_slab(slab.z_start, slab.layers, slab.rgba[..., :3], coloured, slab.sdf)
             bar.update(slab.z_stop - slab.z_start)
         bar.close()
         seconds["slabs"] = time.perf_counter() - tick

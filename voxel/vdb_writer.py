@@ -160,7 +160,8 @@ class VdbStackWriter:
         coloured : (Zs, Y, X) bool
             Voxels of the colour layers: active in ``color`` even where black.
         sdf : (Zs, Y, X) float32, mm
-            Signed distance, equal to the half width outside the narrow band.
+            Signed distance in the narrow band (``abs(sdf) < half width``); plus or
+            minus the half width elsewhere (the sign is taken from `layers`).
         """
         if z_start != self._next_z:
             raise ValueError(f"slabs must arrive in order: expected row {self._next_z}, "
@@ -175,7 +176,10 @@ class VdbStackWriter:
             ready = held
         if ready <= 0:
             return
-        parts = [np.concatenate(arrays) for arrays in zip(*self._pending, strict=True)]
+        parts = (
+            list(self._pending[0]) if len(self._pending) == 1
+            else [np.concatenate(arrays) for arrays in zip(*self._pending, strict=True)]
+        )
         for z0 in range(0, ready, LEAF):
             rows = slice(z0, min(ready, z0 + LEAF))
             self._leaf_row(first + z0, *(part[rows] for part in parts))
@@ -189,83 +193,109 @@ class VdbStackWriter:
         coloured: NDArray[np.bool_],
         sdf: NDArray[np.float32],
     ) -> None:
-        """Cut rows ``z0 .. z0 + 8`` (fewer at the top) into leaves of every grid."""
+        """Cut rows ``z0 .. z0 + 8`` (fewer at the top) into leaves and tiles of every grid.
+
+        Blocks are classified from reductions over the rows and then over 8 x 8 columns;
+        only the blocks that become leaves are gathered, reordered and converted.
+        """
+        hw = self._half_width
         inside = layers > 0
+        in_band = np.abs(sdf) < hw
         # Only the columns holding non-background voxels, from a multiple of 8 on.
-        content = inside | (sdf < self._half_width)
-        ys = np.flatnonzero(content.any(axis=(0, 2)))
+        content = (inside | in_band).any(axis=0)
+        ys = np.flatnonzero(content.any(axis=1))
         if len(ys) == 0:
             return
-        xs = np.flatnonzero(content.any(axis=(0, 1)))
+        xs = np.flatnonzero(content.any(axis=0))
+        n_y, n_x = content.shape
         y0, x0 = int(ys[0]) // LEAF * LEAF, int(xs[0]) // LEAF * LEAF
-        box = (slice(None), slice(y0, int(ys[-1]) + 1), slice(x0, int(xs[-1]) + 1))
-        layers, rgb, coloured, sdf = layers[box], rgb[box], coloured[box], sdf[box]
-        inside = inside[box]
-        linear = srgb_to_linear(rgb)
-        # black colour voxels stay active in the sparse grid (its background is 0)
-        linear[coloured] = np.maximum(linear[coloured], np.float32(1e-7))
-        hw = self._half_width
-        in_band = sdf < hw
-        sdf_value = np.where(in_band, sdf, np.where(inside, -hw, hw)).astype(np.float32)
-        volumes = (
-            (inside.astype(np.float32), inside, None),
-            (layers.astype(np.float32), inside, None),
-            (linear, coloured, None),
-            (sdf_value, in_band, inside),
-        )
-        for spool, (values, active, solid) in zip(self._spools, volumes, strict=True):
-            bg = np.float32(spool.background)
-            corner = (x0, y0, z0)
-            value_leaves, origin = _leaves(values, corner, bg)
-            active_leaves = _leaves(active, corner, False)[0]
-            solid_leaves = None if solid is None else _leaves(solid, corner, False)[0]
-            self._add(spool, origin, value_leaves, active_leaves, solid_leaves)
+        y1 = min(n_y, -(-(int(ys[-1]) + 1) // LEAF) * LEAF)
+        x1 = min(n_x, -(-(int(xs[-1]) + 1) // LEAF) * LEAF)
+        box = (slice(None), slice(y0, y1), slice(x0, x1))
+        blocks = _Blocks((x0, y0, z0))
+        layers = blocks.pad(layers[box], 0)
+        rgb = blocks.pad(rgb[box], 0)
+        coloured = blocks.pad(coloured[box], False)
+        sdf = blocks.pad(sdf[box], hw)
+        inside, in_band = blocks.pad(inside[box], False), blocks.pad(in_band[box], False)
+        any_in, all_in = blocks.any(inside), blocks.all(inside)
+        any_band = blocks.any(in_band)
+        low, high = blocks.reduce(layers, np.min), blocks.reduce(layers, np.max)
+        density, layer, color, level = self._spools
+        # density and layer: the core's constant blocks are active tiles.
+        self._tiles(density, blocks, all_in, np.ones(all_in.shape, np.float32), True)
+        self._leaves(density, blocks, any_in & ~all_in, inside, inside)
+        tile = all_in & (low == high)
+        self._tiles(layer, blocks, tile, low.astype(np.float32), True)
+        self._leaves(layer, blocks, any_in & ~tile, layers, inside)
+        # color: leaves wherever a colour voxel is; black ones stay active (background 0).
+        leaf = blocks.any(coloured)
+        linear = srgb_to_linear(blocks.gather(rgb, leaf))
+        on = blocks.gather(coloured, leaf)
+        linear[on] = np.maximum(linear[on], np.float32(1e-7))
+        self._spool(color, blocks.origins(leaf), linear, on, None)
+        # sdf: inactive values are -hw inside, +hw (the background) outside.
+        self._tiles(level, blocks, all_in & ~any_band, np.full(all_in.shape, -hw), False)
+        leaf = any_band | (any_in & ~all_in)
+        band, solid = blocks.gather(in_band, leaf), blocks.gather(inside, leaf)
+        values = np.where(band, blocks.gather(sdf, leaf), np.where(solid, -hw, hw))
+        self._spool(level, blocks.origins(leaf), values.astype(np.float32), band, solid)
 
-    def _add(
+    def _tiles(
+        self, spool: _GridSpool, blocks: _Blocks, which: NDArray[np.bool_],
+        value: NDArray[np.float32], active: bool,
+    ) -> None:
+        """Record the blocks `which` as tiles of their parent node."""
+        if not np.any(which):
+            return
+        spool.tile_origin.append(blocks.origins(which))
+        spool.tile_value.append(np.asarray(value[which], dtype=np.float32))
+        spool.tile_active.append(np.full(int(np.count_nonzero(which)), active))
+        if active:
+            spool.active_voxels += int(np.count_nonzero(which)) * LEAF**3
+
+    def _leaves(
+        self, spool: _GridSpool, blocks: _Blocks, which: NDArray[np.bool_],
+        values: NDArray[Any], active: NDArray[np.bool_],
+    ) -> None:
+        """Spool the blocks `which` of a grid whose inactive values are its background."""
+        self._spool(
+            spool, blocks.origins(which), blocks.gather(values, which).astype(np.float32),
+            blocks.gather(active, which), None,
+        )
+
+    def _spool(
         self,
         spool: _GridSpool,
         origin: NDArray[np.int32],
         values: NDArray[np.float32],
         active: NDArray[np.bool_],
-        solid: NDArray[np.bool_] | None,
+        inside: NDArray[np.bool_] | None,
     ) -> None:
-        """Classify leaves into nothing, tiles or leaf buffers; spool the buffers."""
-        n_on = active.sum(axis=1)
-        flat = values.reshape(len(values), LEAF**3, -1)
-        uniform = np.all(flat == flat[:, :1], axis=(1, 2))
-        full_tile = (n_on == LEAF**3) & uniform
-        if spool.grid_class == "level set":
-            assert solid is not None
-            inside_tile = (n_on == 0) & solid.all(axis=1)
-            empty = (n_on == 0) & ~solid.any(axis=1)
-        else:
-            inside_tile = np.zeros(len(values), dtype=bool)
-            empty = n_on == 0
-        full_tile &= spool.channels == 1  # colour blocks stay leaves (rarely uniform)
-        tile = full_tile | inside_tile
-        if np.any(tile):
-            spool.tile_origin.append(origin[tile])
-            spool.tile_value.append(
-                np.where(full_tile[tile], flat[tile, 0, 0], -np.float32(spool.background))
-                .astype(np.float32)
-            )
-            spool.tile_active.append(full_tile[tile])
-            spool.active_voxels += int(np.count_nonzero(full_tile)) * LEAF**3
-        leaf = ~(tile | empty)
-        if not np.any(leaf):
+        """Encode leaves as LeafNode::writeBuffers does and append them to the spool.
+
+        Parameters
+        ----------
+        origin : (n, 3) int32
+        values : (n, 512[, 3]) float32
+        active : (n, 512) bool
+        inside : (n, 512) bool, optional
+            Level sets: where inactive values are -background.
+        """
+        if len(origin) == 0:
             return
-        values, active, counts = values[leaf], active[leaf], n_on[leaf]
+        counts = active.sum(axis=1)
         masks = np.packbits(active, axis=1, bitorder="little")  # NodeMask<3>::save
         head = [masks, np.full((len(masks), 1), _NO_MASK_OR_INACTIVE_VALS, np.uint8)]
-        if solid is not None:
+        if inside is not None:
             # Inactive values are +background outside (selection on), -background inside.
             head[1][:] = _MASK_AND_NO_INACTIVE_VALS
-            head.append(np.packbits(~solid[leaf], axis=1, bitorder="little"))
+            head.append(np.packbits(~inside, axis=1, bitorder="little"))
         head_bytes = np.concatenate(head, axis=1)
         raw = np.ascontiguousarray(values[active], dtype="<f4").tobytes()
         bounds = np.concatenate([[0], np.cumsum(counts.astype(np.int64) * 4 * spool.channels)])
-        # io::zipToStream per leaf: zlib releases the GIL, and leaves are 512 voxels, so
-        # this loop is over blocks (tens of thousands per slab), not voxels.
+        # io::zipToStream per leaf: leaves are 512 voxels, so this loop is over blocks
+        # (surface-sized: thousands per group of rows), not voxels.
         bodies = [_zipped(raw[a:b], self._level) for a, b in itertools.pairwise(bounds)]
         body_lengths = np.fromiter((len(b) for b in bodies), np.int64, len(bodies))
         record = _interleave(head_bytes, np.frombuffer(b"".join(bodies), np.uint8), body_lengths)
@@ -273,7 +303,7 @@ class VdbStackWriter:
         offsets = spool.size + np.concatenate([[0], np.cumsum(lengths)[:-1]])
         spool.stream.write(record.tobytes())
         spool.size += int(lengths.sum())
-        spool.leaf_origin.append(origin[leaf])
+        spool.leaf_origin.append(origin)
         spool.leaf_offset.append(offsets.astype(np.int64))
         spool.leaf_length.append(lengths)
         spool.active_voxels += int(counts.sum())
@@ -376,41 +406,55 @@ def describe_grids(grids: Any) -> dict[str, Any]:
     }
 
 
-def _leaves(
-    volume: NDArray[Any], corner: tuple[int, int, int], fill: Any
-) -> tuple[NDArray[Any], NDArray[np.int32]]:
-    """Return ``(n, 512[, 3])`` leaf values in OpenVDB's ``x << 6 | y << 3 | z`` order.
+class _Blocks:
+    """8^3 blocks of a group of rows ``(8, Y, X[, 3])`` (Y, X multiples of 8) at `corner`.
 
-    Parameters
-    ----------
-    volume : (Zs <= 8, Ys, Xs[, 3])
-        Rows starting at index `corner` ``(x, y, z)``, each a multiple of 8; padded to
-        whole leaves with `fill`.
-
-    Returns
-    -------
-    leaves : (n, 512[, 3])
-    origins : (n, 3) int32
-        ``(x, y, z)`` index coordinates of each leaf's first voxel.
+    Reductions run on the blocked view ``(8, Y/8, 8, X/8, 8)`` without copies; gathered
+    leaves are in OpenVDB's voxel order ``x << 6 | y << 3 | z``.
     """
-    pads = [(0, -n % LEAF) for n in volume.shape[:3]] + [(0, 0)] * (volume.ndim - 3)
-    if any(after for _, after in pads):
-        volume = np.pad(volume, pads, constant_values=fill)
-    _, n_y, n_x = volume.shape[:3]
-    extra = volume.shape[3:]
-    blocks = volume.reshape(LEAF, n_y // LEAF, LEAF, n_x // LEAF, LEAF, *extra)
-    axes = (3, 1, 4, 2, 0, *range(5, 5 + len(extra)))
-    leaves = blocks.transpose(axes).reshape(-1, LEAF**3, *extra)
-    b_x, b_y = np.meshgrid(
-        np.arange(n_x // LEAF, dtype=np.int32), np.arange(n_y // LEAF, dtype=np.int32),
-        indexing="ij",
-    )
-    x0, y0, z0 = corner
-    origin = np.stack(
-        [x0 + b_x.ravel() * LEAF, y0 + b_y.ravel() * LEAF, np.full(b_x.size, z0, np.int32)],
-        axis=1,
-    )
-    return leaves, origin.astype(np.int32)
+
+    def __init__(self, corner: tuple[int, int, int]) -> None:
+        self.corner = corner  # (x, y, z) index of the first voxel
+
+    @staticmethod
+    def pad(volume: NDArray[Any], fill: Any) -> NDArray[Any]:
+        """Pad ``(Zs <= 8, Ys, Xs[, 3])`` to whole blocks with `fill`."""
+        pads = [(0, LEAF - volume.shape[0]), (0, -volume.shape[1] % LEAF),
+                (0, -volume.shape[2] % LEAF)] + [(0, 0)] * (volume.ndim - 3)
+        if any(after for _, after in pads):
+            return np.pad(volume, pads, constant_values=fill)
+        return volume
+
+    @staticmethod
+    def view(volume: NDArray[Any]) -> NDArray[Any]:
+        _, n_y, n_x = volume.shape[:3]
+        return volume.reshape(LEAF, n_y // LEAF, LEAF, n_x // LEAF, LEAF, *volume.shape[3:])
+
+    def reduce(self, volume: NDArray[Any], how: Any) -> NDArray[Any]:
+        """Return ``how`` over each block: ``(Y/8, X/8)`` (over the rows first, contiguous)."""
+        columns = how(volume, axis=0)
+        n_y, n_x = columns.shape
+        return np.asarray(how(columns.reshape(n_y // LEAF, LEAF, n_x // LEAF, LEAF), axis=(1, 3)))
+
+    def any(self, volume: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        return self.reduce(volume, np.any)
+
+    def all(self, volume: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        return self.reduce(volume, np.all)
+
+    def gather(self, volume: NDArray[Any], which: NDArray[np.bool_]) -> NDArray[Any]:
+        """Return the blocks `which` ``(Y/8, X/8)`` as leaves ``(n, 512[, 3])``."""
+        b_y, b_x = np.nonzero(which)
+        picked = self.view(volume)[:, b_y, :, b_x, :]  # (n, 8 z, 8 y, 8 x[, 3])
+        axes = (0, 3, 2, 1, *range(4, picked.ndim))
+        return picked.transpose(axes).reshape(len(b_y), LEAF**3, *volume.shape[3:])
+
+    def origins(self, which: NDArray[np.bool_]) -> NDArray[np.int32]:
+        """Return ``(n, 3)`` int32 index coordinates ``(x, y, z)`` of the blocks `which`."""
+        b_y, b_x = np.nonzero(which)
+        x0, y0, z0 = self.corner
+        origin = np.stack([x0 + b_x * LEAF, y0 + b_y * LEAF, np.full(len(b_y), z0)], axis=1)
+        return np.asarray(origin, dtype=np.int32)
 
 
 def _zipped(raw: bytes, level: int) -> bytes:
