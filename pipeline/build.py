@@ -135,9 +135,7 @@ def build_stack(
             )
         )
         vdb = (
-            VdbStackWriter(
-                grid, sdf_half_width_mm=half_width, spool_dir=out_dir, compression_level=level
-            )
+            VdbStackWriter(grid, sdf_half_width_mm=half_width, spool_dir=out_dir)
             if config.write_vdb
             else None
         )

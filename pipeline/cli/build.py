@@ -65,7 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--compression-level", type=int, default=6,
-        help="zlib level of the TIFF and VDB data, 1..9 (default 6)",
+        help="zlib level of the TIFFs, 1..9 (default 6)",
     )
     parser.add_argument(
         "--workers", type=int, default=0,
