@@ -150,6 +150,8 @@ def build_stack(
                 disable=None if progress is None else not progress,
             )
         )
+        is_colour_layer = np.zeros(256, dtype=bool)
+        is_colour_layer[list(config.colour_layers)] = True
         tick = time.perf_counter()
         for slab in slabs:
             counts += np.bincount(slab.layers.ravel(), minlength=len(counts))[: len(counts)]
@@ -161,7 +163,7 @@ def build_stack(
             layers_tif.write_slab(slab.layers)
             colour_tif.write_slab(slab.rgba[..., :samples])
             if vdb is not None:
-                coloured = np.isin(slab.layers, np.asarray(config.colour_layers, np.uint8))
+                coloured = is_colour_layer[slab.layers]
                 vdb.write_slab(slab.z_start, slab.layers, slab.rgba[..., :3], coloured, slab.sdf)
             bar.update(slab.z_stop - slab.z_start)
         bar.close()
