@@ -29,7 +29,11 @@ def resolve_workers(workers: int) -> int:
     """
     if "fork" not in multiprocessing.get_all_start_methods():
         return 1
-    return workers if workers > 0 else max(1, len(os.sched_getaffinity(0)))
+    if workers > 0:
+        return workers
+    if hasattr(os, "sched_getaffinity"):  # the cores this process may use (Linux)
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
 
 
 class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
