@@ -33,3 +33,7 @@ class InputError(ValueError):
 
 class ShellvoxWarning(UserWarning):
     """Something was changed or assumed on the user's behalf (printed by the CLI)."""
+
+
+class SlabWorkerDied(RuntimeError):
+    """A slab worker process ended without returning its slab (e.g. out of memory)."""

@@ -2,9 +2,11 @@
 
 Slabs are a pure function of (model, grid, rows), so they can be computed anywhere; the
 caller writes them in z order as they come back. With ``workers > 1`` the slabs run in
-forked processes (the model, with its AABB tree and texture, is inherited, not pickled)
-and at most ``workers + 1`` finished or running slabs exist at a time, so memory stays
-bounded by the slab size times the number of workers.
+forked processes (the model, with its AABB tree and texture, is inherited, not pickled),
+forked once, before the caller starts any thread. ``workers`` slabs are computed while
+the caller holds one, so memory stays bounded by the slab size times ``workers + 1``. A
+worker that dies (e.g. killed for lack of memory) fails the build with a clear error
+instead of hanging it.
 """
 
 from __future__ import annotations
@@ -14,8 +16,10 @@ import contextlib
 import multiprocessing
 import os
 from collections.abc import Iterator
-from multiprocessing.pool import AsyncResult
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 
+from pipeline.errors import SlabWorkerDied
 from voxel.grid import GridSpec
 from voxel.slab import SlabResult, StackModel, compute_slab
 
@@ -39,7 +43,8 @@ def resolve_workers(workers: int) -> int:
 class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
     """Compute the slabs of a grid, in z order.
 
-    Create it before any threads start (writers, progress bars): workers are forked.
+    Create it before any threads start (writers, progress bars): the workers are forked
+    here, and never again.
 
     Parameters
     ----------
@@ -53,38 +58,45 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
 
     def __init__(self, model: StackModel, grid: GridSpec, rows: int, workers: int) -> None:
         self.model, self.grid, self.rows = model, grid, rows
-        n_slabs = -(-grid.shape_zyx[0] // rows)
-        self.workers = max(1, min(workers, n_slabs))
-        self._pool = None
+        n_z = grid.shape_zyx[0]
+        self._ranges = iter([(z, min(n_z, z + rows)) for z in range(0, n_z, rows)])
+        self.workers = max(1, min(workers, -(-n_z // rows)))
+        self._pool: ProcessPoolExecutor | None = None
+        self._pending: collections.deque[Future[SlabResult]] = collections.deque()
         if self.workers > 1:
             global _WORKER
             _WORKER = (model, grid)  # inherited by the forked workers
-            self._pool = multiprocessing.get_context("fork").Pool(self.workers)
+            self._pool = ProcessPoolExecutor(
+                self.workers, mp_context=multiprocessing.get_context("fork")
+            )
+            for _ in range(self.workers):  # forks every worker now
+                self._submit()
+
+    def _submit(self) -> None:
+        job = next(self._ranges, None)
+        if job is not None and self._pool is not None:
+            self._pending.append(self._pool.submit(_worker_slab, *job))
 
     def __exit__(self, *exc: object) -> None:
         global _WORKER
         if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
+            self._pool.shutdown(wait=True, cancel_futures=True)
             _WORKER = None
 
     def __iter__(self) -> Iterator[SlabResult]:
-        n_z = self.grid.shape_zyx[0]
-        ranges = iter([(z, min(n_z, z + self.rows)) for z in range(0, n_z, self.rows)])
         if self._pool is None:
-            for z_start, z_stop in ranges:
+            for z_start, z_stop in self._ranges:
                 yield compute_slab(self.model, self.grid, z_start, z_stop)
             return
-        pending: collections.deque[AsyncResult[SlabResult]] = collections.deque()
-        for _ in range(self.workers + 1):
-            job = next(ranges, None)
-            if job is not None:
-                pending.append(self._pool.apply_async(_worker_slab, job))
-        while pending:
-            result = pending.popleft().get()
-            job = next(ranges, None)
-            if job is not None:
-                pending.append(self._pool.apply_async(_worker_slab, job))
+        while self._pending:
+            try:
+                result = self._pending.popleft().result()
+            except BrokenProcessPool:
+                raise SlabWorkerDied(
+                    "a slab worker process died (often: out of memory); rerun with a "
+                    "smaller --slab-mb or fewer --workers"
+                ) from None
+            self._submit()
             yield result
 
 

@@ -9,6 +9,7 @@ import trimesh
 
 from pipeline.build import build_stack
 from pipeline.build_config import BuildConfig
+from pipeline.errors import SlabWorkerDied
 from pipeline.mesh import ColouredMesh
 from voxel.openvdb_module import load_openvdb
 from voxel.vdb_writer import describe_grids
@@ -108,6 +109,21 @@ def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch, workers):
         build_stack(_ball(), config, tmp_path, progress=False)
     left = [p for p in tmp_path.rglob("*") if p.is_file()]
     assert left == []
+
+
+def test_a_dead_worker_fails_the_build_instead_of_hanging(tmp_path, monkeypatch):
+    import os
+
+    import pipeline.slab_runner as slab_runner
+
+    def die(*args, **kwargs):
+        os._exit(9)  # as when the kernel kills a worker for lack of memory
+
+    monkeypatch.setattr(slab_runner, "compute_slab", die)  # only forked workers call it
+    config = BuildConfig(voxel_mm=(0.2, 0.2, 0.2), thickness_mm=(0.5,), slab_mb=0.5, workers=2)
+    with pytest.raises(SlabWorkerDied, match="smaller --slab-mb"):
+        build_stack(_ball(), config, tmp_path, progress=False)
+    assert [p for p in tmp_path.rglob("*") if p.is_file()] == []
 
 
 def test_worker_processes_give_the_same_stack(tmp_path):

@@ -49,7 +49,10 @@ def _reference(layers, rgb, coloured, sdf):
     level = vdb.FloatGrid(HALF_WIDTH)
     level.copyFromArray(np.ascontiguousarray(sdf.transpose(xyz), np.float32))
     level.signedFloodFill()
-    return dict(zip(GRID_NAMES, (density, layer, color, level), strict=True))
+    grids = dict(zip(GRID_NAMES, (density, layer, color, level), strict=True))
+    for name, volume in grids.items():
+        volume.name = name
+    return grids
 
 
 def _dense(volume, channels: int) -> tuple[np.ndarray, np.ndarray]:
@@ -93,6 +96,14 @@ def test_streamed_grids_equal_openvdbs_own(tmp_path, rows):
             volume.transform.indexToWorld((149, 36, 44)),
             GRID.index_to_world([[44, 36, 149]])[0],
         )
+    # Stats metadata as OpenVDB's own writer stores it (read without loading the trees).
+    ref_path = tmp_path / "ref.vdb"
+    vdb.write(str(ref_path), grids=list(reference.values()))
+    ours = {g.name: g for g in vdb.readAllGridMetadata(str(tmp_path / "v.vdb"))}
+    theirs = {g.name: g for g in vdb.readAllGridMetadata(str(ref_path))}
+    for name in GRID_NAMES:
+        for key in ("file_bbox_min", "file_bbox_max", "file_voxel_count"):
+            assert ours[name][key] == theirs[name][key], (name, key)
     by_name = {volume.name: volume for volume in grids}
     assert by_name["sdf"]["class"] == "level set"
     assert by_name["density"]["class"] == "fog volume"

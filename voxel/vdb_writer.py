@@ -84,6 +84,15 @@ class _GridSpool:
     tile_value: list[NDArray[np.float32]] = field(default_factory=list)
     tile_active: list[NDArray[np.bool_]] = field(default_factory=list)
     active_voxels: int = 0
+    #: (x, y, z) index bounds of the active voxels (OpenVDB's empty box until one comes).
+    bbox_min: NDArray[np.int64] = field(default_factory=lambda: np.full(3, 2**31 - 1))
+    bbox_max: NDArray[np.int64] = field(default_factory=lambda: np.full(3, -(2**31)))
+
+    def extend(self, low: NDArray[np.int64], high: NDArray[np.int64]) -> None:
+        """Grow the active bounding box by boxes ``(n, 3)`` (inclusive corners)."""
+        if len(low):
+            self.bbox_min = np.minimum(self.bbox_min, low.min(axis=0))
+            self.bbox_max = np.maximum(self.bbox_max, high.max(axis=0))
 
     @property
     def channels(self) -> int:
@@ -185,7 +194,8 @@ class VdbStackWriter:
         for z0 in range(0, ready, LEAF):
             rows = slice(z0, min(ready, z0 + LEAF))
             self._leaf_row(first + z0, *(part[rows] for part in parts))
-        self._pending = [tuple(part[ready:] for part in parts)] if ready < held else []
+        # A copy: a view of the leftover rows would keep the whole slab alive.
+        self._pending = [tuple(part[ready:].copy() for part in parts)] if ready < held else []
 
     def _leaf_row(
         self,
@@ -250,7 +260,10 @@ class VdbStackWriter:
         """Record the blocks `which` as tiles of their parent node."""
         if not np.any(which):
             return
-        spool.tile_origin.append(blocks.origins(which))
+        origin = blocks.origins(which)
+        spool.tile_origin.append(origin)
+        if active:
+            spool.extend(origin.astype(np.int64), origin.astype(np.int64) + LEAF - 1)
         spool.tile_value.append(np.asarray(value[which], dtype=np.float32))
         spool.tile_active.append(np.full(int(np.count_nonzero(which)), active))
         if active:
@@ -310,6 +323,14 @@ class VdbStackWriter:
         spool.leaf_offset.append(offsets.astype(np.int64))
         spool.leaf_length.append(lengths)
         spool.active_voxels += int(counts.sum())
+        # Active extent of each leaf from its voxel offsets x << 6 | y << 3 | z.
+        some = counts > 0
+        offset = np.arange(LEAF**3)
+        local = np.stack([offset >> 6, (offset >> 3) & 7, offset & 7], axis=1)
+        on = active[some]
+        low = np.stack([np.where(on, local[:, a], LEAF).min(axis=1) for a in range(3)], axis=1)
+        high = np.stack([np.where(on, local[:, a], -1).max(axis=1) for a in range(3)], axis=1)
+        spool.extend(origin[some].astype(np.int64) + low, origin[some].astype(np.int64) + high)
 
     # ------------------------------------------------------------------ file
     def write(self, path: Path, metadata: dict[str, str] | None = None) -> dict[str, Any]:
@@ -367,6 +388,11 @@ class VdbStackWriter:
             ("is_local_space", "bool", b"\x00"),
             ("is_saved_as_half_float", "bool", b"\x00"),
             ("name", "string", spool.name.encode()),
+            # GridBase::addStatsMetadata, as OpenVDB's writer adds (readers take the
+            # bounds from here without loading the tree).
+            ("file_bbox_min", "vec3i", struct.pack("<3i", *spool.bbox_min)),
+            ("file_bbox_max", "vec3i", struct.pack("<3i", *spool.bbox_max)),
+            ("file_voxel_count", "int64", struct.pack("<q", spool.active_voxels)),
         ]
         if spool.channels == 3:
             meta.append(("vector_type", "string", b"invariant"))

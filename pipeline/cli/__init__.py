@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from pipeline import __version__
-from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.errors import InputError, ShellvoxWarning, SlabWorkerDied
 
 COMMANDS = ("info", "shells", "build", "inspect")
 
@@ -65,6 +65,9 @@ def _run(args: argparse.Namespace) -> int:
     except InputError as error:
         print(f"shellvox: error: {error}", file=sys.stderr)
         return 2
+    except SlabWorkerDied as error:
+        print(f"shellvox: error: {error}; no partial output was kept", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("shellvox: interrupted; no partial output was kept", file=sys.stderr)
         return 130
