@@ -19,7 +19,8 @@ grid; blocks that are constant and wholly active (the core) or wholly inside the
 set without active voxels become tiles of their parent node. At the end the tree
 topology (root, 4096^3 and 128^3 internal nodes, leaf masks) is assembled from the leaf
 and tile lists, and the spooled buffers are copied in tree order. Memory is the slab plus
-28 bytes per leaf and 16 per tile.
+28 bytes per leaf and 16 per tile while streaming, and about 100 bytes per leaf of one
+grid while the tree is assembled (sorted copies and sort keys).
 
 The bytes follow OpenVDB's file format 224 (read by OpenVDB 10 and later):
 ``io::Archive::write``, ``RootNode`` / ``InternalNode`` / ``LeafNode`` ``writeTopology``
