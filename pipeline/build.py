@@ -2,18 +2,24 @@
 
 Numerics live in :mod:`offset` and :func:`voxel.slab.compute_slab`; the writers only
 serialise. Every file is written under a temporary name and renamed only when the whole
-build succeeded, ``manifest.json`` last, so a failed run leaves nothing that looks complete.
+build succeeded, ``manifest.json`` last (with every file's size and SHA-256), so a failed
+run leaves nothing that looks complete; the output folder is locked and an older build in
+it is replaced as a whole (:mod:`pipeline.outdir`). The cost is estimated, and a build
+that cannot fit refused, before anything is allocated (:mod:`pipeline.estimate`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import json
 import math
 import multiprocessing
+import os
 import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -24,21 +30,22 @@ from tqdm import tqdm
 from offset import offset_shells
 from pipeline import __version__
 from pipeline.build_config import BuildConfig
+from pipeline.children import init_child
 from pipeline.config import as_json
-from pipeline.errors import ShellvoxWarning
+from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.estimate import BYTES_PER_VOXEL, check_resources, estimate_build
 from pipeline.mesh import ColouredMesh
+from pipeline.outdir import OutputFolder
 from pipeline.slab_runner import SlabRunner, resolve_workers
 from voxel.agreement import shell_agreement
-from voxel.atomic import atomic_path
+from voxel.atomic import atomic_path, write_text_atomic
+from voxel.blocks import COARSE, fine_block_size
 from voxel.grid import GridSpec
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
-from voxel.slab import StackModel, aligned_rows
+from voxel.slab import StackModel
 from voxel.tiff_writer import TiffStackWriter
 from voxel.vdb_writer import VdbStackWriter
-
-#: Working bytes per voxel of a slab (arrays of compute_slab, colour conversion, VDB copies).
-BYTES_PER_VOXEL = 64
 
 
 def build_stack(
@@ -47,6 +54,8 @@ def build_stack(
     out_dir: Path,
     *,
     progress: bool | None = None,
+    force: bool = False,
+    say: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Build the layered voxel stack of a coloured mesh into ``out_dir``.
 
@@ -58,30 +67,75 @@ def build_stack(
         Grid, layers and output options.
     out_dir : Path
         Output folder (created). Receives ``layers.tif``, ``colour.tif``, ``volume.vdb``,
-        ``shells/shell_k.ply`` and ``manifest.json``.
+        ``shells/shell_k.ply`` and ``manifest.json``; the outputs of an earlier build there
+        are replaced as a whole (:mod:`pipeline.outdir`).
     progress : bool or None
         Show a progress bar; ``None`` shows it only on a terminal.
+    force : bool
+        Build even when the estimate says memory or disk will not suffice, or the layers
+        leave no core.
+    say : callable, optional
+        Receives one line with the cost estimate before any work starts.
 
     Returns
     -------
     dict
-        The manifest (also written to ``out_dir/manifest.json``).
+        The manifest, as written to ``out_dir/manifest.json``.
+
+    Raises
+    ------
+    ResourceError
+        The build cannot fit this machine (see :func:`pipeline.estimate.check_resources`).
+    InputError
+        The layers are deeper than the part can hold (without `force`).
     """
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "manifest.json").unlink(missing_ok=True)  # the old run is no longer complete
-    seconds: dict[str, float] = {}
     started = time.perf_counter()
+    grid = grid_for(mesh, config)
+    check_depth(mesh, config, force=force)
+    workers = resolve_workers(config.workers)
+    depth = np.repeat(np.cumsum(config.thickness_mm)[:, None], mesh.n_faces, axis=1)
+    # the rows of a coarse block (voxel.slab.aligned_rows): whole ones waste no block queries
+    reach = config.sdf_half_width_mm
+    if config.layer_rule == "distance":
+        reach = max(float(depth.max()), reach)
+    rows_align = fine_block_size(grid, reach)[0] * COARSE if reach > 0 else 1
+    rows = slab_rows_for(grid, config.slab_mb, rows_align)
+    estimate = estimate_build(
+        grid.shape_zyx,
+        grid.voxel_mm,
+        area_mm2=mesh_area(mesh),
+        reach_mm=max(float(depth.max()), config.sdf_half_width_mm),
+        n_faces=mesh.n_faces,
+        slab_rows=rows,
+        workers=min(workers, -(-grid.shape_zyx[0] // rows)),
+    )
+    check_resources(estimate, out_dir, force=force)
+    if say is not None:
+        say(estimate.line())
+    with OutputFolder(out_dir) as folder:
+        manifest = _build(mesh, config, grid, depth, rows, workers, out_dir, progress, folder)
+    manifest["seconds"]["total"] = time.perf_counter() - started
+    manifest["estimate"] = dataclasses.asdict(estimate)
+    return manifest
+
+
+def _build(
+    mesh: ColouredMesh,
+    config: BuildConfig,
+    grid: GridSpec,
+    depth: np.ndarray[Any, Any],
+    rows: int,
+    workers: int,
+    out_dir: Path,
+    progress: bool | None,
+    folder: OutputFolder,
+) -> dict[str, Any]:
+    seconds: dict[str, float] = {}
     thickness = np.asarray(config.thickness_mm, dtype=np.float64)
     by_distance = config.layer_rule == "distance"
     half_width = config.sdf_half_width_mm
-    grid = GridSpec.from_bounds(
-        mesh.vertices.min(axis=0),
-        mesh.vertices.max(axis=0),
-        config.voxel_mm,
-        margin_mm=max(config.margin_mm, half_width),
-    )
-    depth = np.repeat(np.cumsum(thickness)[:, None], mesh.n_faces, axis=1)
+    written: list[Path] = []
     with contextlib.ExitStack() as stack:
         shells: list[Any] | None = None
         pending = None
@@ -99,14 +153,15 @@ def build_stack(
             depth_mm=depth if by_distance else None,
         )
         n_z = grid.shape_zyx[0]
-        rows = slab_rows_for(grid, config.slab_mb, aligned_rows(model, grid))
         # Before any other thread (shell pool, writers, progress bar) starts: the slab
         # workers are forked.
-        slabs = stack.enter_context(
-            SlabRunner(model, grid, rows, resolve_workers(config.workers))
-        )
+        slabs = stack.enter_context(SlabRunner(model, grid, rows, workers))
         if by_distance and config.shell_meshes:  # beside the voxels, in another process
-            pool = stack.enter_context(multiprocessing.get_context("spawn").Pool(1))
+            pool = stack.enter_context(
+                multiprocessing.get_context("spawn").Pool(
+                    1, initializer=init_child, initargs=(os.getpid(),)
+                )
+            )
             pending = pool.apply_async(timed_shells, (mesh.vertices, mesh.faces, thickness, config))
         sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / rows))
         counts = np.zeros(model.n_bands + 2, dtype=np.int64)
@@ -116,7 +171,6 @@ def build_stack(
             "nearest_queries": 0,
             "block_queries": 0,
         }
-        manifest_path = stack.enter_context(atomic_path(out_dir / "manifest.json"))
         samples = 4 if config.alpha else 3
         level = config.compression_level
         layers_tif = stack.enter_context(
@@ -134,6 +188,7 @@ def build_stack(
                 compression_level=level,
             )
         )
+        written += [out_dir / "layers.tif", out_dir / "colour.tif"]
         vdb = (
             VdbStackWriter(grid, sdf_half_width_mm=half_width, spool_dir=out_dir)
             if config.write_vdb
@@ -142,6 +197,8 @@ def build_stack(
         if vdb is not None:
             stack.callback(vdb.close)  # the leaf spools go, whatever happens
         vdb_path = stack.enter_context(atomic_path(out_dir / "volume.vdb")) if vdb else None
+        if vdb is not None:
+            written.append(out_dir / "volume.vdb")
         bar = stack.enter_context(
             tqdm(
                 total=n_z,
@@ -193,12 +250,12 @@ def build_stack(
         if shells is not None:
             (out_dir / "shells").mkdir(exist_ok=True)
             for shell in shells:
-                ply = stack.enter_context(
-                    atomic_path(out_dir / "shells" / f"shell_{shell.layer}.ply")
-                )
+                target = out_dir / "shells" / f"shell_{shell.layer}.ply"
+                ply = stack.enter_context(atomic_path(target))
                 trimesh.Trimesh(shell.vertices, shell.faces, process=False).export(
                     str(ply), file_type="ply"
                 )
+                written.append(target)
             if by_distance:
                 tick = time.perf_counter()
                 points, sampled = sampler.samples()
@@ -211,7 +268,13 @@ def build_stack(
                     clear_mm=float(np.linalg.norm(grid.voxel_mm)),
                 )
                 seconds["agreement"] = time.perf_counter() - tick
-        seconds["total"] = time.perf_counter() - started
+        if counts[-1] == 0 and int(counts[1:].sum()) > 0:
+            warnings.warn(
+                f"{mesh.source}: no voxel lies deeper than {float(depth.max()):g} mm, so the "
+                "part has no core; use a smaller --thickness if that is not what you want",
+                ShellvoxWarning,
+                stacklevel=2,
+            )
         manifest = _manifest(mesh, config, grid, shells, counts, diagnostics, seconds)
         manifest["shell_agreement"] = agreement
         manifest["vdb"] = vdb_summary
@@ -220,13 +283,42 @@ def build_stack(
             "colour.tif": {"bigtiff": colour_tif.bigtiff, "samples": samples},
         }
         manifest["slab_rows"] = rows
-        manifest_path.write_text(json.dumps(manifest, indent=2), encoding="utf-8")
-    manifest["file_bytes"] = {
-        str(path.relative_to(out_dir)): path.stat().st_size
-        for path in sorted(out_dir.rglob("*"))
-        if path.is_file() and not path.name.startswith(".")
-    }
+    # Every file is in place (renamed when the stack closed); the manifest comes last.
+    manifest["files"] = folder.commit(written)
+    write_text_atomic(out_dir / "manifest.json", json.dumps(manifest, indent=2))
     return manifest
+
+
+def grid_for(mesh: ColouredMesh, config: BuildConfig) -> GridSpec:
+    """Return the voxel grid of a build: the model's bounds plus the margin."""
+    return GridSpec.from_bounds(
+        mesh.vertices.min(axis=0),
+        mesh.vertices.max(axis=0),
+        config.voxel_mm,
+        margin_mm=max(config.margin_mm, config.sdf_half_width_mm),
+    )
+
+
+def mesh_area(mesh: ColouredMesh) -> float:
+    """Return the surface area of the model, mm^2."""
+    corners = mesh.vertices[mesh.faces]
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    return float(0.5 * np.linalg.norm(cross, axis=1).sum())
+
+
+def check_depth(mesh: ColouredMesh, config: BuildConfig, *, force: bool) -> None:
+    """Refuse layers deeper than half the part's smallest extent (no core could remain)."""
+    extent = mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)
+    limit = 0.5 * float(extent.min())
+    total = float(sum(config.thickness_mm))
+    if total >= limit and not force:
+        raise InputError(
+            "--thickness",
+            f"the layers reach {total:g} mm deep but {mesh.source or 'the model'} is only "
+            f"{2 * limit:g} mm thick at its thinnest extent, so every voxel would be in a "
+            "layer and none in the core",
+            f"use layers thinner than {limit:g} mm in all, or --force",
+        )
 
 
 def _manifest(

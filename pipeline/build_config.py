@@ -71,7 +71,7 @@ class BuildConfig:
         top = len(self.thickness_mm) + 1
         if not self.colour_layers or not all(1 <= k <= top for k in self.colour_layers):
             raise ValueError(f"colour_layers must lie in 1..{top}, got {self.colour_layers}")
-        if self.margin_mm < 0 or self.sdf_half_width_voxels < 0 or self.slab_mb <= 0:
+        if self.margin_mm < 0 or self.sdf_half_width_voxels < 0 or not 0 < self.slab_mb < math.inf:
             raise ValueError(
                 "margin_mm and sdf_half_width_voxels must be >= 0 and slab_mb > 0, got "
                 f"{self.margin_mm}, {self.sdf_half_width_voxels}, {self.slab_mb}"

@@ -37,3 +37,11 @@ class ShellvoxWarning(UserWarning):
 
 class SlabWorkerDied(RuntimeError):
     """A slab worker process ended without returning its slab (e.g. out of memory)."""
+
+
+class OutputBusy(InputError):
+    """Another shellvox run holds the output folder (reported like bad input, exit 2)."""
+
+
+class ResourceError(InputError):
+    """The run would not fit the machine (memory, disk, index range); ``--force`` overrides."""

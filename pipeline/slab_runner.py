@@ -6,7 +6,9 @@ forked processes (the model, with its AABB tree and texture, is inherited, not p
 forked once, before the caller starts any thread. ``workers`` slabs are computed while
 the caller holds one, so memory stays bounded by the slab size times ``workers + 1``. A
 worker that dies (e.g. killed for lack of memory) fails the build with a clear error
-instead of hanging it.
+instead of hanging it. Workers ignore Ctrl-C and die with the parent
+(:mod:`pipeline.children`); leaving the runner early (an error, an interrupt) kills them
+at once instead of waiting for the slabs they are computing.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from collections.abc import Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
+from pipeline.children import init_child
 from pipeline.errors import SlabWorkerDied
 from voxel.grid import GridSpec
 from voxel.slab import SlabResult, StackModel, compute_slab
@@ -67,7 +70,10 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
             global _WORKER
             _WORKER = (model, grid)  # inherited by the forked workers
             self._pool = ProcessPoolExecutor(
-                self.workers, mp_context=multiprocessing.get_context("fork")
+                self.workers,
+                mp_context=multiprocessing.get_context("fork"),
+                initializer=init_child,
+                initargs=(os.getpid(),),
             )
             for _ in range(self.workers):  # forks every worker now
                 self._submit()
@@ -77,11 +83,23 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         if job is not None and self._pool is not None:
             self._pending.append(self._pool.submit(_worker_slab, *job))
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
         global _WORKER
         if self._pool is not None:
+            if kind is not None:  # do not wait for slabs nobody will write
+                self._kill_workers()
             self._pool.shutdown(wait=True, cancel_futures=True)
             _WORKER = None
+
+    def _kill_workers(self) -> None:
+        assert self._pool is not None
+        processes = list((getattr(self._pool, "_processes", None) or {}).values())
+        for process in processes:
+            with contextlib.suppress(OSError, ValueError):
+                process.kill()
+        for process in processes:
+            with contextlib.suppress(OSError, ValueError, AssertionError):
+                process.join(timeout=5)
 
     def __iter__(self) -> Iterator[SlabResult]:
         if self._pool is None:
@@ -91,12 +109,12 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         while self._pending:
             try:
                 result = self._pending.popleft().result()
-            except BrokenProcessPool:
+                self._submit()
+            except BrokenProcessPool:  # from result() or from submit()
                 raise SlabWorkerDied(
                     "a slab worker process died (often: out of memory); rerun with a "
                     "smaller --slab-mb or fewer --workers"
                 ) from None
-            self._submit()
             yield result
 
 

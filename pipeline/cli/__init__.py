@@ -1,7 +1,10 @@
 """The ``shellvox`` command line: one module per subcommand, ``main(argv) -> int``.
 
-Each subcommand module has ``add_arguments(parser)`` and ``run(args) -> int``. Bad input
-(:class:`pipeline.errors.InputError`) becomes one line on stderr and exit status 2.
+Each subcommand module has ``add_arguments(parser)`` and ``run(args) -> int``. The error
+boundary here turns every failure into one line on stderr and a documented exit status
+(:mod:`pipeline.faults`: 2 bad input, 3 disk, 4 memory, 130/143 interrupted, 1 a bug);
+``--debug`` adds the traceback. SIGINT and SIGTERM stop the run cleanly (temporary files
+removed, workers stopped) with one line.
 """
 
 from __future__ import annotations
@@ -10,12 +13,14 @@ import argparse
 import importlib
 import importlib.util
 import sys
+import traceback
 import warnings
 from collections.abc import Sequence
 from types import ModuleType
 
 from pipeline import __version__
-from pipeline.errors import InputError, ShellvoxWarning, SlabWorkerDied
+from pipeline.errors import ShellvoxWarning
+from pipeline.faults import describe, signals_raise
 
 COMMANDS = ("info", "shells", "build", "inspect")
 
@@ -34,6 +39,9 @@ def _parser() -> argparse.ArgumentParser:
         description="Per-face colour-layer shells and layered voxel stacks for colour 3D printing.",
     )
     parser.add_argument("--version", action="version", version=f"shellvox {__version__}")
+    parser.add_argument(
+        "--debug", action="store_true", help="show the traceback of a failure (for bug reports)"
+    )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module in _subcommands().items():
         doc = (module.__doc__ or "").strip().splitlines()[0]
@@ -48,7 +56,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; return the process exit status."""
+    """Run the command line; return the process exit status (see :mod:`pipeline.faults`)."""
     args = _parser().parse_args(argv)
     with warnings.catch_warnings():
         # Our own warnings are shown as one line each; library chatter is not.
@@ -60,17 +68,17 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     try:
-        status: int = args.handler(args)
+        with signals_raise():
+            status: int = args.handler(args)
+            return status
+    except (SystemExit, GeneratorExit):
+        raise
+    except BaseException as error:
+        status, message = describe(error)
+        if getattr(args, "debug", False):
+            traceback.print_exception(error, file=sys.stderr)
+        print(f"shellvox: error: {message}", file=sys.stderr)
         return status
-    except InputError as error:
-        print(f"shellvox: error: {error}", file=sys.stderr)
-        return 2
-    except SlabWorkerDied as error:
-        print(f"shellvox: error: {error}; no partial output was kept", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("shellvox: interrupted; no partial output was kept", file=sys.stderr)
-        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import sys
 import time
 from pathlib import Path
 
@@ -102,11 +104,15 @@ def config_from_args(args: argparse.Namespace) -> BuildConfig:
             f"expected layer numbers in 1..{len(thickness) + 1}, got {args.colour_layers!r}",
             "pass e.g. --colour-layers 1",
         )
-    if not 1 <= args.compression_level <= 9 or not args.slab_mb > 0 or args.workers < 0:
+    if (
+        not 1 <= args.compression_level <= 9
+        or not (math.isfinite(args.slab_mb) and args.slab_mb > 0)
+        or args.workers < 0
+    ):
         raise InputError(
             "--compression-level/--slab-mb/--workers",
             f"got {args.compression_level}, {args.slab_mb} and {args.workers}",
-            "use a level in 1..9, a positive slab size and 0 or more workers",
+            "use a level in 1..9, a positive finite slab size in MB and 0 or more workers",
         )
     return BuildConfig(
         voxel_mm=voxel,
@@ -133,11 +139,17 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     mesh = load_model(args.model, load_options(args))
     load_seconds = time.perf_counter() - started
-    manifest = build_stack(mesh, config, out, progress=args.progress)
+    manifest = build_stack(
+        mesh, config, out, progress=args.progress, force=args.force, say=_say
+    )
     manifest["seconds"]["load"] = load_seconds
     shape = " x ".join(str(n) for n in manifest["grid"]["shape_zyx"])
     print(f"{out}: grid {shape} (z, y, x) voxels")
-    for name, size in manifest["file_bytes"].items():
-        print(f"  {name}: {size:,} bytes")
+    for name, record in manifest["files"].items():
+        print(f"  {name}: {record['bytes']:,} bytes")
     print(json.dumps(manifest["voxel_counts"]))
     return 0
+
+
+def _say(line: str) -> None:
+    print(f"shellvox: {line}", file=sys.stderr)

@@ -1,9 +1,15 @@
-"""Summarise a built stack and draw previews (sections and a layer-depth histogram)."""
+"""Verify a build against its manifest, summarise it and draw previews.
+
+Every file the manifest lists must be there, a regular file, of the recorded size and
+SHA-256; otherwise one line names the file and the fix (rebuild). Previews are sections
+and a layer-depth histogram in DIR/preview/.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import stat
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +17,7 @@ import numpy as np
 import tifffile
 
 from pipeline.errors import InputError
+from pipeline.outdir import OutputFolder, sha256
 from voxel.atomic import atomic_path
 from voxel.preview import boundary_depths, histogram_image, section_image
 
@@ -22,20 +29,77 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the summary table; write DIR/preview/*.png."""
+    """Verify the build against its manifest, print the summary, write DIR/preview/*.png."""
     folder: Path = args.folder
-    manifest_path = folder / "manifest.json"
-    if not manifest_path.is_file():
-        raise InputError(
-            folder, "has no manifest.json (not a finished build)", "run shellvox build"
-        )
-    manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
-    for row in summary_rows(manifest, folder):
-        print(f"{row[0]:<24} {row[1]}")
-    if not args.no_preview:
-        for path in write_previews(folder, manifest):
-            print(f"{path}")
+    if not folder.is_dir():
+        raise InputError(folder, "is not a folder", "give the -o DIR of a shellvox build")
+    with OutputFolder(folder, outputs=("preview/*.png",), marker=".no-marker") as lock:
+        manifest = read_manifest(folder)
+        verify_files(folder, manifest)
+        for row in summary_rows(manifest, folder):
+            print(f"{row[0]:<24} {row[1]}")
+        if not args.no_preview:
+            try:
+                written = write_previews(folder, manifest)
+            except (ValueError, OSError, KeyError, IndexError) as error:
+                if isinstance(error, OSError) and not isinstance(error, FileNotFoundError):
+                    raise
+                raise InputError(
+                    folder, f"the stack cannot be read ({error})", "rebuild with shellvox build"
+                ) from None
+            lock.commit(written)
+            for path in written:
+                print(f"{path}")
     return 0
+
+
+def read_manifest(folder: Path) -> dict[str, Any]:
+    """Return the build's manifest, or raise InputError when it is missing or malformed."""
+    path = folder / "manifest.json"
+    fix = "rebuild with shellvox build -o " + str(folder)
+    if not path.is_file():
+        raise InputError(folder, "has no manifest.json (not a finished build)", fix)
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        raise InputError(path, f"is not valid JSON ({error})", fix) from None
+    required = {"grid": dict, "layers": list, "files": dict, "seconds": dict, "input": dict}
+    if not isinstance(manifest, dict) or not all(
+        isinstance(manifest.get(key), kind) for key, kind in required.items()
+    ):
+        raise InputError(
+            path,
+            "is not a shellvox build manifest (or one written before files were listed)",
+            fix,
+        )
+    return manifest
+
+
+def verify_files(folder: Path, manifest: dict[str, Any]) -> None:
+    """Check that every file the manifest lists is there, whole and unchanged (SHA-256)."""
+    fix = "rebuild with shellvox build -o " + str(folder)
+    root = folder.resolve()
+    for name, record in manifest["files"].items():
+        path = (folder / name).resolve()
+        if root not in path.parents:
+            raise InputError(folder / "manifest.json", f"lists {name!r} outside the folder", fix)
+        try:
+            info = path.stat()
+        except OSError:
+            raise InputError(folder / name, "is missing (the manifest lists it)", fix) from None
+        if not stat.S_ISREG(info.st_mode):
+            raise InputError(folder / name, "is not a regular file", fix)
+        expected = record.get("bytes") if isinstance(record, dict) else None
+        if info.st_size != expected:
+            raise InputError(
+                folder / name,
+                f"has {info.st_size:,} bytes but the build wrote {expected} (truncated or changed)",
+                fix,
+            )
+        if sha256(path) != record.get("sha256"):
+            raise InputError(
+                folder / name, "differs from what the build wrote (SHA-256 mismatch)", fix
+            )
 
 
 def summary_rows(manifest: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
@@ -58,9 +122,8 @@ def summary_rows(manifest: dict[str, Any], folder: Path) -> list[tuple[str, str]
                 f"{layer['voxels']:,} voxels, {volume:,.1f} mm^3",
             )
         )
-    for path in sorted(folder.rglob("*")):
-        if path.is_file() and not path.name.startswith("."):
-            rows.append((str(path.relative_to(folder)), f"{path.stat().st_size:,} bytes"))
+    for name, record in manifest["files"].items():
+        rows.append((name, f"{record['bytes']:,} bytes, verified"))
     for name, value in manifest["seconds"].items():
         rows.append((f"seconds {name}", f"{value:.2f}"))
     return rows
