@@ -13,7 +13,7 @@ import pytest
 from voxel.colour import srgb_to_linear
 from voxel.grid import GridSpec
 from voxel.openvdb_module import load_openvdb
-from voxel.vdb_writer import GRID_NAMES, VdbStackWriter, describe_grids
+from voxel.vdb_writer import GRID_NAMES, MATERIAL_GRID, VdbStackWriter, describe_grids
 
 # 150 voxels in x: two 128^3 internal nodes; y and the last leaf row are partial.
 GRID = GridSpec((-1.0, 2.0, 0.5), (0.05, 0.08, 0.03), (45, 37, 150))
@@ -122,4 +122,70 @@ def test_streamed_writer_rejects_gaps_and_missing_rows(tmp_path):
         writer.write_slab(9, layers[9:], rgb[9:], coloured[9:], sdf[9:])
     with pytest.raises(ValueError, match="only 8 of 45 rows"):
         writer.write(tmp_path / "v.vdb")
+    assert list(tmp_path.iterdir()) == []
+
+
+def _materials(layers: np.ndarray) -> np.ndarray:
+    """Random halftone materials 1..6 in the colour layer, 7 in the backing, 9 in the core."""
+    rng = np.random.default_rng(13)
+    materials = np.zeros(layers.shape, np.uint8)
+    skin = layers == 1
+    materials[skin] = rng.integers(1, 7, int(skin.sum()))
+    materials[layers == 2] = 7
+    materials[layers == 3] = 9
+    return materials
+
+
+@pytest.mark.parametrize("rows", [8, 13])
+def test_material_grid_equals_openvdbs_own(tmp_path, rows):
+    vdb = load_openvdb()
+    layers, rgb, coloured, sdf = _volumes()
+    materials = _materials(layers)
+    writer = VdbStackWriter(GRID, sdf_half_width_mm=HALF_WIDTH, spool_dir=tmp_path,
+                            material_grid=True)
+    for start in range(0, GRID.shape_zyx[0], rows):
+        part = slice(start, start + rows)
+        writer.write_slab(start, layers[part], rgb[part], coloured[part], sdf[part],
+                          materials=materials[part])
+    summary = writer.write(tmp_path / "v.vdb")
+    grids, _ = vdb.readAll(str(tmp_path / "v.vdb"))
+    assert sorted(volume.name for volume in grids) == sorted([*GRID_NAMES, MATERIAL_GRID])
+    assert describe_grids(grids) == summary
+    reference = _reference(layers, rgb, coloured, sdf)
+    material = vdb.FloatGrid(0.0)
+    material.copyFromArray(np.ascontiguousarray(materials.transpose(2, 1, 0), np.float32))
+    reference[MATERIAL_GRID] = material
+    for volume in grids:  # the four grids are unchanged by the fifth
+        ref = reference[volume.name]
+        assert volume.activeVoxelCount() == ref.activeVoxelCount(), volume.name
+        channels = 3 if volume.valueTypeName == "vec3s" else 1
+        got, got_on = _dense(volume, channels)
+        want, want_on = _dense(ref, channels)
+        np.testing.assert_array_equal(got, want, err_msg=volume.name)
+        np.testing.assert_array_equal(got_on, want_on, err_msg=volume.name)
+    by_name = {volume.name: volume for volume in grids}
+    values, active = _dense(by_name[MATERIAL_GRID], 1)
+    np.testing.assert_array_equal(values.astype(np.uint8), materials)  # voxel for voxel
+    np.testing.assert_array_equal(active, materials > 0)
+    assert summary[MATERIAL_GRID]["active_voxels"] == np.count_nonzero(materials)
+    # The constant core (material 9) is stored as tiles.
+    touched = len(np.unique(np.argwhere(materials > 0) // 8, axis=0))
+    assert by_name[MATERIAL_GRID].leafCount() < touched
+    assert by_name[MATERIAL_GRID].leafCount() <= material.leafCount()
+
+
+def test_material_grid_is_given_exactly_when_asked_for(tmp_path):
+    layers, rgb, coloured, sdf = _volumes()
+    plain = VdbStackWriter(GRID, sdf_half_width_mm=HALF_WIDTH, spool_dir=tmp_path)
+    with pytest.raises(ValueError, match="material_grid=True"):
+        plain.write_slab(0, layers[:8], rgb[:8], coloured[:8], sdf[:8], materials=layers[:8])
+    plain.close()
+    with_grid = VdbStackWriter(GRID, sdf_half_width_mm=HALF_WIDTH, spool_dir=tmp_path,
+                               material_grid=True)
+    with pytest.raises(ValueError, match="material_grid=True"):
+        with_grid.write_slab(0, layers[:8], rgb[:8], coloured[:8], sdf[:8])
+    with pytest.raises(ValueError, match="must have the shape of layers"):
+        with_grid.write_slab(0, layers[:8], rgb[:8], coloured[:8], sdf[:8],
+                             materials=layers[:7])
+    with_grid.close()
     assert list(tmp_path.iterdir()) == []

@@ -22,5 +22,8 @@ Modules
 - :mod:`voxel.slab` ``compute_slab``: the pure per-slab function (layers, colours, SDF band).
 - :mod:`voxel.tiff_writer`, :mod:`voxel.vdb_writer` (with :mod:`voxel.vdb_format`),
   :mod:`voxel.preview`: serialisation only.
+- Printer slices, serialisation only: :mod:`voxel.gcvf_writer` (GrabCAD Voxel Print
+  jobs), :mod:`voxel.png_slices` (RGBA slice folders), both with PNGs from
+  :mod:`voxel.png_encode` and a writer thread from :mod:`voxel.slab_thread`.
 - :mod:`voxel.atomic` files that appear atomically.
 """

@@ -1,6 +1,6 @@
 """OpenVDB output streamed slab by slab, with memory bounded by the slab.
 
-Four grids share one linear transform carrying the anisotropic voxel size, so index
+The grids share one linear transform carrying the anisotropic voxel size, so index
 ``(i, j, k) = (x, y, z)`` maps to the voxel centre in mm:
 
 - ``density`` (float, fog volume): 1 inside the model, background 0;
@@ -8,7 +8,12 @@ Four grids share one linear transform carrying the anisotropic voxel size, so in
 - ``color`` (Vec3s): linear RGB of the colour layers, background 0;
 - ``sdf`` (float, level set): signed distance to the outer surface in a narrow band,
   background the half width, inactive voxels inside at minus the half width (what
-  OpenVDB's ``signedFloodFill`` gives).
+  OpenVDB's ``signedFloodFill`` gives);
+- ``material`` (float, optional): the printer material index per voxel, active where it
+  is not 0 (void), background 0. Float because OpenVDB 10's Python module registers
+  only ``FloatGrid``, ``BoolGrid`` and ``Vec3SGrid``: with an int32 grid in the file its
+  ``readAll`` and ``read`` refuse the whole file ("Tree_int32_5_4_3 is not a supported
+  OpenVDB grid type"). Indices 0..255 are exact in float32.
 
 Why not build the grids with OpenVDB's Python bindings and call ``openvdb.write``? Their
 leaves cover the model's surface, and OpenVDB writes only whole in-memory grids: for spot
@@ -42,6 +47,8 @@ from voxel.grid import GridSpec
 from voxel.vdb_format import LEAF, GridSpool, write_file
 
 GRID_NAMES = ("density", "layer", "color", "sdf")
+#: The optional grid of material indices (after GRID_NAMES in the file).
+MATERIAL_GRID = "material"
 
 class VdbStackWriter:
     """Stream slabs into one ``.vdb`` file (see the module docstring).
@@ -59,6 +66,8 @@ class VdbStackWriter:
         zlib level (1-9) of the leaf values (level 1 is about as small on these grids:
         constant densities, integer layers and texture colours). Level-set values
         hardly compress (about 0.92) and are stored raw.
+    material_grid : bool, optional
+        Also write the ``material`` grid; then every :meth:`write_slab` gives `materials`.
 
     Examples
     --------
@@ -74,21 +83,27 @@ class VdbStackWriter:
         sdf_half_width_mm: float,
         spool_dir: Path | None = None,
         compression_level: int = 1,
+        material_grid: bool = False,
     ) -> None:
         self.grid = grid
         self._level = int(compression_level)
         self._half_width = np.float32(sdf_half_width_mm)
         self._dir = tempfile.TemporaryDirectory(prefix=".vdb-spool.", dir=spool_dir)
-        kinds = (
+        kinds = [
             ("float", "fog volume", 0.0),
             ("float", "unknown", 0.0),
             ("vec3s", "unknown", 0.0),
             ("float", "level set", float(self._half_width)),
-        )
+        ]
+        names = list(GRID_NAMES)
+        if material_grid:
+            names.append(MATERIAL_GRID)
+            kinds.append(("float", "unknown", 0.0))
+        self.material_grid = material_grid
         self._spools = [
             GridSpool(name, value_type, grid_class, background,
                        open(os.path.join(self._dir.name, name), "w+b"))  # noqa: SIM115
-            for name, (value_type, grid_class, background) in zip(GRID_NAMES, kinds, strict=True)
+            for name, (value_type, grid_class, background) in zip(names, kinds, strict=True)
         ]
         self._pending: list[tuple[NDArray[Any], ...]] = []  # rows of an unfinished leaf row
         self._next_z = 0
@@ -100,6 +115,7 @@ class VdbStackWriter:
         rgb: NDArray[np.uint8],
         coloured: NDArray[np.bool_],
         sdf: NDArray[np.float32],
+        materials: NDArray[np.uint8] | None = None,
     ) -> None:
         """Take the next slab (slabs arrive in z order, without gaps).
 
@@ -116,12 +132,24 @@ class VdbStackWriter:
         sdf : (Zs, Y, X) float32, mm
             Signed distance in the narrow band (``abs(sdf) < half width``); plus or
             minus the half width elsewhere (the sign is taken from `layers`).
+        materials : (Zs, Y, X) uint8, optional
+            Material index (0: void); given exactly when the writer has a material grid.
         """
+        if (materials is not None) != self.material_grid:
+            raise ValueError(
+                "materials must be given exactly when the writer was made with "
+                f"material_grid=True (material_grid={self.material_grid})"
+            )
+        if materials is not None and materials.shape != layers.shape:
+            raise ValueError(
+                f"materials must have the shape of layers {layers.shape}, got {materials.shape}"
+            )
         if z_start != self._next_z:
             raise ValueError(f"slabs must arrive in order: expected row {self._next_z}, "
                              f"got {z_start}")
         self._next_z = z_start + len(layers)
-        self._pending.append((layers, rgb, coloured, sdf))
+        arrays = (layers, rgb, coloured, sdf) + (() if materials is None else (materials,))
+        self._pending.append(arrays)
         held = sum(len(p[0]) for p in self._pending)
         first = self._next_z - held
         # Whole groups of 8 rows (leaf rows, aligned to multiples of 8 in z) go out now.
@@ -147,6 +175,7 @@ class VdbStackWriter:
         rgb: NDArray[np.uint8],
         coloured: NDArray[np.bool_],
         sdf: NDArray[np.float32],
+        materials: NDArray[np.uint8] | None = None,
     ) -> None:
         """Cut rows ``z0 .. z0 + 8`` (fewer at the top) into leaves and tiles of every grid.
 
@@ -158,6 +187,8 @@ class VdbStackWriter:
         in_band = np.abs(sdf) < hw
         # Only the columns holding non-background voxels, from a multiple of 8 on.
         content = (inside | in_band).any(axis=0)
+        if materials is not None:  # void is outside; any other material counts as content
+            content |= (materials > 0).any(axis=0)
         ys = np.flatnonzero(content.any(axis=1))
         if len(ys) == 0:
             return
@@ -176,7 +207,7 @@ class VdbStackWriter:
         any_in, all_in = blocks.any(inside), blocks.all(inside)
         any_band = blocks.any(in_band)
         low, high = blocks.reduce(layers, np.min), blocks.reduce(layers, np.max)
-        density, layer, color, level = self._spools
+        density, layer, color, level = self._spools[:4]
         # density and layer: the core's constant blocks are active tiles.
         density.add_tiles(blocks.origins(all_in), np.ones(int(all_in.sum()), np.float32), True)
         self._leaves(density, blocks, any_in & ~all_in, inside, inside)
@@ -197,6 +228,15 @@ class VdbStackWriter:
         values = np.where(band, blocks.gather(sdf, leaf), np.where(solid, -hw, hw))
         # Level-set values hardly compress (about 0.92): stored raw.
         level.add_leaves(blocks.origins(leaf), values.astype(np.float32), band, solid, 0)
+        if materials is not None:
+            # material: like layer, constant wholly non-void blocks are active tiles.
+            materials = blocks.pad(materials[box], 0)
+            solid = materials > 0
+            any_on, all_on = blocks.any(solid), blocks.all(solid)
+            low, high = blocks.reduce(materials, np.min), blocks.reduce(materials, np.max)
+            tile = all_on & (low == high)
+            self._spools[4].add_tiles(blocks.origins(tile), low[tile].astype(np.float32), True)
+            self._leaves(self._spools[4], blocks, any_on & ~tile, materials, solid)
 
     def _leaves(
         self, spool: GridSpool, blocks: _Blocks, which: NDArray[np.bool_],

@@ -1,0 +1,47 @@
+"""PNG bytes from arrays, decoded by Pillow."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import voxel.png_encode as png_encode
+from voxel.png_encode import encode_png
+
+
+@pytest.mark.parametrize(("shape", "mode"), [((1, 1), "L"), ((5, 3), "L"), ((7, 4, 3), "RGB"),
+                                             ((1, 9, 4), "RGBA"), ((64, 33, 4), "RGBA")])
+@pytest.mark.parametrize("level", [0, 1, 9])
+def test_png_round_trip(shape, mode, level):
+    rng = np.random.default_rng(level)
+    pixels = rng.integers(0, 256, shape).astype(np.uint8)
+    pixels[: shape[0] // 2] = 7  # runs as well as noise
+    with Image.open(io.BytesIO(encode_png(pixels, level=level))) as image:
+        image.load()
+        assert image.format == "PNG" and image.mode == mode
+        assert image.size == (shape[1], shape[0])
+        np.testing.assert_array_equal(np.asarray(image), pixels)
+
+
+def test_png_density_and_bad_input():
+    data = encode_png(np.zeros((2, 3, 4), np.uint8), pixels_per_metre=(23622, 11811))
+    with Image.open(io.BytesIO(data)) as image:
+        assert image.info["dpi"] == pytest.approx((600.0, 300.0), abs=0.01)
+    with pytest.raises(ValueError, match=r"image must be uint8 .* got float32 \(2, 3, 4\)"):
+        encode_png(np.zeros((2, 3, 4), np.float32))
+    with pytest.raises(ValueError, match=r"got uint8 \(2, 3, 2\)"):
+        encode_png(np.zeros((2, 3, 2), np.uint8))
+    with pytest.raises(ValueError, match=r"level must be 0\.\.9"):
+        encode_png(np.zeros((2, 3), np.uint8), level=10)
+
+
+def test_png_data_split_over_several_idat_chunks(monkeypatch):
+    monkeypatch.setattr(png_encode, "_IDAT_BYTES", 100)
+    pixels = np.random.default_rng(1).integers(0, 256, (40, 30, 3)).astype(np.uint8)
+    data = encode_png(pixels)
+    assert data.count(b"IDAT") > 10
+    with Image.open(io.BytesIO(data)) as image:
+        np.testing.assert_array_equal(np.asarray(image), pixels)
