@@ -23,4 +23,7 @@ Modules
 - :mod:`voxel.tiff_writer`, :mod:`voxel.vdb_writer` (with :mod:`voxel.vdb_format`),
   :mod:`voxel.preview`: serialisation only.
 - :mod:`voxel.atomic` files that appear atomically.
+- :mod:`voxel.separation` colour to material proportions; :mod:`voxel.blue_noise` the
+  3D threshold tile; :mod:`voxel.materials` ``materials_for_slab`` (one material per
+  voxel); :mod:`voxel.material_kernels` their compiled per-voxel loops (numba).
 """
