@@ -5,7 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need=()
-for pkg in python3-openvdb python3-venv python3-dev; do
+# libgs-common: Ghostscript's CMYK ICC profiles, for the --icc test (tests/test_separation.py)
+for pkg in python3-openvdb python3-venv python3-dev libgs-common; do
     dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then

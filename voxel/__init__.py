@@ -26,4 +26,7 @@ Modules
   jobs), :mod:`voxel.png_slices` (RGBA slice folders), both with PNGs from
   :mod:`voxel.png_encode` and a writer thread from :mod:`voxel.slab_thread`.
 - :mod:`voxel.atomic` files that appear atomically.
+- :mod:`voxel.separation` colour to material proportions; :mod:`voxel.blue_noise` the
+  3D threshold tile; :mod:`voxel.materials` ``materials_for_slab`` (one material per
+  voxel); :mod:`voxel.material_kernels` their compiled per-voxel loops (numba).
 """
