@@ -3,9 +3,10 @@
 All textures of one model are read together by :func:`read_textures`: first every
 image's header (size only, nothing decoded), then the pixel budget is checked, then the
 images are decoded. The budget, :data:`MAX_TEXTURE_PIXELS` pixels over all textures of a
-model (one 8192 x 8192 texture, 256 MB as RGBA, about 0.75 GB while it is decoded), keeps a
-13000 x 13000 texture from taking gigabytes without a word; ``--force`` lifts it. Pillow's
-own decompression-bomb limit is replaced by this check while shellvox opens an image.
+model (one 8192 x 8192 texture: 256 MB as RGBA, a measured peak of about 0.6 GB while it
+is decoded), keeps a 13000 x 13000 texture from taking gigabytes without a word;
+``--force`` lifts it. Pillow's own decompression-bomb limit is replaced by this check
+while shellvox opens an image.
 
 A texture that is missing or unreadable is refused, or, when the user gave ``--colour``,
 replaced by that colour with a warning: whatever colour a file declares reaches the
@@ -23,12 +24,15 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from PIL import Image
+from PIL import Image, UnidentifiedImageError
 
 from pipeline.errors import InputError, ShellvoxWarning
 
 #: Most texture pixels accepted over all textures of one model without ``--force``.
 MAX_TEXTURE_PIXELS = 8192 * 8192
+
+#: Pixels converted to RGBA at a time while a texture is decoded.
+STRIP_PIXELS = 1 << 22
 
 #: The usual fix for a texture that cannot be used.
 COLOUR_FIX = "or pass --colour R,G,B to print its faces in that colour instead"
@@ -101,7 +105,7 @@ def read_textures(
         raise InputError(
             first.declared_in,
             f"its textures ({listed}) hold {total:,} pixels, more than the limit of "
-            f"{MAX_TEXTURE_PIXELS:,} (8192 x 8192; about {12 * total / 1e9:.1f} GB to decode)",
+            f"{MAX_TEXTURE_PIXELS:,} (8192 x 8192; about {9 * total / 1e9:.1f} GB to decode)",
             "downscale the textures, or pass --force",
         )
     images: list[NDArray[np.uint8] | None] = []
@@ -146,6 +150,8 @@ def _open(ref: TextureRef) -> Iterator[Image.Image]:
             yield image
     except _Unusable:
         raise
+    except UnidentifiedImageError:
+        raise _Unusable("is unreadable (not an image format Pillow knows)") from None
     except (OSError, ValueError, SyntaxError, Image.DecompressionBombError) as error:
         # Pillow raises UnidentifiedImageError (an OSError) for unknown formats, OSError
         # for truncated data, ValueError and SyntaxError for malformed headers.
@@ -169,4 +175,12 @@ def _decode(ref: TextureRef) -> NDArray[np.uint8]:
             rgb = np.repeat(np.clip(np.rint(grey), 0, 255).astype(np.uint8)[..., None], 3, 2)
             alpha = np.full((*rgb.shape[:2], 1), 255, np.uint8)
             return np.concatenate([rgb, alpha], axis=2)
-        return np.ascontiguousarray(np.asarray(image.convert("RGBA"), dtype=np.uint8))
+        # Converted in strips of rows, so that the peak is the decoded image plus the
+        # result (8 bytes per pixel), not three whole-image copies.
+        width, height = image.size
+        rgba = np.empty((height, width, 4), dtype=np.uint8)
+        rows = max(1, STRIP_PIXELS // width)
+        for top in range(0, height, rows):  # a loop over strips, not pixels
+            strip = image.crop((0, top, width, min(top + rows, height))).convert("RGBA")
+            rgba[top : top + strip.height] = np.asarray(strip, dtype=np.uint8)
+        return rgba

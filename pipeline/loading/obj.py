@@ -268,7 +268,9 @@ def _corner_indices(
     return pos, uv
 
 
-def _resolve(model: Path, base: Path, name: str, what: str, *, force: bool) -> Path | None:
+def _resolve(
+    model: Path, base: Path, name: str, what: str, *, force: bool, alternative: str = ""
+) -> Path | None:
     """Find a file named in an OBJ/MTL, under the path policy; None when it is missing.
 
     Spaces, tabs, quotes, backslashes and letter case are forgiven; a name pointing out
@@ -287,7 +289,7 @@ def _resolve(model: Path, base: Path, name: str, what: str, *, force: bool) -> P
             if entry.name.lower() == wanted and entry.is_file() and is_inside(model.parent, entry):
                 return entry
     if declared.is_file():  # only the file outside the folder exists
-        return check_inside(model, declared, what, force=force)
+        return check_inside(model, declared, what, force=force, alternative=alternative)
     return None
 
 
@@ -350,9 +352,9 @@ def _parse_mtl(mtl: Path) -> dict[str, _MtlEntry]:
     for name, block in blocks.items():
         alpha = 1.0
         if "d" in block:
-            alpha = _number(mtl, name, "d", block["d"].split()[-1:])
+            alpha = _number(mtl, name, "d", block["d"])
         elif "tr" in block:
-            alpha = 1.0 - _number(mtl, name, "Tr", block["tr"].split()[-1:])
+            alpha = 1.0 - _number(mtl, name, "Tr", block["tr"])
         kd = _kd(mtl, name, block.get("kd", "1 1 1"))
         texture, wrap = _map_statement(mtl, name, block.get("map_kd"))
         factor = np.append(srgb_to_linear(np.clip(kd, 0.0, 1.0)), np.clip(alpha, 0.0, 1.0))
@@ -360,18 +362,21 @@ def _parse_mtl(mtl: Path) -> dict[str, _MtlEntry]:
     return entries
 
 
-def _number(mtl: Path, material: str, key: str, tokens: list[str]) -> float:
+def _number(mtl: Path, material: str, key: str, value: str, token: str | None = None) -> float:
+    """Parse ``token`` (default the last word of ``value``) of an MTL statement as a number."""
+    words = value.split()
+    text = token if token is not None else (words[-1] if words else "")
     try:
-        value = float(tokens[0])
-    except (ValueError, IndexError):
-        value = float("nan")
-    if not np.isfinite(value):
+        number = float(text)
+    except ValueError:
+        number = float("nan")
+    if not np.isfinite(number):
         raise InputError(
             mtl,
-            f"material {material!r} has a malformed '{key}' value {' '.join(tokens)!r}",
+            f"material {material!r} has a malformed '{key}' value {value!r}",
             "write numbers (e.g. 'Kd 0.8 0.2 0.1') and export it again",
         )
-    return value
+    return number
 
 
 def _kd(mtl: Path, material: str, value: str) -> NDArray[np.float64]:
@@ -388,8 +393,8 @@ def _kd(mtl: Path, material: str, value: str) -> NDArray[np.float64]:
     if len(tokens) == 1:  # "Kd r" means a grey r r r
         tokens = tokens * 3
     if len(tokens) < 3:
-        _number(mtl, material, "Kd", [value])  # raises: not three numbers
-    return np.array([_number(mtl, material, "Kd", [t]) for t in tokens[:3]], dtype=np.float64)
+        _number(mtl, material, "Kd", value, "")  # raises: not three numbers
+    return np.array([_number(mtl, material, "Kd", value, t) for t in tokens[:3]], np.float64)
 
 
 #: ``map_Kd`` options and how many arguments they take (``-o``/``-s``/``-t``: 1 to 3).
@@ -485,7 +490,14 @@ def _texture_materials(
         entry = entries[name]
         assert entry.texture is not None
         what = f"texture {entry.texture!r} of material {name!r}"
-        source = _resolve(path, entry.mtl.parent, entry.texture, what, force=options.force)
+        source = _resolve(
+            path,
+            entry.mtl.parent,
+            entry.texture,
+            what,
+            force=options.force,
+            alternative="pass --texture FILE",
+        )
         if source is None and options.texture is not None:
             source = options.texture
         refs.append(TextureRef(entry.mtl, what, source, TEXTURE_FIX))

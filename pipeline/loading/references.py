@@ -26,7 +26,9 @@ def is_inside(folder: Path, candidate: Path) -> bool:
         return False
 
 
-def check_inside(model: Path, candidate: Path, what: str, *, force: bool) -> Path:
+def check_inside(
+    model: Path, candidate: Path, what: str, *, force: bool, alternative: str = ""
+) -> Path:
     """Apply the path policy to one referenced file that exists.
 
     Parameters
@@ -39,6 +41,8 @@ def check_inside(model: Path, candidate: Path, what: str, *, force: bool) -> Pat
         What the file is, for messages (e.g. ``"texture 'x.png' of material 'skin'"``).
     force : bool
         Read a file outside the folder (with a warning) instead of refusing it.
+    alternative : str
+        Another fix to offer, e.g. ``"pass --texture FILE"``.
 
     Returns
     -------
@@ -52,16 +56,25 @@ def check_inside(model: Path, candidate: Path, what: str, *, force: bool) -> Pat
     """
     if is_inside(model.parent, candidate):
         return candidate
+    shown = _resolved(candidate)
     if not force:
         raise InputError(
             model,
-            f"{what} is outside the model's folder ({candidate})",
+            f"{what} is outside the model's folder ({shown})",
             "copy it into the model's folder and refer to it by a relative name, "
-            "or pass --force to read it anyway",
+            + (f"{alternative}, " if alternative else "")
+            + "or pass --force to read it anyway",
         )
     warnings.warn(
-        f"{model}: reading {what} from outside the model's folder ({candidate}) because of --force",
+        f"{model}: reading {what} from outside the model's folder ({shown}) because of --force",
         ShellvoxWarning,
         stacklevel=3,
     )
     return candidate
+
+
+def _resolved(candidate: Path) -> Path:
+    try:
+        return candidate.resolve()
+    except (OSError, RuntimeError):
+        return candidate
