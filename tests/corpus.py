@@ -660,6 +660,20 @@ CASES = [
     ),
     Case("3mf unknown texid", threemf_unknown_texid, "error", ("'99'", "unknown texture")),
     Case(
+        "3mf composite materials",
+        threemf(
+            model_xml()
+            .replace(
+                '<object id="1"',
+                '<m:compositematerials id="5" matid="2" matindices="0">'
+                '<m:composite values="1"/></m:compositematerials><object id="1"',
+            )
+            .replace('pid="2" p1="0"', 'pid="5" p1="0"')
+        ),
+        "warning",
+        ("compositematerials", "'5'", "does not read", "255,255,255,255"),
+    ),
+    Case(
         "3mf texture missing from the package",
         threemf_missing_texture,
         "error",

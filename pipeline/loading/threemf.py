@@ -14,6 +14,7 @@ Reference: 3MF Core Specification 1.3 and Materials and Properties Extension 1.2
 
 from __future__ import annotations
 
+import warnings
 import zipfile
 import zlib
 from dataclasses import dataclass
@@ -24,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.config import UNIT_MM, LoadOptions
-from pipeline.errors import InputError
+from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.images import TextureRef, read_textures
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import FilterMode, Material, WrapMode, decode_uint8
@@ -59,6 +60,8 @@ class _Properties:
     colours: dict[str, NDArray[np.uint8]]
     uv: dict[str, tuple[NDArray[np.float64], int]]  # id -> (coordinates (n, 2), material)
     materials: list[Material]
+    unsupported: dict[str, str]  # id -> element name of groups shellvox does not read
+    fallback: NDArray[np.uint8]  # (4,) sRGBA for their triangles: --colour or white
 
 
 def read_3mf(path: Path, options: LoadOptions) -> tuple[ColouredMesh, float]:
@@ -281,7 +284,13 @@ def _read_properties(
         values = [c.get(k, "0") for c in group.iter(f"{MATERIAL}tex2coord") for k in "uv"]
         coords = _numbers(path, "texture coordinate", values, float).reshape(-1, 2)
         uv[group.get("id", "")] = (coords.astype(np.float64), textures[texid])
-    return _Properties(colours, uv, materials)
+    unsupported = {
+        element.get("id", ""): element.tag.rpartition("}")[2]
+        for element in resources
+        if element.tag in (f"{MATERIAL}compositematerials", f"{MATERIAL}multiproperties")
+    }
+    plain: NDArray[np.uint8] = np.array(options.colour or (255, 255, 255, 255), np.uint8)
+    return _Properties(colours, uv, materials, unsupported, plain)
 
 
 def _transform(path: Path, text: str | None) -> NDArray[np.float64]:
@@ -379,6 +388,16 @@ def _mesh_part(
             coords, texture = properties.uv[group]
             uv[chosen] = coords[_check_index(path, index[chosen], len(coords))]
             material[chosen] = texture
+        elif group in properties.unsupported:
+            rgba[chosen] = properties.fallback
+            colour = ",".join(str(c) for c in properties.fallback)
+            warnings.warn(
+                f"{path}: {int(chosen.sum())} triangles use a <{properties.unsupported[group]}> "
+                f"property group ({group!r}), which shellvox does not read; they get "
+                f"{colour} (white, or --colour)",
+                ShellvoxWarning,
+                stacklevel=5,
+            )
         else:
             raise InputError(
                 path, f"triangles reference unknown property group {group!r}", "re-export it"
