@@ -454,6 +454,20 @@ CASES = [
         ("--texture", "FOLDER/tex.png"),
     ),
     Case(
+        "obj --texture not used",
+        obj_with(MTL_TEX, image=TEX),
+        "warning",
+        ("--texture", "not used", "found"),
+        ("--texture", "FOLDER/tex.png"),
+    ),
+    Case(
+        "obj --texture on a model without map_Kd",
+        obj_with("newmtl painted\nKd 1 0 0\n", image=TEX),
+        "warning",
+        ("--texture", "not used", "no map_Kd"),
+        ("--texture", "FOLDER/tex.png"),
+    ),
+    Case(
         "obj usemtl not in the MTL",
         obj_with("newmtl other\nKd 1 0 0\n", material="painted"),
         "warning",
@@ -657,6 +671,12 @@ CASES = [
         threemf(model_xml(vertex='x="zero" y="0" z="0"')),
         "error",
         ("vertex coordinate", "'zero'"),
+    ),
+    Case(
+        "3mf infinite vertex coordinate",
+        threemf(model_xml(vertex='x="inf" y="0" z="0"')),
+        "error",
+        ("m.3mf", "infinite"),
     ),
     Case("3mf unknown texid", threemf_unknown_texid, "error", ("'99'", "unknown texture")),
     Case(

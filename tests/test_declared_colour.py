@@ -201,3 +201,24 @@ def test_gltf_document_is_not_changed_on_disk(tmp_path):
     load_model(path)
     assert path.read_bytes() == before
     assert json.loads(before)["materials"][0]["name"] == "painted"
+
+
+def test_gltf_primitives_keep_their_own_materials(tmp_path):
+    document, binary = gltf_parts(factor=[1, 0, 0, 1])
+    # Split the index accessor (12 uint32) in two primitives of two faces each.
+    document["accessors"][2]["count"] = 6
+    document["accessors"].append(
+        {"bufferView": 2, "byteOffset": 24, "componentType": 5125, "count": 6, "type": "SCALAR"}
+    )
+    document["materials"].append(
+        {"name": "blue", "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0.2, 1]}}
+    )
+    first = document["meshes"][0]["primitives"][0]
+    second = {"attributes": dict(first["attributes"]), "indices": 3, "material": 1}
+    document["meshes"][0]["primitives"].append(second)
+    path = tmp_path / "two.glb"
+    path.write_bytes(glb_bytes(document, binary))
+    mesh = load_model(path)
+    blue = np.append(_srgb8([0, 0, 0.2]), 255)
+    expected = np.array([[255, 0, 0, 255]] * 2 + [blue] * 2)
+    np.testing.assert_array_equal(_centroid_colours(mesh), expected)

@@ -485,7 +485,8 @@ def _part(
     faces = np.asarray(geometry.faces, dtype=np.int64)
     if np.linalg.det(matrix[:3, :3]) < 0:
         faces = faces[:, ::-1]
-    vertices = np.asarray(geometry.vertices, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused by load_model
+        vertices = np.asarray(geometry.vertices, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
     part: dict[str, Any] = {"vertices": vertices, "faces": faces}
     material_index = primitive.get("material")
     colour = colours[material_index] if isinstance(material_index, int) else None

@@ -122,7 +122,9 @@ def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
         textured = []
     if textured or (options.texture is not None and not entries):
         assert uv_index is not None
-        table = _texture_materials(path, entries, textured, used, options)
+        table, texture_used = _texture_materials(path, entries, textured, used, options)
+        if options.texture is not None and not texture_used:
+            _warn_texture_unused(path, options.texture, "the MTL's textures were all found")
         if vertex_rgb is not None:
             warnings.warn(
                 f"{path}: its vertex colours ('v x y z r g b') are ignored: "
@@ -150,6 +152,8 @@ def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
             source=str(path),
         )
     coloured = [n for n in used if n in entries]
+    if options.texture is not None:  # has_uv, an MTL, but no map_Kd on the faces
+        _warn_texture_unused(path, options.texture, "the MTL gives its faces no map_Kd")
     if vertex_rgb is not None:
         if coloured:
             warnings.warn(
@@ -181,6 +185,14 @@ def _statement(raw: str) -> tuple[str, str]:
     if not parts or parts[0].startswith("#"):
         return "", ""
     return parts[0], parts[1].strip() if len(parts) > 1 else ""
+
+
+def _warn_texture_unused(path: Path, texture: Path, reason: str) -> None:
+    warnings.warn(
+        f"{path}: --texture {texture} is not used: {reason}",
+        ShellvoxWarning,
+        stacklevel=4,
+    )
 
 
 def _warn_undefined(
@@ -475,8 +487,12 @@ def _texture_materials(
     textured: list[str],
     used: list[str],
     options: LoadOptions,
-) -> dict[str, Material]:
-    """Materials of the used names, textures read under one pixel budget."""
+) -> tuple[dict[str, Material], bool]:
+    """Return the materials of the used names and whether ``--texture`` was used.
+
+    Textures are read under one pixel budget; ``--texture`` replaces every texture
+    that is missing, or textures every face when there is no MTL.
+    """
     refs: list[TextureRef] = []
     if not entries:  # no MTL: --texture on every face
         assert options.texture is not None
@@ -484,8 +500,8 @@ def _texture_materials(
         images = read_textures(refs, colour=options.colour, force=options.force)
         image = images[0]
         if image is None:
-            return {"": Material("texture", factor=_fallback_factor(options))}
-        return {"": Material("texture", image=image)}
+            return {"": Material("texture", factor=_fallback_factor(options))}, True
+        return {"": Material("texture", image=image)}, True
     for name in textured:
         entry = entries[name]
         assert entry.texture is not None
@@ -512,4 +528,4 @@ def _texture_materials(
         if name not in table:
             factor = entries[name].factor if name in entries else _fallback_factor(options)
             table[name] = Material(name or "default", factor=factor)
-    return table
+    return table, any(ref.source is options.texture for ref in refs)

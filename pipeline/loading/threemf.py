@@ -365,7 +365,15 @@ def _mesh_part(
         raise InputError(
             path, f"object {obj.get('id')} has a vertex index out of range", "re-export it"
         )
-    vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
+    if not np.isfinite(vertices).all():
+        bad = int((~np.isfinite(vertices)).any(axis=1).sum())
+        raise InputError(
+            path,
+            f"object {obj.get('id')} has {bad} vertices with NaN or infinite coordinates",
+            "fix or re-export the model",
+        )
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused by load_model
+        vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
     default_pid, default_index = obj.get("pid", ""), obj.get("pindex", "")
     pid = np.array([t.get("pid", default_pid) for t in triangles], dtype=object)
     p1 = [t.get("p1", default_index if t.get("pid") is None else "") for t in triangles]
