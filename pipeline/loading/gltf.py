@@ -428,20 +428,22 @@ def _load_geometry(
     for key in ("images", "textures", "samplers"):
         tree.pop(key, None)
     text = json.dumps(tree).encode()
+    stream = io.BytesIO()
     if document.glb:
         text += b" " * (-len(text) % 4)
-        end = document.json_chunk[1]
-        rest = document.data[end:]
-        chunk = struct.pack("<I4s", len(text), b"JSON") + text
-        data = struct.pack("<4sII", b"glTF", 2, 12 + len(chunk) + len(rest)) + chunk + rest
+        rest = memoryview(document.data)[document.json_chunk[1] :]  # BIN and later chunks
+        stream.write(struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(text) + len(rest)))
+        stream.write(struct.pack("<I4s", len(text), b"JSON") + text)
+        stream.write(rest)
     else:
-        data = text
+        stream.write(text)
+    stream.seek(0)
     resolver = trimesh.resolvers.FilePathResolver(str(document.path), allow_anywhere=options.force)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             loaded = trimesh.load(
-                io.BytesIO(data),
+                stream,
                 file_type="glb" if document.glb else "gltf",
                 resolver=resolver,
                 process=False,

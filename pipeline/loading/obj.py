@@ -69,7 +69,9 @@ def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
     ColouredMesh
         In file units, vertices not yet merged by position.
     """
-    text = path.read_text(encoding="utf-8", errors="replace")
+    # Tabs separate statements as well as spaces do (MeshLab): one replace over the text
+    # keeps the per-line work to a partition.
+    text = path.read_text(encoding="utf-8", errors="replace").replace("\t", " ")
     positions: list[str] = []
     uvs: list[str] = []
     face_lines: list[list[str]] = []
@@ -77,7 +79,7 @@ def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
     mtllibs: list[str] = []
     material = ""
     for raw in text.splitlines():
-        key, rest = _statement(raw)
+        key, _, rest = raw.strip().partition(" ")
         if key == "v":
             positions.append(rest)
         elif key == "vt":
@@ -86,9 +88,9 @@ def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
             face_lines.append(rest.split())
             face_material_names.append(material)
         elif key == "usemtl":
-            material = rest
+            material = rest.strip()
         elif key == "mtllib":
-            mtllibs.append(rest)
+            mtllibs.append(rest.strip())
     if not positions or not face_lines:
         raise InputError(path, "has no vertices or no faces", "export the mesh with its faces")
 
