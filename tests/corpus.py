@@ -632,6 +632,18 @@ CASES = [
         ("'painted'", "KHR_texture_transform", "not applied"),
     ),
     Case("glb truncated", truncated_glb, "error", ("cut.glb", "truncated")),
+    Case(
+        "glb with a string where a material belongs",
+        glb_with(set_key(("materials", 0), "painted")),
+        "error",
+        ("model.glb", "malformed glTF document"),
+    ),
+    Case(
+        "glb primitive with a material index out of range",
+        glb_with(set_key(("meshes", 0, "primitives", 0, "material"), 7)),
+        "error",
+        ("model.glb", "malformed glTF document"),
+    ),
     Case("gltf buffer file missing", gltf_missing_buffer, "error", ("'gone.bin'", "missing")),
     Case(
         "gltf buffer outside the folder",

@@ -108,6 +108,19 @@ def read_gltf(path: Path, options: LoadOptions) -> ColouredMesh:
         The document, a buffer or a texture is malformed, missing, too large or outside
         the model's folder.
     """
+    try:
+        return _read_gltf(path, options)
+    except InputError:
+        raise
+    except (KeyError, IndexError, TypeError, AttributeError, ValueError) as error:
+        # A safety net for a document whose structure is not glTF's (a string where an
+        # object belongs...): the checks in this module name each known problem.
+        raise InputError(
+            path, f"has a malformed glTF document ({type(error).__name__}: {error})", FIX
+        ) from None
+
+
+def _read_gltf(path: Path, options: LoadOptions) -> ColouredMesh:
     document = _read_document(path)
     buffers = _check_buffers(document, options)
     colours = _base_colours(document)

@@ -94,10 +94,13 @@ def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
     if not positions or not face_lines:
         raise InputError(path, "has no vertices or no faces", "export the mesh with its faces")
 
-    vertex_rows = _parse_rows(path, positions, "v")
+    vertex_rows = _parse_rows(path, positions, "v", 3)
     xyz = vertex_rows[:, :3]
     vertex_rgb = vertex_rows[:, 3:6] if vertex_rows.shape[1] >= 6 else None
-    uv_rows = _parse_rows(path, uvs, "vt")[:, :2] if uvs else np.zeros((0, 2))
+    uv_rows = _parse_rows(path, uvs, "vt", 1) if uvs else np.zeros((0, 2))
+    if uv_rows.shape[1] == 1:  # "vt u": v defaults to 0
+        uv_rows = np.concatenate([uv_rows, np.zeros_like(uv_rows)], axis=1)
+    uv_rows = uv_rows[:, :2]
     pos_index, uv_index, triangle_owner = _triangulate(path, face_lines, len(xyz), len(uv_rows))
     faces = pos_index
     names = np.asarray(face_material_names, dtype=object)[triangle_owner]
@@ -219,9 +222,13 @@ def _warn_undefined(
         )
 
 
-def _parse_rows(path: Path, rows: list[str], key: str) -> NDArray[np.float64]:
+def _parse_rows(path: Path, rows: list[str], key: str, needed: int) -> NDArray[np.float64]:
     """Parse whitespace-separated numeric rows into a 2-D array (ragged rows are cut)."""
     width = min(len(row.split()) for row in rows)
+    if width < needed:
+        raise InputError(
+            path, f"has a '{key}' line with fewer than {needed} numbers", "re-export it"
+        )
     try:
         flat = np.array(" ".join(" ".join(r.split()[:width]) for r in rows).split(), float)
     except ValueError as error:
