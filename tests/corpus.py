@@ -633,6 +633,13 @@ CASES = [
     ),
     Case("glb truncated", truncated_glb, "error", ("cut.glb", "truncated")),
     Case(
+        "glb with --texture",
+        glb_with(embed_image(TEX), image={}),
+        "warning",
+        ("--texture applies to OBJ files only", "model.glb"),
+        ("--texture", "FOLDER/model.glb"),  # any existing file: it is never read
+    ),
+    Case(
         "glb with a string where a material belongs",
         glb_with(set_key(("materials", 0), "painted")),
         "error",
