@@ -39,7 +39,9 @@ class LoadOptions:
     repair : bool
         Close small holes and fix inconsistent winding (with a warning) instead of refusing.
     force : bool
-        Accept more faces than :attr:`max_faces`.
+        Lift the loader's limits (:attr:`max_faces`, the texture pixel budget, coordinates
+        beyond 1e6 mm) and read referenced files outside the model's folder, with a
+        warning (see :mod:`pipeline.loading`).
     max_faces : int
         Sane face limit without ``force``.
     """

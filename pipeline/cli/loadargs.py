@@ -38,7 +38,7 @@ def add_load_arguments(parser: argparse.ArgumentParser) -> None:
         "--texture",
         type=Path,
         metavar="FILE",
-        help="texture image for an OBJ whose MTL or map_Kd is missing",
+        help="texture image for an OBJ whose MTL or map_Kd is missing (OBJ only)",
     )
     group.add_argument(
         "--repair",
@@ -46,7 +46,10 @@ def add_load_arguments(parser: argparse.ArgumentParser) -> None:
         help="close small holes and fix winding (with a warning) instead of refusing the model",
     )
     group.add_argument(
-        "--force", action="store_true", help="accept models with more faces than the sane limit"
+        "--force",
+        action="store_true",
+        help="lift the loader's limits (faces, texture pixels, coordinates 1e6 mm from the "
+        "origin) and read referenced files outside the model's folder (with a warning)",
     )
     group.add_argument(
         "--max-faces",

@@ -3,22 +3,50 @@
 Formats: OBJ (+MTL, textures), PLY, glTF/GLB, 3MF, STL, OFF. Every loader returns the
 raw mesh in file units; this module converts units, applies ``--colour``, checks for
 NaN/inf and absurd sizes, then :func:`pipeline.topology.prepare` merges and checks it.
+
+Every problem ends in a correct load, an :class:`~pipeline.errors.InputError` (one line:
+file, problem, fix), or a :class:`~pipeline.errors.ShellvoxWarning` saying what was
+changed. In particular:
+
+- Referenced files (MTL, textures, glTF buffers and images, PLY ``TextureFile``) must lie
+  in the model's folder or below it (:mod:`pipeline.loading.references`); a reference
+  outside is refused unless ``--force`` (then read with a warning).
+- A declared colour that cannot be used is refused or, with ``--colour``, replaced by that
+  colour with a warning; one the format allows but shellvox does not read is named in a
+  warning.
+- Limits, each lifted by ``--force``: :data:`MAX_TEXTURE_PIXELS` texture pixels over all
+  textures (checked from the image headers before decoding), ``max_faces`` faces, and
+  coordinates within :data:`MAX_COORDINATE_MM` of the origin after unit conversion and
+  ``--scale``. Beyond :data:`MAX_COORDINATE_MM_FORCED` (where float64 arithmetic on the
+  geometry loses its sub-micron precision) and for NaN or infinity there is no ``--force``.
+  A glTF buffer may not declare more bytes than the file holds.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from pipeline.config import UNIT_MM, LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.loading.gltf import read_gltf
+from pipeline.loading.images import MAX_TEXTURE_PIXELS
 from pipeline.loading.obj import read_obj
 from pipeline.loading.threemf import read_3mf
 from pipeline.loading.trimesh_formats import read_with_trimesh
 from pipeline.mesh import ColouredMesh
 from pipeline.topology import prepare
+
+__all__ = ["FORMATS", "MAX_COORDINATE_MM", "MAX_TEXTURE_PIXELS", "load_model"]
+
+#: Largest distance of a vertex from the origin accepted without ``--force`` (1 km).
+MAX_COORDINATE_MM = 1e6
+#: Largest accepted even with ``--force`` (1000 km: the float64 spacing there is 1e-7 mm).
+MAX_COORDINATE_MM_FORCED = 1e9
 
 FORMATS = {
     ".obj": "obj",
@@ -72,15 +100,19 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         )
     if options.texture is not None and not Path(options.texture).is_file():
         raise InputError(options.texture, "texture file not found", "check the --texture path")
+    if options.texture is not None and file_type != "obj":
+        warnings.warn(
+            f"--texture applies to OBJ files only; {path.name} is read without it",
+            ShellvoxWarning,
+            stacklevel=2,
+        )
 
     mm_per_unit = UNIT_MM[options.units or "mm"]
     if file_type == "obj":
         mesh = read_obj(path, options)
     elif file_type == "3mf":
-        mesh, declared = read_3mf(path)
+        mesh, declared = read_3mf(path, options)
         if options.units is not None and UNIT_MM[options.units] != declared:
-            import warnings
-
             warnings.warn(
                 f"{path}: the 3MF declares its own unit; --units {options.units} "
                 "is ignored (use --scale to resize)",
@@ -88,8 +120,10 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
                 stacklevel=2,
             )
         mm_per_unit = declared
+    elif file_type in ("glb", "gltf"):
+        mesh = read_gltf(path, options)
     else:
-        mesh = read_with_trimesh(path, file_type)
+        mesh = read_with_trimesh(path, file_type, options)
 
     if len(mesh.faces) > options.max_faces and not options.force:
         raise InputError(
@@ -105,9 +139,51 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
             "fix or re-export the model",
         )
     mesh = dataclasses.replace(
-        mesh, vertices=mesh.vertices * (mm_per_unit * options.scale), source=str(path)
+        mesh,
+        vertices=_checked_mm(path, mesh.vertices, mm_per_unit * options.scale, options),
+        source=str(path),
     )
     if mesh.colour_kind == "none" and options.colour is not None:
         face_rgba = np.tile(np.asarray(options.colour, np.uint8), (len(mesh.faces), 1))
         mesh = dataclasses.replace(mesh, colour_kind="face", face_rgba=face_rgba)
     return prepare(mesh, repair=options.repair)
+
+
+def _checked_mm(
+    path: Path, vertices: NDArray[np.float64], factor: float, options: LoadOptions
+) -> NDArray[np.float64]:
+    """Scale file-unit vertices to mm and refuse coordinates no printer can hold.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64
+        Finite, in file units.
+    factor : float
+        Millimetres per file unit times ``--scale``.
+
+    Returns
+    -------
+    (V, 3) float64, mm
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        scaled = vertices * factor
+        largest = float(np.abs(scaled).max()) if scaled.size else 0.0
+    if not np.isfinite(scaled).all():
+        raise InputError(
+            "--scale",
+            f"{path}: coordinates of up to {float(np.abs(vertices).max()):.3g} file units times "
+            f"{factor:g} mm per unit overflow to infinity",
+            "pass a smaller --scale or the right --units",
+        )
+    limit = MAX_COORDINATE_MM_FORCED if options.force else MAX_COORDINATE_MM
+    if largest > limit:
+        fix = "check --units and --scale (or the file)" + (
+            "" if options.force else ", or pass --force"
+        )
+        raise InputError(
+            path,
+            f"has coordinates up to {largest:.3g} mm from the origin after unit conversion and "
+            f"scaling, beyond the limit of {limit:.0e} mm",
+            fix,
+        )
+    return scaled

@@ -4,14 +4,19 @@ trimesh reads 3MF geometry but drops colour groups and textures, so the XML is r
 ``<colorgroup>`` and ``<basematerials>`` colours per triangle or per vertex, ``<texture2d>``
 with ``<texture2dgroup>`` coordinates, the model ``unit``, components and build-item
 transforms. The archive is checked before anything is extracted: no entry may escape it,
-and entries may not expand beyond sane sizes (zip-bomb guard).
+and entries may not expand beyond sane sizes (zip-bomb guard). Textures are entries of
+the package (never files outside it) and share the pixel budget of
+:mod:`pipeline.loading.images`. Anything malformed (XML, zip CRC, colour strings,
+transforms, numbers, references) is an :class:`~pipeline.errors.InputError`.
 
 Reference: 3MF Core Specification 1.3 and Materials and Properties Extension 1.2.
 """
 
 from __future__ import annotations
 
+import warnings
 import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from xml.etree import ElementTree
@@ -19,9 +24,9 @@ from xml.etree import ElementTree
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.config import UNIT_MM
-from pipeline.errors import InputError
-from pipeline.loading.images import read_texture
+from pipeline.config import UNIT_MM, LoadOptions
+from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.loading.images import TextureRef, read_textures
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import FilterMode, Material, WrapMode, decode_uint8
 
@@ -55,15 +60,20 @@ class _Properties:
     colours: dict[str, NDArray[np.uint8]]
     uv: dict[str, tuple[NDArray[np.float64], int]]  # id -> (coordinates (n, 2), material)
     materials: list[Material]
+    unsupported: dict[str, str]  # id -> element name of groups shellvox does not read
+    fallback: NDArray[np.uint8]  # (4,) sRGBA for their triangles: --colour or white
 
 
-def read_3mf(path: Path) -> tuple[ColouredMesh, float]:
+def read_3mf(path: Path, options: LoadOptions) -> tuple[ColouredMesh, float]:
     """Read a 3MF file.
 
     Parameters
     ----------
     path : Path
         The ``.3mf`` package.
+    options : LoadOptions
+        ``colour`` replaces a missing or unreadable texture (with a warning); ``force``
+        lifts the texture pixel budget.
 
     Returns
     -------
@@ -71,10 +81,27 @@ def read_3mf(path: Path) -> tuple[ColouredMesh, float]:
         All build items, transformed, in the file's unit, not yet merged.
     mm_per_unit : float
         Millimetres per unit of the file (from the model's ``unit`` attribute).
+
+    Raises
+    ------
+    InputError
+        The package or its XML is malformed, or a texture cannot be used.
     """
     try:
+        return _read_3mf(path, options)
+    except InputError:
+        raise
+    except (ValueError, KeyError, IndexError, TypeError) as error:
+        # A safety net: the checks below name each known problem.
+        raise InputError(
+            path, f"is malformed ({type(error).__name__}: {error})", "re-export it as 3MF"
+        ) from None
+
+
+def _read_3mf(path: Path, options: LoadOptions) -> tuple[ColouredMesh, float]:
+    try:
         archive = zipfile.ZipFile(path)
-    except zipfile.BadZipFile:
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError):
         raise InputError(
             path, "is not a 3MF package (not a zip archive)", "re-export it as 3MF"
         ) from None
@@ -90,7 +117,7 @@ def read_3mf(path: Path) -> tuple[ColouredMesh, float]:
         resources = root.find(f"{CORE}resources")
         if resources is None:
             raise InputError(path, "has no <resources>", "re-export it as 3MF")
-        properties = _read_properties(path, archive, resources)
+        properties = _read_properties(path, archive, resources, options)
         objects = {obj.get("id", ""): obj for obj in resources.iter(f"{CORE}object")}
         parts = []
         build = root.find(f"{CORE}build")
@@ -100,7 +127,7 @@ def read_3mf(path: Path) -> tuple[ColouredMesh, float]:
                 path,
                 objects,
                 item.get("objectid", ""),
-                _transform(item.get("transform")),
+                _transform(path, item.get("transform")),
                 properties,
                 0,
             )
@@ -137,7 +164,12 @@ def _check_archive(path: Path, archive: zipfile.ZipFile) -> None:
 def _model_part(path: Path, archive: zipfile.ZipFile) -> str:
     names = set(archive.namelist())
     if "_rels/.rels" in names:
-        rels = ElementTree.fromstring(_read_entry(path, archive, "_rels/.rels"))
+        try:
+            rels = ElementTree.fromstring(_read_entry(path, archive, "_rels/.rels"))
+        except ElementTree.ParseError as error:
+            raise InputError(
+                path, f"its _rels/.rels is malformed XML ({error})", "re-export it as 3MF"
+            ) from None
         for rel in rels:
             if rel.get("Type") == MODEL_REL and rel.get("Target"):
                 target = str(rel.get("Target")).lstrip("/")
@@ -150,8 +182,18 @@ def _model_part(path: Path, archive: zipfile.ZipFile) -> str:
 
 
 def _read_entry(path: Path, archive: zipfile.ZipFile, name: str) -> bytes:
-    with archive.open(name) as handle:
-        data = handle.read(MAX_ENTRY_BYTES + 1)
+    try:
+        with archive.open(name) as handle:
+            data = handle.read(MAX_ENTRY_BYTES + 1)
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as error:
+        # A bad CRC-32, corrupt deflate data or a truncated archive.
+        raise InputError(
+            path, f"zip entry {name!r} is corrupt ({error})", "re-export or re-download it"
+        ) from None
+    except (NotImplementedError, RuntimeError) as error:  # unknown compression, encrypted
+        raise InputError(
+            path, f"zip entry {name!r} cannot be read ({error})", "re-export it as 3MF"
+        ) from None
     if len(data) > MAX_ENTRY_BYTES:
         raise InputError(path, f"zip entry {name!r} is larger than declared", "refusing it")
     return data
@@ -165,15 +207,38 @@ def _parse_xml(path: Path, archive: zipfile.ZipFile, name: str) -> ElementTree.E
 
 
 def _colour(path: Path, value: str | None) -> NDArray[np.uint8]:
-    text = (value or "").strip().lstrip("#")
-    if len(text) not in (6, 8):
-        raise InputError(path, f"has a malformed colour {value!r}", "use #RRGGBB or #RRGGBBAA")
-    rgba = bytes.fromhex(text + ("ff" if len(text) == 6 else ""))
+    text = (value or "").strip()
+    try:
+        if len(text) not in (7, 9) or text[0] != "#":
+            raise ValueError(text)
+        rgba = bytes.fromhex(text[1:] + ("ff" if len(text) == 7 else ""))
+    except ValueError:
+        raise InputError(
+            path, f"has a malformed colour {value!r}", "colours are #RRGGBB or #RRGGBBAA in hex"
+        ) from None
     return np.frombuffer(rgba, dtype=np.uint8).copy()
 
 
+def _numbers(path: Path, what: str, values: list[str], dtype: type) -> NDArray[np.generic]:
+    """Parse XML attribute strings as numbers, or refuse naming what they are."""
+    try:
+        array: NDArray[np.generic] = np.array(values, dtype=np.str_).astype(dtype)
+    except ValueError:
+        bad = next((v for v in values if not _parses(v, dtype)), "?")
+        raise InputError(path, f"has a non-numeric {what} {bad!r}", "re-export it as 3MF") from None
+    return array
+
+
+def _parses(value: str, dtype: type) -> bool:
+    try:
+        dtype(value)
+    except ValueError:
+        return False
+    return True
+
+
 def _read_properties(
-    path: Path, archive: zipfile.ZipFile, resources: ElementTree.Element
+    path: Path, archive: zipfile.ZipFile, resources: ElementTree.Element, options: LoadOptions
 ) -> _Properties:
     colours: dict[str, NDArray[np.uint8]] = {}
     for group in resources.iter(f"{MATERIAL}colorgroup"):
@@ -185,38 +250,74 @@ def _read_properties(
             [_colour(path, b.get("displaycolor")) for b in group.iter(f"{CORE}base")], np.uint8
         ).reshape(-1, 4)
     textures: dict[str, int] = {}
-    materials: list[Material] = []
-    for texture in resources.iter(f"{MATERIAL}texture2d"):
+    elements = list(resources.iter(f"{MATERIAL}texture2d"))
+    entries = set(archive.namelist())
+    refs = []
+    for texture in elements:
         name = (texture.get("path") or "").lstrip("/")
-        if name not in archive.namelist():
-            raise InputError(path, f"texture {name!r} is not in the package", "re-export it")
-        image = read_texture(_read_entry(path, archive, name), path, name)
+        data = _read_entry(path, archive, name) if name in entries else None
+        refs.append(TextureRef(path, f"texture {name!r} (in the package)", data, "re-export it"))
+    images = read_textures(refs, colour=options.colour, force=options.force)
+    materials: list[Material] = []
+    for texture, ref, image in zip(elements, refs, images, strict=True):
         wrap = (
             WRAP_3MF.get(texture.get("tilestyleu", "wrap"), "repeat"),
             WRAP_3MF.get(texture.get("tilestylev", "wrap"), "repeat"),
         )
         filt: FilterMode = "nearest" if texture.get("filter") == "nearest" else "linear"
         textures[texture.get("id", "")] = len(materials)
-        materials.append(Material(name, image=image, wrap=wrap, filter=filt))
+        if image is None:  # replaced by --colour (read_textures warned)
+            assert options.colour is not None
+            fallback = decode_uint8(np.asarray(options.colour, np.uint8))
+            materials.append(Material(ref.label, factor=fallback))
+        else:
+            materials.append(Material(ref.label, image=image, wrap=wrap, filter=filt))
     uv: dict[str, tuple[NDArray[np.float64], int]] = {}
     for group in resources.iter(f"{MATERIAL}texture2dgroup"):
-        coords = np.array(
-            [
-                [float(c.get("u", 0)), float(c.get("v", 0))]
-                for c in group.iter(f"{MATERIAL}tex2coord")
-            ]
-        ).reshape(-1, 2)
-        uv[group.get("id", "")] = (coords, textures[group.get("texid", "")])
-    return _Properties(colours, uv, materials)
+        texid = group.get("texid", "")
+        if texid not in textures:
+            raise InputError(
+                path,
+                f"texture group {group.get('id')!r} refers to unknown texture id {texid!r}",
+                "re-export it as 3MF",
+            )
+        values = [c.get(k, "0") for c in group.iter(f"{MATERIAL}tex2coord") for k in "uv"]
+        coords = _numbers(path, "texture coordinate", values, float).reshape(-1, 2)
+        uv[group.get("id", "")] = (coords.astype(np.float64), textures[texid])
+    unsupported = {
+        element.get("id", ""): element.tag.rpartition("}")[2]
+        for element in resources
+        if element.tag in (f"{MATERIAL}compositematerials", f"{MATERIAL}multiproperties")
+    }
+    plain: NDArray[np.uint8] = np.array(options.colour or (255, 255, 255, 255), np.uint8)
+    return _Properties(colours, uv, materials, unsupported, plain)
 
 
-def _transform(text: str | None) -> NDArray[np.float64]:
+def _transform(path: Path, text: str | None) -> NDArray[np.float64]:
     """3MF row-vector transform ``m00 ... m32`` as a 4x4 column-vector matrix."""
     matrix = np.eye(4)
-    if text:
-        values = np.array(text.split(), dtype=np.float64).reshape(4, 3)
-        matrix[:3, :3] = values[:3].T
-        matrix[:3, 3] = values[3]
+    if text is None:
+        return matrix
+    try:
+        values = np.array(text.split(), dtype=np.float64)
+    except ValueError:
+        values = np.array([np.nan])
+    if values.shape != (12,) or not np.isfinite(values).all():
+        raise InputError(
+            path,
+            f"has a malformed transform {text!r}",
+            "a 3MF transform is 12 numbers (m00 m01 m02 ... m30 m31 m32); re-export it",
+        )
+    values = values.reshape(4, 3)
+    matrix[:3, :3] = values[:3].T
+    matrix[:3, 3] = values[3]
+    scale = float(np.abs(matrix[:3, :3]).max())
+    if scale == 0 or abs(np.linalg.det(matrix[:3, :3])) <= 1e-12 * scale**3:
+        raise InputError(
+            path,
+            f"has a singular transform {text!r} (it flattens the object)",
+            "re-export it with an invertible transform",
+        )
     return matrix
 
 
@@ -238,7 +339,7 @@ def _object_meshes(
     components = obj.find(f"{CORE}components")
     if components is not None:
         for component in components.iter(f"{CORE}component"):
-            child = transform @ _transform(component.get("transform"))
+            child = transform @ _transform(path, component.get("transform"))
             parts += _object_meshes(
                 path, objects, component.get("objectid", ""), child, properties, depth + 1
             )
@@ -252,34 +353,36 @@ def _mesh_part(
     transform: NDArray[np.float64],
     properties: _Properties,
 ) -> dict[str, NDArray[np.generic]]:
-    vertices = np.array(
-        [
-            [float(v.get("x", "nan")), float(v.get("y", "nan")), float(v.get("z", "nan"))]
-            for v in mesh.iter(f"{CORE}vertex")
-        ]
-    )
+    coordinates = [v.get(k, "nan") for v in mesh.iter(f"{CORE}vertex") for k in "xyz"]
+    vertices = _numbers(path, "vertex coordinate", coordinates, float).astype(np.float64)
+    vertices = vertices.reshape(-1, 3)
     triangles = list(mesh.iter(f"{CORE}triangle"))
-    faces = np.array(
-        [[int(t.get("v1", -1)), int(t.get("v2", -1)), int(t.get("v3", -1))] for t in triangles],
-        dtype=np.int64,
-    ).reshape(-1, 3)
+    corners = [t.get(k, "-1") for t in triangles for k in ("v1", "v2", "v3")]
+    faces = _numbers(path, "vertex index", corners, int).astype(np.int64).reshape(-1, 3)
     if len(vertices) == 0 or len(faces) == 0:
         raise InputError(path, f"object {obj.get('id')} has an empty mesh", "re-export it")
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise InputError(
             path, f"object {obj.get('id')} has a vertex index out of range", "re-export it"
         )
-    vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
+    if not np.isfinite(vertices).all():
+        bad = int((~np.isfinite(vertices)).any(axis=1).sum())
+        raise InputError(
+            path,
+            f"object {obj.get('id')} has {bad} vertices with NaN or infinite coordinates",
+            "fix or re-export the model",
+        )
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused by load_model
+        vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
     default_pid, default_index = obj.get("pid", ""), obj.get("pindex", "")
     pid = np.array([t.get("pid", default_pid) for t in triangles], dtype=object)
     p1 = [t.get("p1", default_index if t.get("pid") is None else "") for t in triangles]
-    index = np.array(
-        [
-            [int(a or -1), int(t.get("p2", a or -1)), int(t.get("p3", a or -1))]
-            for a, t in zip(p1, triangles, strict=True)
-        ],
-        dtype=np.int64,
-    )
+    indices = [
+        str(value)
+        for a, t in zip(p1, triangles, strict=True)
+        for value in (a or -1, t.get("p2", a or -1), t.get("p3", a or -1))
+    ]
+    index = _numbers(path, "property index", indices, int).astype(np.int64).reshape(-1, 3)
     n = len(faces)
     rgba = np.full((n, 3, 4), 255, dtype=np.uint8)
     uv = np.zeros((n, 3, 2))
@@ -293,6 +396,16 @@ def _mesh_part(
             coords, texture = properties.uv[group]
             uv[chosen] = coords[_check_index(path, index[chosen], len(coords))]
             material[chosen] = texture
+        elif group in properties.unsupported:
+            rgba[chosen] = properties.fallback
+            colour = ",".join(str(c) for c in properties.fallback)
+            warnings.warn(
+                f"{path}: {int(chosen.sum())} triangles use a <{properties.unsupported[group]}> "
+                f"property group ({group!r}), which shellvox does not read; they get "
+                f"{colour} (white, or --colour)",
+                ShellvoxWarning,
+                stacklevel=5,
+            )
         else:
             raise InputError(
                 path, f"triangles reference unknown property group {group!r}", "re-export it"

@@ -1,16 +1,17 @@
-"""PLY, glTF/GLB, STL and OFF through trimesh, with colour taken over faithfully.
+"""PLY, STL and OFF through trimesh, with colour taken over faithfully.
 
-trimesh parses the geometry, the scene graph (glTF node transforms) and the visuals; this
-module turns its visuals into shellvox's colour sources: textures with per-corner UVs and
-per-primitive materials (glTF ``baseColorTexture`` x ``baseColorFactor``, with the file's
-sampler wrap and filter), vertex colours (glTF ``COLOR_0`` is linear light and is encoded
-to sRGB here), face colours, or none.
+trimesh parses the geometry; this module turns its visuals into shellvox's colour
+sources: textures with per-corner UVs (a PLY ``comment TextureFile``, read here under
+the path policy and pixel budget of :mod:`pipeline.loading.references` and
+:mod:`pipeline.loading.images`, not by trimesh), vertex colours, face colours, or none.
+A PLY colour that cannot be used (a ``TextureFile`` without texture coordinates, colour
+properties other than ``red green blue [alpha]``) gives a one-line warning. An STL is
+checked to be binary or ASCII STL before trimesh sees it. :func:`combine_parts` joins
+parts of any trimesh-read format (glTF too, see :mod:`pipeline.loading.gltf`).
 """
 
 from __future__ import annotations
 
-import json
-import struct
 import warnings
 from pathlib import Path
 from typing import Any
@@ -19,28 +20,37 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
+from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.loading.images import TextureRef, read_textures
+from pipeline.loading.references import check_inside
 from pipeline.mesh import ColouredMesh
-from pipeline.texture import Material, WrapMode, decode_uint8, encode_uint8, srgb_to_linear
+from pipeline.texture import Material, decode_uint8
 
-GL_WRAP: dict[int, WrapMode] = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
-GL_NEAREST = (9728, 9984, 9986)
+#: PLY properties that look like colour but are not the ``red green blue`` trimesh reads.
+PLY_COLOURISH = {
+    "r",
+    "g",
+    "b",
+    "diffuse_red",
+    "diffuse_green",
+    "diffuse_blue",
+    "color",
+    "colour",
+    "rgb",
+    "rgba",
+}
 
 
-def read_with_trimesh(path: Path, file_type: str) -> ColouredMesh:
-    """Read a PLY, glTF/GLB, STL or OFF file into an unmerged mesh in file units."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            loaded = trimesh.load(
-                str(path), file_type=file_type, process=False, maintain_order=True
-            )
-    except Exception as error:  # trimesh raises many types for malformed files
-        raise InputError(
-            path,
-            f"could not be parsed as {file_type.upper()} ({type(error).__name__}: {error})",
-            "check the file or re-export it",
-        ) from None
+def read_with_trimesh(path: Path, file_type: str, options: LoadOptions) -> ColouredMesh:
+    """Read a PLY, STL or OFF file into an unmerged mesh in file units."""
+    texture: NDArray[np.uint8] | None = None
+    texture_name = None
+    if file_type == "stl":
+        _check_stl(path)
+    if file_type == "ply":
+        texture_name, texture = _ply_header(path, options)
+    loaded = load_with_trimesh(path, file_type, skip_materials=file_type == "ply")
     if isinstance(loaded, trimesh.Scene):
         parts = [g for g in loaded.dump(concatenate=False) if isinstance(g, trimesh.Trimesh)]
     elif isinstance(loaded, trimesh.Trimesh):
@@ -50,66 +60,150 @@ def read_with_trimesh(path: Path, file_type: str) -> ColouredMesh:
     parts = [p for p in parts if len(p.faces)]
     if not parts:
         raise InputError(path, "contains no triangles", "export the mesh with its faces")
-    samplers = _gltf_samplers(path) if file_type in ("glb", "gltf") else {}
-    linear_vertex_colours = file_type in ("glb", "gltf")
-    return _combine(path, [_part(p, samplers, linear_vertex_colours) for p in parts])
+    return combine_parts(path, [_part(path, p, texture_name, texture, options) for p in parts])
+
+
+def load_with_trimesh(path: Path, file_type: str, **kwargs: Any) -> Any:
+    """``trimesh.load`` without processing; any failure is an :class:`InputError`."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return trimesh.load(
+                str(path), file_type=file_type, process=False, maintain_order=True, **kwargs
+            )
+    except Exception as error:  # trimesh raises many types for malformed files
+        raise InputError(
+            path,
+            f"could not be parsed as {file_type.upper()} ({type(error).__name__}: {error})",
+            "check the file or re-export it",
+        ) from None
+
+
+def _check_stl(path: Path) -> None:
+    """Refuse a file that is neither binary STL (exact size) nor ASCII STL."""
+    size = path.stat().st_size
+    with path.open("rb") as handle:
+        head = handle.read(1024)
+    if size >= 84:
+        count = int.from_bytes(head[80:84], "little")
+        if size == 84 + 50 * count:
+            return
+    text = head.lstrip().lower()
+    if text.startswith(b"solid") and (b"facet" in text or size <= 1024) and _is_text(head):
+        return
+    expected = ""
+    if size >= 84:
+        count = int.from_bytes(head[80:84], "little")
+        expected = f" (a binary STL of {count:,} triangles would be {84 + 50 * count:,} bytes)"
+    raise InputError(
+        path,
+        f"is not a valid STL: neither ASCII STL ('solid ... facet') nor binary STL of "
+        f"{size:,} bytes{expected}",
+        "export the model again as STL",
+    )
+
+
+def _is_text(data: bytes) -> bool:
+    return b"\0" not in data and all(32 <= c < 127 or c in b"\t\r\n" for c in data[:1024])
+
+
+def _ply_header(path: Path, options: LoadOptions) -> tuple[str | None, NDArray[np.uint8] | None]:
+    """Warn about colour properties trimesh does not read; read the TextureFile, if any."""
+    with path.open("rb") as handle:
+        head = handle.read(65536)
+    end = head.find(b"end_header")
+    header = head[: end if end >= 0 else len(head)].decode("latin-1")
+    properties: dict[str, set[str]] = {}
+    element = ""
+    texture_name = None
+    for line in header.splitlines():
+        words = line.split()
+        if words[:1] == ["element"] and len(words) > 1:
+            element = words[1]
+            properties[element] = set()
+        elif words[:1] == ["property"] and element:
+            properties[element].add(words[-1])
+        elif words[:1] == ["comment"] and "texturefile" in line.lower():
+            texture_name = line[line.lower().index("texturefile") + 11 :].strip()
+    for element, names in properties.items():
+        odd = sorted(names & PLY_COLOURISH)
+        if odd and not {"red", "green", "blue"} <= names:
+            warnings.warn(
+                f"{path}: {element} properties {', '.join(odd)} are not read as colour "
+                "(shellvox reads red, green, blue and alpha)",
+                ShellvoxWarning,
+                stacklevel=3,
+            )
+    if texture_name is None:
+        return None, None
+    vertex = properties.get("vertex", set())
+    face = properties.get("face", set())
+    if not (
+        {"u", "v"} <= vertex
+        or {"s", "t"} <= vertex
+        or {"texture_u", "texture_v"} <= vertex
+        or "texcoord" in face
+    ):
+        warnings.warn(
+            f"{path}: TextureFile {texture_name!r} is ignored: the PLY has no texture coordinates",
+            ShellvoxWarning,
+            stacklevel=3,
+        )
+        return None, None
+    what = f"TextureFile {texture_name!r}"
+    candidate = path.parent / texture_name
+    source = (
+        check_inside(path, candidate, what, force=options.force) if candidate.is_file() else None
+    )
+    ref = TextureRef(path, what, source, "put the image beside the PLY")
+    return texture_name, read_textures([ref], colour=options.colour, force=options.force)[0]
 
 
 def _part(
+    path: Path,
     mesh: trimesh.Trimesh,
-    samplers: dict[str, tuple[tuple[WrapMode, WrapMode], str]],
-    linear_vertex_colours: bool,
+    texture_name: str | None,
+    texture: NDArray[np.uint8] | None,
+    options: LoadOptions,
 ) -> dict[str, Any]:
     faces = np.asarray(mesh.faces, dtype=np.int64)
     part: dict[str, Any] = {"vertices": np.asarray(mesh.vertices, np.float64), "faces": faces}
     visual: Any = mesh.visual
     kind = getattr(visual, "kind", None)
-    if kind == "texture" and visual.uv is not None and len(visual.uv) == len(mesh.vertices):
-        material = visual.material
-        image = getattr(material, "baseColorTexture", None)
-        if image is None:
-            image = getattr(material, "image", None)
-        factor = getattr(material, "baseColorFactor", None)
-        factor_f = np.ones(4) if factor is None else np.asarray(factor, np.float64) / 255.0
-        name = str(getattr(material, "name", "") or "")
-        wrap, filt = samplers.get(name, (("repeat", "repeat"), "linear"))
-        rgba = None if image is None else np.asarray(image.convert("RGBA"), dtype=np.uint8)
-        part["material"] = Material(
-            name,
-            factor=factor_f,
-            image=rgba,
-            wrap=wrap,
-            filter="nearest" if filt == "nearest" else "linear",
-        )
+    has_uv = kind == "texture" and visual.uv is not None and len(visual.uv) == len(mesh.vertices)
+    if texture_name is not None and has_uv:
+        if texture is None:  # replaced by --colour; read_textures warned
+            assert options.colour is not None
+            part["rgba"] = np.broadcast_to(np.asarray(options.colour, np.uint8), (*faces.shape, 4))
+            return part
+        part["material"] = Material(texture_name, image=texture)
         part["uv"] = np.asarray(visual.uv, np.float64)[faces]
         return part
-    if kind == "texture":  # a material without texture coordinates: its factor colour
-        factor = getattr(visual.material, "baseColorFactor", None)
-        if factor is None:
-            factor = getattr(visual.material, "main_color", None)
-        if factor is not None:
-            part["material"] = Material("colour", factor=_linear(np.asarray(factor), True))
-            part["uv"] = np.zeros((len(faces), 3, 2))
-        return part
     if kind == "vertex":
-        colours = np.asarray(visual.vertex_colors, dtype=np.uint8)
-        if linear_vertex_colours:
-            colours = encode_uint8(colours / 255.0)
-        part["rgba"] = colours[faces]
+        part["rgba"] = np.asarray(visual.vertex_colors, dtype=np.uint8)[faces]
     elif kind == "face":
         part["rgba"] = np.repeat(np.asarray(visual.face_colors, np.uint8)[:, None], 3, axis=1)
     return part
 
 
-def _linear(rgba_uint8: NDArray[np.generic], is_srgb: bool) -> NDArray[np.float64]:
-    values = np.asarray(rgba_uint8, np.float64)[:4] / 255.0
-    if is_srgb:
-        values[:3] = srgb_to_linear(values[:3])
-    return values
+def combine_parts(path: Path, parts: list[dict[str, Any]]) -> ColouredMesh:
+    """Join parts; the richest colour source wins (texture > vertex > face > none).
 
+    Parameters
+    ----------
+    path : Path
+        The model file, for messages.
+    parts : list of dict
+        Each with ``vertices (V, 3) float64`` and ``faces (F, 3) int64``, and either
+        ``material`` (a :class:`Material`) with ``uv (F, 3, 2) float64``, or ``rgba
+        (F, 3, 4) uint8`` per corner, or neither (no colour).
 
-def _combine(path: Path, parts: list[dict[str, Any]]) -> ColouredMesh:
-    """Join parts; the richest colour source wins (texture > vertex > face > none)."""
+    Returns
+    -------
+    ColouredMesh
+        Not yet merged. Next to textured parts a part with one colour becomes a plain
+        material; one with varying colours its mean colour, with a warning.
+    """
     offsets = np.cumsum([0] + [len(p["vertices"]) for p in parts[:-1]])
     vertices = np.concatenate([p["vertices"] for p in parts])
     faces = np.concatenate([p["faces"] + o for p, o in zip(parts, offsets, strict=True)])
@@ -124,15 +218,15 @@ def _combine(path: Path, parts: list[dict[str, Any]]) -> ColouredMesh:
                 uv.append(p["uv"])
                 material = p["material"]
             else:
-                if "rgba" in p:
+                rgba = p.get("rgba", white)
+                if not (rgba == rgba.reshape(-1, 4)[0]).all():
                     warnings.warn(
                         f"{path}: a primitive's vertex or face colours are replaced "
                         "by its mean colour next to textured primitives",
                         ShellvoxWarning,
                         stacklevel=3,
                     )
-                mean = decode_uint8(p["rgba"]).reshape(-1, 4).mean(0) if "rgba" in p else None
-                material = Material("plain", factor=np.ones(4) if mean is None else mean)
+                material = Material("plain", factor=decode_uint8(rgba).reshape(-1, 4).mean(0))
                 uv.append(np.zeros((n, 3, 2)))
             index.append(np.full(n, len(materials), np.int64))
             materials.append(material)
@@ -151,32 +245,3 @@ def _combine(path: Path, parts: list[dict[str, Any]]) -> ColouredMesh:
             return ColouredMesh(vertices, faces, "face", face_rgba=rgba[:, 0].copy(), source=source)
         return ColouredMesh(vertices, faces, "vertex", corner_rgba=rgba, source=source)
     return ColouredMesh(vertices, faces, "none", source=source)
-
-
-def _gltf_samplers(path: Path) -> dict[str, tuple[tuple[WrapMode, WrapMode], str]]:
-    """Map glTF material names to (wrap, filter) of their base-colour texture's sampler."""
-    try:
-        data = path.read_bytes()
-        if data[:4] == b"glTF":
-            length, kind = struct.unpack_from("<I4s", data, 12)
-            document = json.loads(data[20 : 20 + length]) if kind == b"JSON" else {}
-        else:
-            document = json.loads(data)
-    except (ValueError, struct.error, OSError):
-        return {}
-    samplers = document.get("samplers", [])
-    textures = document.get("textures", [])
-    result: dict[str, tuple[tuple[WrapMode, WrapMode], str]] = {}
-    for material in document.get("materials", []):
-        info = material.get("pbrMetallicRoughness", {}).get("baseColorTexture")
-        if info is None or info.get("index", -1) >= len(textures):
-            continue
-        sampler_index = textures[info["index"]].get("sampler")
-        sampler = samplers[sampler_index] if sampler_index is not None else {}
-        wrap = (
-            GL_WRAP.get(sampler.get("wrapS", 10497), "repeat"),
-            GL_WRAP.get(sampler.get("wrapT", 10497), "repeat"),
-        )
-        filt = "nearest" if sampler.get("magFilter") in GL_NEAREST else "linear"
-        result[str(material.get("name", ""))] = (wrap, filt)
-    return result
