@@ -41,8 +41,8 @@ from pipeline.build_config import BuildConfig  # noqa: E402
 from pipeline.config import LoadOptions  # noqa: E402
 from pipeline.loading import load_model  # noqa: E402
 from pipeline.mesh import ColouredMesh  # noqa: E402
+from pipeline.printer_profile import load_profile  # noqa: E402
 from voxel.openvdb_module import load_openvdb  # noqa: E402
-from voxel.printers import printer_voxel_mm  # noqa: E402
 
 MESHES = ROOT.parent / "shared" / "meshes"
 MODELS = {
@@ -281,7 +281,7 @@ def memory(args: argparse.Namespace) -> dict[str, object]:
 
 def speed(args: argparse.Namespace) -> dict[str, object]:
     mesh = scaled_model(args.model, args.size_mm)
-    vx, vy, vz = printer_voxel_mm("j750")
+    vx, vy, vz = load_profile("j750").voxel_mm
     vdb = load_openvdb()
     transform = vdb.createLinearTransform()
     transform.scale((vx, vy, vz))
@@ -326,10 +326,10 @@ def speed(args: argparse.Namespace) -> dict[str, object]:
 
 def _config(args: argparse.Namespace) -> BuildConfig:
     return BuildConfig(
-        voxel_mm=printer_voxel_mm("j750"),
+        voxel_mm=load_profile("j750").voxel_mm,
         printer="j750",
         slab_mb=args.slab_mb,
-        write_vdb=not args.no_vdb,
+        formats=("tiff",) if args.no_vdb else ("tiff", "vdb"),
         layer_rule=args.layers,
         shell_meshes=args.shell_meshes or args.layers == "shells",
         workers=args.workers,

@@ -33,11 +33,11 @@ from PIL import Image
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from pipeline.printer_profile import load_profile  # noqa: E402
 from voxel.gcvf_writer import GcvfWriter  # noqa: E402
 from voxel.grid import GridSpec  # noqa: E402
 from voxel.png_encode import encode_png  # noqa: E402
 from voxel.png_slices import PngSliceWriter  # noqa: E402
-from voxel.printers import printer_voxel_mm  # noqa: E402
 from voxel.vdb_writer import VdbStackWriter  # noqa: E402
 
 N_Y, N_X = 1176, 1322
@@ -102,7 +102,7 @@ def one_slice() -> dict[str, object]:
 
 
 def gcvf(n_z: int, rows: int, threads: int, folder: Path) -> dict[str, object]:
-    grid = GridSpec((0.0, 0.0, 0.0), printer_voxel_mm("j750"), (n_z, N_Y, N_X))
+    grid = GridSpec((0.0, 0.0, 0.0), load_profile("j750").voxel_mm, (n_z, N_Y, N_X))
     data = list(slabs(min(n_z, 2 * rows), rows))  # made once, outside the timing
     path = folder / "job.gcvf"
     tracemalloc.start()
@@ -128,7 +128,7 @@ def gcvf(n_z: int, rows: int, threads: int, folder: Path) -> dict[str, object]:
 
 
 def png_folder(n_z: int, rows: int, folder: Path) -> dict[str, object]:
-    grid = GridSpec((0.0, 0.0, 0.0), printer_voxel_mm("j750"), (n_z, N_Y, N_X))
+    grid = GridSpec((0.0, 0.0, 0.0), load_profile("j750").voxel_mm, (n_z, N_Y, N_X))
     colours = np.array([(0, 0, 0, 0), (0, 160, 200, 255), (200, 30, 120, 255),
                         (230, 200, 0, 255), (20, 20, 20, 255), (240, 240, 240, 255),
                         (200, 200, 200, 128)], np.uint8)
@@ -142,7 +142,7 @@ def png_folder(n_z: int, rows: int, folder: Path) -> dict[str, object]:
 
 
 def vdb_material(n_z: int, rows: int, folder: Path) -> dict[str, object]:
-    grid = GridSpec((0.0, 0.0, 0.0), printer_voxel_mm("j750"), (n_z, N_Y, N_X))
+    grid = GridSpec((0.0, 0.0, 0.0), load_profile("j750").voxel_mm, (n_z, N_Y, N_X))
     data = list(slabs(n_z, rows))
     result: dict[str, object] = {"slices": n_z}
     for with_material in (False, True):

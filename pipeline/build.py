@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 import trimesh
+from numpy.typing import NDArray
 from tqdm import tqdm
 
 from offset import offset_shells
@@ -34,18 +35,21 @@ from pipeline.children import init_child
 from pipeline.config import as_json
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.estimate import BYTES_PER_VOXEL, check_resources, estimate_build
+from pipeline.material_plan import build_material_plan
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import OutputFolder
+from pipeline.printer_profile import PrinterProfile
 from pipeline.slab_runner import SlabRunner, resolve_workers
+from pipeline.stack_outputs import StackOutputs
 from voxel.agreement import shell_agreement
 from voxel.atomic import atomic_path, write_text_atomic
 from voxel.blocks import COARSE, fine_block_size
+from voxel.colour_report import ColourReport, sample_surface
 from voxel.grid import GridSpec
+from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
-from voxel.slab import StackModel
-from voxel.tiff_writer import TiffStackWriter
-from voxel.vdb_writer import VdbStackWriter
+from voxel.slab import SlabResult, StackModel
 
 
 def build_stack(
@@ -53,6 +57,8 @@ def build_stack(
     config: BuildConfig,
     out_dir: Path,
     *,
+    thickness: NDArray[np.float64] | None = None,
+    profile: PrinterProfile | None = None,
     progress: bool | None = None,
     force: bool = False,
     say: Callable[[str], None] | None = None,
@@ -66,9 +72,16 @@ def build_stack(
     config : BuildConfig
         Grid, layers and output options.
     out_dir : Path
-        Output folder (created). Receives ``layers.tif``, ``colour.tif``, ``volume.vdb``,
-        ``shells/shell_k.ply`` and ``manifest.json``; the outputs of an earlier build there
-        are replaced as a whole (:mod:`pipeline.outdir`).
+        Output folder (created). Receives ``layers.tif``, ``colour.tif``,
+        ``materials.tif``, ``volume.vdb``, ``job.gcvf``, ``shells/shell_k.ply`` and
+        ``manifest.json`` (as ``config.formats`` says); the outputs of an earlier build
+        there are replaced as a whole (:mod:`pipeline.outdir`).
+    thickness : (K, F) float64, mm, optional
+        Thickness of each layer per face (from a thickness rule); default: the constant
+        ``config.thickness_mm`` for every face.
+    profile : PrinterProfile, optional
+        The printer's materials: with ``config.material``, every voxel gets one material
+        (``materials.tif``, the job, the colour report).
     progress : bool or None
         Show a progress bar; ``None`` shows it only on a terminal.
     force : bool
@@ -80,7 +93,7 @@ def build_stack(
     Returns
     -------
     dict
-        The manifest, as written to ``out_dir/manifest.json``.
+        The manifest, exactly as written to ``out_dir/manifest.json``.
 
     Raises
     ------
@@ -91,10 +104,20 @@ def build_stack(
     """
     out_dir = Path(out_dir)
     started = time.perf_counter()
+    if thickness is None:
+        thickness = np.repeat(
+            np.asarray(config.thickness_mm, dtype=np.float64)[:, None], mesh.n_faces, axis=1
+        )
+    thickness = np.asarray(thickness, dtype=np.float64)
+    if thickness.shape != (len(config.thickness_mm), mesh.n_faces) or not np.all(thickness > 0):
+        raise ValueError(
+            f"thickness must be positive, ({len(config.thickness_mm)}, {mesh.n_faces}) "
+            f"(one row per layer of config.thickness_mm), got shape {thickness.shape}"
+        )
+    depth = np.cumsum(thickness, axis=0)
     grid = grid_for(mesh, config)
-    check_depth(mesh, config, force=force)
+    check_depth(mesh, depth, force=force)
     workers = resolve_workers(config.workers)
-    depth = np.repeat(np.cumsum(config.thickness_mm)[:, None], mesh.n_faces, axis=1)
     # the rows of a coarse block (voxel.slab.aligned_rows): whole ones waste no block queries
     reach = config.sdf_half_width_mm
     if config.layer_rule == "distance":
@@ -113,180 +136,233 @@ def build_stack(
     check_resources(estimate, out_dir, force=force)
     if say is not None:
         say(estimate.line())
+    plan = None
+    if profile is not None and config.material is not None:
+        plan = build_material_plan(
+            profile, config.material, colour_layers=config.colour_layers, n_bands=len(depth)
+        )
+    job = _Job(mesh, config, grid, thickness, rows, workers, profile, plan, progress)
     with OutputFolder(out_dir) as folder:
-        manifest = _build(mesh, config, grid, depth, rows, workers, out_dir, progress, folder)
-    manifest["seconds"]["total"] = time.perf_counter() - started
-    manifest["estimate"] = dataclasses.asdict(estimate)
+        manifest = job.run(out_dir, folder, started, {"estimate": dataclasses.asdict(estimate)})
     return manifest
 
 
-def _build(
-    mesh: ColouredMesh,
-    config: BuildConfig,
-    grid: GridSpec,
-    depth: np.ndarray[Any, Any],
-    rows: int,
-    workers: int,
-    out_dir: Path,
-    progress: bool | None,
-    folder: OutputFolder,
-) -> dict[str, Any]:
-    seconds: dict[str, float] = {}
-    thickness = np.asarray(config.thickness_mm, dtype=np.float64)
-    by_distance = config.layer_rule == "distance"
-    half_width = config.sdf_half_width_mm
-    written: list[Path] = []
-    with contextlib.ExitStack() as stack:
-        shells: list[Any] | None = None
-        pending = None
-        if not by_distance:
-            shells, seconds["shells"] = timed_shells(mesh.vertices, mesh.faces, thickness, config)
-        model = StackModel(
-            surfaces=(
-                (mesh.vertices, mesh.faces),
-                *(((s.vertices, s.faces) for s in shells) if shells is not None else ()),
-            ),
-            surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
-            colour_at=mesh.colour_at,
-            colour_layers=config.colour_layers,
-            sdf_half_width_mm=half_width,
-            depth_mm=depth if by_distance else None,
-        )
-        n_z = grid.shape_zyx[0]
-        # Before any other thread (shell pool, writers, progress bar) starts: the slab
-        # workers are forked.
-        slabs = stack.enter_context(SlabRunner(model, grid, rows, workers))
-        if by_distance and config.shell_meshes:  # beside the voxels, in another process
-            pool = stack.enter_context(
-                multiprocessing.get_context("spawn").Pool(
-                    1, initializer=init_child, initargs=(os.getpid(),)
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Job:
+    """Everything a build run needs, fixed before it starts."""
+
+    mesh: ColouredMesh
+    config: BuildConfig
+    grid: GridSpec
+    thickness: NDArray[np.float64]
+    rows: int
+    workers: int
+    profile: PrinterProfile | None
+    plan: MaterialPlan | None
+    progress: bool | None
+
+    def run(
+        self, out_dir: Path, folder: OutputFolder, started: float, extra: dict[str, Any]
+    ) -> dict[str, Any]:
+        """Compute and write every slab, then the shells, the report and the manifest."""
+        mesh, config, grid = self.mesh, self.config, self.grid
+        seconds: dict[str, float] = {}
+        depth = np.cumsum(self.thickness, axis=0)
+        by_distance = config.layer_rule == "distance"
+        with contextlib.ExitStack() as stack:
+            shells: list[Any] | None = None
+            pending = None
+            if not by_distance:
+                shells, seconds["shells"] = timed_shells(
+                    mesh.vertices, mesh.faces, self.thickness, config
+                )
+            model = StackModel(
+                surfaces=(
+                    (mesh.vertices, mesh.faces),
+                    *(((s.vertices, s.faces) for s in shells) if shells is not None else ()),
+                ),
+                surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
+                colour_at=mesh.colour_at,
+                colour_layers=config.colour_layers,
+                sdf_half_width_mm=config.sdf_half_width_mm,
+                depth_mm=depth if by_distance else None,
+            )
+            n_z = grid.shape_zyx[0]
+            # Before any other thread (shell pool, writers, progress bar) starts: the slab
+            # workers are forked.
+            slabs = stack.enter_context(
+                SlabRunner(model, grid, self.rows, self.workers, self.plan)
+            )
+            if by_distance and config.shell_meshes:  # beside the voxels, in another process
+                pool = stack.enter_context(
+                    multiprocessing.get_context("spawn").Pool(
+                        1, initializer=init_child, initargs=(os.getpid(),)
+                    )
+                )
+                pending = pool.apply_async(
+                    timed_shells, (mesh.vertices, mesh.faces, self.thickness, config)
+                )
+            outputs = StackOutputs(stack, out_dir, grid, config, self.profile, self.plan)
+            sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / self.rows))
+            tally = _Tally(model.n_bands)
+            report = self._colour_report()
+            bar = stack.enter_context(
+                tqdm(
+                    total=n_z,
+                    unit="z",
+                    desc="voxels",
+                    disable=None if self.progress is None else not self.progress,
                 )
             )
-            pending = pool.apply_async(timed_shells, (mesh.vertices, mesh.faces, thickness, config))
-        sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / rows))
-        counts = np.zeros(model.n_bands + 2, dtype=np.int64)
-        diagnostics = {
+            tick = time.perf_counter()
+            carry = None
+            for item in slabs:
+                slab, materials = item.slab, item.materials
+                if self.plan is not None and materials is None:  # error diffusion, z order
+                    diffused = materials_for_slab(
+                        slab.layers, slab.rgba, slab.z_start, self.plan, carry=carry
+                    )
+                    materials, carry = diffused.materials, diffused.carry
+                tally.add(slab, materials)
+                sampler.add(slab.z_start, slab.layers)
+                if report is not None and materials is not None:
+                    report.add_slab(slab.z_start, materials)
+                outputs.write(slab, materials)
+                bar.update(slab.z_stop - slab.z_start)
+            bar.close()
+            seconds["slabs"] = time.perf_counter() - tick
+            tick = time.perf_counter()
+            summaries = outputs.finish()
+            seconds["writers_finish"] = time.perf_counter() - tick
+            agreement: dict[str, Any] | None = None
+            if pending is not None:
+                tick = time.perf_counter()
+                try:
+                    shells, seconds["shells"] = pending.get()
+                except Exception as error:  # the voxels do not depend on the shell meshes
+                    warnings.warn(
+                        f"{mesh.source}: the shell meshes failed ({error}); the voxel stack "
+                        "is complete without shells/; rerun with --layers shells to see the "
+                        "error",
+                        ShellvoxWarning,
+                        stacklevel=2,
+                    )
+                seconds["shells_wait"] = time.perf_counter() - tick
+            written = list(outputs.written)
+            if shells is not None:
+                (out_dir / "shells").mkdir(exist_ok=True)
+                for shell in shells:
+                    target = out_dir / "shells" / f"shell_{shell.layer}.ply"
+                    ply = stack.enter_context(atomic_path(target))
+                    trimesh.Trimesh(shell.vertices, shell.faces, process=False).export(
+                        str(ply), file_type="ply"
+                    )
+                    written.append(target)
+                if by_distance:
+                    tick = time.perf_counter()
+                    points, sampled = sampler.samples()
+                    agreement = shell_agreement(
+                        points,
+                        sampled,
+                        model.surface,
+                        depth,
+                        [(s.vertices, s.faces) for s in shells],
+                        clear_mm=float(np.linalg.norm(grid.voxel_mm)),
+                    )
+                    seconds["agreement"] = time.perf_counter() - tick
+            if tally.counts[-1] == 0 and int(tally.counts[1:].sum()) > 0:
+                warnings.warn(
+                    f"{mesh.source}: no voxel lies deeper than {float(depth.max()):g} mm, so "
+                    "the part has no core; use a smaller --thickness if that is not what you "
+                    "want",
+                    ShellvoxWarning,
+                    stacklevel=2,
+                )
+            manifest = _manifest(mesh, config, grid, self.thickness, shells, tally, seconds)
+            manifest["shell_agreement"] = agreement
+            manifest.update(summaries)
+            manifest["slab_rows"] = self.rows
+            if self.profile is not None and self.plan is not None:
+                manifest["printer"] = self.profile.name
+                manifest["materials"] = tally.materials(self.profile)
+                manifest["material_voxels_per_layer"] = tally.per_layer(self.profile)
+            if report is not None:
+                manifest["colour_report"] = report.result()
+            manifest.update(extra)
+        # Every file is in place (renamed when the stack closed); the manifest comes last.
+        manifest["files"] = folder.commit(written)
+        seconds["total"] = time.perf_counter() - started
+        write_text_atomic(out_dir / "manifest.json", json.dumps(manifest, indent=2))
+        return manifest
+
+    def _colour_report(self) -> ColourReport | None:
+        if self.profile is None or self.plan is None or self.config.report_samples == 0:
+            return None
+        samples = sample_surface(
+            self.mesh.vertices,
+            self.mesh.faces,
+            self.mesh.colour_at,
+            self.config.report_samples,
+            seed=0,
+        )
+        display = np.zeros((len(self.profile.materials), 3), dtype=np.uint8)
+        for material in self.profile.materials:
+            display[material.index] = material.display_srgb
+        return ColourReport(
+            samples, self.grid, display, optical_depth_mm=self.config.optical_depth_mm
+        )
+
+
+class _Tally:
+    """Voxels per layer, per layer and material, and the slabs' diagnostics."""
+
+    def __init__(self, n_bands: int) -> None:
+        self.n_layers = n_bands + 2
+        self.counts = np.zeros(self.n_layers, dtype=np.int64)
+        self.by_material = np.zeros((self.n_layers, 256), dtype=np.int64)
+        self.diagnostics = {
             "unbalanced_rows": 0,
             "nesting_violations": 0,
             "nearest_queries": 0,
             "block_queries": 0,
         }
-        samples = 4 if config.alpha else 3
-        level = config.compression_level
-        layers_tif = stack.enter_context(
-            TiffStackWriter(
-                stack.enter_context(atomic_path(out_dir / "layers.tif")),
-                grid,
-                compression_level=level,
-            )
-        )
-        colour_tif = stack.enter_context(
-            TiffStackWriter(
-                stack.enter_context(atomic_path(out_dir / "colour.tif")),
-                grid,
-                samples=samples,
-                compression_level=level,
-            )
-        )
-        written += [out_dir / "layers.tif", out_dir / "colour.tif"]
-        vdb = (
-            VdbStackWriter(grid, sdf_half_width_mm=half_width, spool_dir=out_dir)
-            if config.write_vdb
-            else None
-        )
-        if vdb is not None:
-            stack.callback(vdb.close)  # the leaf spools go, whatever happens
-        vdb_path = stack.enter_context(atomic_path(out_dir / "volume.vdb")) if vdb else None
-        if vdb is not None:
-            written.append(out_dir / "volume.vdb")
-        bar = stack.enter_context(
-            tqdm(
-                total=n_z,
-                unit="z",
-                desc="voxels",
-                disable=None if progress is None else not progress,
-            )
-        )
-        is_colour_layer = np.zeros(256, dtype=bool)
-        is_colour_layer[list(config.colour_layers)] = True
-        tick = time.perf_counter()
-        for slab in slabs:
-            counts += np.bincount(slab.layers.ravel(), minlength=len(counts))[: len(counts)]
-            sampler.add(slab.z_start, slab.layers)
-            diagnostics["unbalanced_rows"] += slab.n_unbalanced_rows
-            diagnostics["nesting_violations"] += slab.n_nesting_violations
-            diagnostics["nearest_queries"] += slab.n_nearest_queries
-            diagnostics["block_queries"] += slab.n_block_queries
-            layers_tif.write_slab(slab.layers)
-            colour_tif.write_slab(slab.rgba[..., :samples])
-            if vdb is not None:
-                coloured = is_colour_layer[slab.layers]
-                vdb.write_slab(slab.z_start, slab.layers, slab.rgba[..., :3], coloured, slab.sdf)
-            bar.update(slab.z_stop - slab.z_start)
-        bar.close()
-        seconds["slabs"] = time.perf_counter() - tick
-        tick = time.perf_counter()
-        layers_tif.close()
-        colour_tif.close()
-        seconds["tiff_finish"] = time.perf_counter() - tick
-        vdb_summary: dict[str, Any] = {}
-        if vdb is not None and vdb_path is not None:
-            tick = time.perf_counter()
-            vdb_summary = vdb.write(vdb_path, {"creator": f"shellvox {__version__}"})
-            seconds["vdb_write"] = time.perf_counter() - tick
-        agreement: dict[str, Any] | None = None
-        if pending is not None:
-            tick = time.perf_counter()
-            try:
-                shells, seconds["shells"] = pending.get()
-            except Exception as error:  # the voxels do not depend on the shell meshes
-                warnings.warn(
-                    f"{mesh.source}: the shell meshes failed ({error}); the voxel stack is "
-                    "complete without shells/; rerun with --layers shells to see the error",
-                    ShellvoxWarning,
-                    stacklevel=2,
-                )
-            seconds["shells_wait"] = time.perf_counter() - tick
-        if shells is not None:
-            (out_dir / "shells").mkdir(exist_ok=True)
-            for shell in shells:
-                target = out_dir / "shells" / f"shell_{shell.layer}.ply"
-                ply = stack.enter_context(atomic_path(target))
-                trimesh.Trimesh(shell.vertices, shell.faces, process=False).export(
-                    str(ply), file_type="ply"
-                )
-                written.append(target)
-            if by_distance:
-                tick = time.perf_counter()
-                points, sampled = sampler.samples()
-                agreement = shell_agreement(
-                    points,
-                    sampled,
-                    model.surface,
-                    depth,
-                    [(s.vertices, s.faces) for s in shells],
-                    clear_mm=float(np.linalg.norm(grid.voxel_mm)),
-                )
-                seconds["agreement"] = time.perf_counter() - tick
-        if counts[-1] == 0 and int(counts[1:].sum()) > 0:
-            warnings.warn(
-                f"{mesh.source}: no voxel lies deeper than {float(depth.max()):g} mm, so the "
-                "part has no core; use a smaller --thickness if that is not what you want",
-                ShellvoxWarning,
-                stacklevel=2,
-            )
-        manifest = _manifest(mesh, config, grid, shells, counts, diagnostics, seconds)
-        manifest["shell_agreement"] = agreement
-        manifest["vdb"] = vdb_summary
-        manifest["tiff"] = {
-            "layers.tif": {"bigtiff": layers_tif.bigtiff, "samples": 1},
-            "colour.tif": {"bigtiff": colour_tif.bigtiff, "samples": samples},
+
+    def add(self, slab: SlabResult, materials: NDArray[np.uint8] | None) -> None:
+        layers = slab.layers.ravel()
+        self.counts += np.bincount(layers, minlength=self.n_layers)[: self.n_layers]
+        if materials is not None:
+            pairs = layers.astype(np.int64) * 256 + materials.ravel()
+            found = np.bincount(pairs, minlength=self.n_layers * 256)[: self.n_layers * 256]
+            self.by_material += found.reshape(self.n_layers, 256)
+        self.diagnostics["unbalanced_rows"] += slab.n_unbalanced_rows
+        self.diagnostics["nesting_violations"] += slab.n_nesting_violations
+        self.diagnostics["nearest_queries"] += slab.n_nearest_queries
+        self.diagnostics["block_queries"] += slab.n_block_queries
+
+    def materials(self, profile: PrinterProfile) -> list[dict[str, Any]]:
+        totals = self.by_material.sum(axis=0)
+        return [
+            {
+                "index": m.index,
+                "name": m.name,
+                "role": m.role,
+                "rgba_key": list(m.rgba_key),
+                "display_srgb": list(m.display_srgb),
+                "voxels": int(totals[m.index]),
+            }
+            for m in profile.materials
+            if totals[m.index] > 0 or m.index == 0
+        ]
+
+    def per_layer(self, profile: PrinterProfile) -> dict[str, dict[str, int]]:
+        return {
+            str(layer): {
+                profile.materials[index].name: int(count)
+                for index, count in enumerate(row)
+                if count and index < len(profile.materials)
+            }
+            for layer, row in enumerate(self.by_material)
         }
-        manifest["slab_rows"] = rows
-    # Every file is in place (renamed when the stack closed); the manifest comes last.
-    manifest["files"] = folder.commit(written)
-    write_text_atomic(out_dir / "manifest.json", json.dumps(manifest, indent=2))
-    return manifest
 
 
 def grid_for(mesh: ColouredMesh, config: BuildConfig) -> GridSpec:
@@ -306,17 +382,23 @@ def mesh_area(mesh: ColouredMesh) -> float:
     return float(0.5 * np.linalg.norm(cross, axis=1).sum())
 
 
-def check_depth(mesh: ColouredMesh, config: BuildConfig, *, force: bool) -> None:
-    """Refuse layers deeper than half the part's smallest extent (no core could remain)."""
+def check_depth(mesh: ColouredMesh, depth: NDArray[np.float64], *, force: bool) -> None:
+    """Refuse layers deeper than half the part's smallest extent (no core could remain).
+
+    Parameters
+    ----------
+    depth : (K, F) float64, mm
+        Cumulative depth of each layer per face.
+    """
     extent = mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)
     limit = 0.5 * float(extent.min())
-    total = float(sum(config.thickness_mm))
+    total = float(depth[-1].min())
     if total >= limit and not force:
         raise InputError(
             "--thickness",
-            f"the layers reach {total:g} mm deep but {mesh.source or 'the model'} is only "
-            f"{2 * limit:g} mm thick at its thinnest extent, so every voxel would be in a "
-            "layer and none in the core",
+            f"the layers reach at least {total:g} mm deep but {mesh.source or 'the model'} is "
+            f"only {2 * limit:g} mm thick at its thinnest extent, so every voxel would be in "
+            "a layer and none in the core",
             f"use layers thinner than {limit:g} mm in all, or --force",
         )
 
@@ -325,33 +407,40 @@ def _manifest(
     mesh: ColouredMesh,
     config: BuildConfig,
     grid: GridSpec,
+    thickness: NDArray[np.float64],
     shells: list[Any] | None,
-    counts: np.ndarray[Any, Any],
-    diagnostics: dict[str, int],
+    tally: _Tally,
     seconds: dict[str, float],
 ) -> dict[str, Any]:
-    n_bands = len(config.thickness_mm)
-    depth = np.cumsum(config.thickness_mm)
+    n_bands = len(thickness)
+    depth = np.cumsum(thickness, axis=0)
+    how = (
+        " (exact nearest-point distance)"
+        if config.layer_rule == "distance"
+        else " (between offset shells)"
+    )
     layers: list[dict[str, Any]] = [
         {"index": 0, "name": "outside", "thickness_rule": "outside the model"}
     ]
     for k in range(1, n_bands + 1):
         role = "colour" if k in config.colour_layers else "backing"
+        t, d = thickness[k - 1], depth[k - 1]
+        constant = bool(np.all(t == t[0]))
+        rule = (
+            f"{t[0]:g} mm thick: distance to the surface from {d[0] - t[0]:g} to {d[0]:g} mm"
+            if constant
+            else f"{t.min():g} to {t.max():g} mm thick per face (median {np.median(t):g} mm): "
+            "distance to the surface between the depths of the nearest face"
+        )
         layers.append(
             {
                 "index": k,
                 "name": f"{role}_{k}",
-                "thickness_mm": config.thickness_mm[k - 1],
-                "depth_mm": float(depth[k - 1]),
-                "thickness_rule": (
-                    f"{config.thickness_mm[k - 1]} mm thick: distance to the surface from "
-                    f"{depth[k - 1] - config.thickness_mm[k - 1]:g} to {depth[k - 1]:g} mm"
-                    + (
-                        " (exact nearest-point distance)"
-                        if config.layer_rule == "distance"
-                        else " (between offset shells)"
-                    )
-                ),
+                "thickness_mm": float(np.median(t)),
+                "depth_mm": float(np.median(d)),
+                "thickness_per_face_mm": _stats(t),
+                "depth_per_face_mm": _stats(d),
+                "thickness_rule": rule + how,
                 "shell_faces": None if shells is None else len(shells[k - 1].faces),
             }
         )
@@ -359,11 +448,12 @@ def _manifest(
         {
             "index": n_bands + 1,
             "name": "core",
-            "thickness_rule": f"deeper than {depth[-1]:g} mm",
+            "thickness_rule": f"deeper than the last layer ({depth[-1].min():g} to "
+            f"{depth[-1].max():g} mm)",
         }
     )
     for entry in layers:
-        entry["voxels"] = int(counts[entry["index"]])
+        entry["voxels"] = int(tally.counts[entry["index"]])
         entry["colour"] = entry["index"] in config.colour_layers
     return {
         "tool": f"shellvox {__version__}",
@@ -377,8 +467,20 @@ def _manifest(
         },
         "layers": layers,
         "voxel_counts": {entry["name"]: entry["voxels"] for entry in layers},
-        "diagnostics": diagnostics,
+        "diagnostics": tally.diagnostics,
         "seconds": seconds,
+    }
+
+
+def _stats(values: NDArray[np.float64]) -> dict[str, float]:
+    """Summary statistics of per-face values (mm)."""
+    return {
+        "min": float(values.min()),
+        "p05": float(np.percentile(values, 5)),
+        "median": float(np.median(values)),
+        "p95": float(np.percentile(values, 95)),
+        "max": float(values.max()),
+        "mean": float(values.mean()),
     }
 
 

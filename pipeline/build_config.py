@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
+
+from pipeline.material_plan import MaterialSettings
+
+#: Output formats ``build`` can write (``--format``).
+FORMATS = ("tiff", "vdb", "gcvf", "png")
 
 
 @dataclass(frozen=True)
@@ -44,8 +49,17 @@ class BuildConfig:
         Write ``colour.tif`` as RGBA instead of RGB.
     compression_level : int
         zlib level of the TIFFs (1 fast .. 9 small).
-    write_vdb : bool
-        Write ``volume.vdb`` (streamed like the TIFFs; see :mod:`voxel.vdb_writer`).
+    formats : tuple of {"tiff", "vdb", "gcvf", "png"}
+        Files to write: ``tiff`` = ``layers.tif``, ``colour.tif`` and ``materials.tif``;
+        ``vdb`` = ``volume.vdb``; ``gcvf`` = ``job.gcvf`` (GrabCAD Voxel Print);
+        ``png`` = ``slices/`` (RGBA colour-and-translucency slices).
+    material : MaterialSettings or None
+        Separation and halftone of the voxels into the printer's materials (None: no
+        materials, no ``materials.tif``, job or colour report).
+    report_samples : int
+        Surface samples of the colour report (0: none).
+    optical_depth_mm : float, mm
+        Optical depth ``L`` of the colour report's model (:mod:`voxel.colour_report`).
     """
 
     voxel_mm: tuple[float, float, float]
@@ -61,7 +75,10 @@ class BuildConfig:
     workers: int = 0
     alpha: bool = False
     compression_level: int = 6
-    write_vdb: bool = True
+    formats: tuple[str, ...] = ("tiff", "vdb")
+    material: MaterialSettings | None = field(default_factory=MaterialSettings)
+    report_samples: int = 20_000
+    optical_depth_mm: float = 0.25
 
     def __post_init__(self) -> None:
         if len(self.voxel_mm) != 3 or not all(math.isfinite(v) and v > 0 for v in self.voxel_mm):
@@ -82,6 +99,19 @@ class BuildConfig:
             raise ValueError(f"workers must be >= 0 (0: one per core), got {self.workers}")
         if not 1 <= self.compression_level <= 9:
             raise ValueError(f"compression_level must be 1..9, got {self.compression_level}")
+        unknown = set(self.formats) - set(FORMATS)
+        if unknown:
+            raise ValueError(f"formats must be among {FORMATS}, got {sorted(unknown)}")
+        if self.report_samples < 0 or not self.optical_depth_mm > 0:
+            raise ValueError(
+                "report_samples must be >= 0 and optical_depth_mm > 0, got "
+                f"{self.report_samples} and {self.optical_depth_mm}"
+            )
+
+    @property
+    def write_vdb(self) -> bool:
+        """Whether ``volume.vdb`` is written."""
+        return "vdb" in self.formats
 
     @property
     def sdf_half_width_mm(self) -> float:

@@ -1,5 +1,9 @@
 """Run :func:`voxel.slab.compute_slab` over the Z slabs, in order, here or in worker processes.
 
+With a material plan, each slab's voxels also get their materials
+(:func:`voxel.materials.materials_for_slab`) in the same worker, when the halftone is
+order-independent (blue noise); error diffusion runs in z order in the caller.
+
 Slabs are a pure function of (model, grid, rows), so they can be computed anywhere; the
 caller writes them in z order as they come back. With ``workers > 1`` the slabs run in
 forked processes (the model, with its AABB tree and texture, is inherited, not pickled),
@@ -20,13 +24,44 @@ import os
 from collections.abc import Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
 
 from pipeline.children import init_child
 from pipeline.errors import SlabWorkerDied
 from voxel.grid import GridSpec
+from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.slab import SlabResult, StackModel, compute_slab
 
-_WORKER: tuple[StackModel, GridSpec] | None = None
+_WORKER: tuple[StackModel, GridSpec, MaterialPlan | None] | None = None
+
+
+class StackSlab(NamedTuple):
+    """A computed slab and, when the halftone is order-independent, its materials.
+
+    Attributes
+    ----------
+    slab : SlabResult
+        Layers, colours and the signed-distance band of the rows.
+    materials : (Zs, Y, X) uint8 or None
+        Material index per voxel (0 void); None without a plan or with error diffusion
+        (the caller runs it in z order).
+    """
+
+    slab: SlabResult
+    materials: NDArray[np.uint8] | None
+
+
+def stack_slab(
+    model: StackModel, grid: GridSpec, plan: MaterialPlan | None, z_start: int, z_stop: int
+) -> StackSlab:
+    """Return the slab of rows ``z_start..z_stop`` with its materials (a pure function)."""
+    slab = compute_slab(model, grid, z_start, z_stop)
+    if plan is None or plan.halftone != "blue-noise":
+        return StackSlab(slab, None)
+    return StackSlab(slab, materials_for_slab(slab.layers, slab.rgba, z_start, plan).materials)
 
 
 def resolve_workers(workers: int) -> int:
@@ -57,18 +92,27 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         Rows per slab.
     workers : int
         Processes computing slabs (1: in this process).
+    plan : MaterialPlan, optional
+        Materials of the voxels (see :func:`stack_slab`).
     """
 
-    def __init__(self, model: StackModel, grid: GridSpec, rows: int, workers: int) -> None:
-        self.model, self.grid, self.rows = model, grid, rows
+    def __init__(
+        self,
+        model: StackModel,
+        grid: GridSpec,
+        rows: int,
+        workers: int,
+        plan: MaterialPlan | None = None,
+    ) -> None:
+        self.model, self.grid, self.rows, self.plan = model, grid, rows, plan
         n_z = grid.shape_zyx[0]
         self._ranges = iter([(z, min(n_z, z + rows)) for z in range(0, n_z, rows)])
         self.workers = max(1, min(workers, -(-n_z // rows)))
         self._pool: ProcessPoolExecutor | None = None
-        self._pending: collections.deque[Future[SlabResult]] = collections.deque()
+        self._pending: collections.deque[Future[StackSlab]] = collections.deque()
         if self.workers > 1:
             global _WORKER
-            _WORKER = (model, grid)  # inherited by the forked workers
+            _WORKER = (model, grid, plan)  # inherited by the forked workers
             self._pool = ProcessPoolExecutor(
                 self.workers,
                 mp_context=multiprocessing.get_context("fork"),
@@ -101,10 +145,10 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
             with contextlib.suppress(OSError, ValueError, AssertionError):
                 process.join(timeout=5)
 
-    def __iter__(self) -> Iterator[SlabResult]:
+    def __iter__(self) -> Iterator[StackSlab]:
         if self._pool is None:
             for z_start, z_stop in self._ranges:
-                yield compute_slab(self.model, self.grid, z_start, z_stop)
+                yield stack_slab(self.model, self.grid, self.plan, z_start, z_stop)
             return
         while self._pending:
             try:
@@ -118,7 +162,7 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
             yield result
 
 
-def _worker_slab(z_start: int, z_stop: int) -> SlabResult:
+def _worker_slab(z_start: int, z_stop: int) -> StackSlab:
     assert _WORKER is not None, "slab workers must be forked by SlabRunner"
-    model, grid = _WORKER
-    return compute_slab(model, grid, z_start, z_stop)
+    model, grid, plan = _WORKER
+    return stack_slab(model, grid, plan, z_start, z_stop)

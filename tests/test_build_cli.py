@@ -36,7 +36,10 @@ def test_build_then_inspect(tmp_path, model, capsys):
     assert status == 0
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["grid"]["voxel_size_mm"] == [0.1, 0.12, 0.08]
-    assert manifest["config"]["printer"] is None
+    # the printer's materials are used on any grid, its job only on its own grid
+    assert manifest["config"]["printer"] == "j750"
+    assert "materials.tif" in manifest["files"]
+    assert "job.gcvf" not in manifest["files"]
     assert "layers.tif" in capsys.readouterr().out
     assert main(["inspect", str(out)]) == 0
     text = capsys.readouterr().out

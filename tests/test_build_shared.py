@@ -10,7 +10,7 @@ import trimesh
 from pipeline.build import build_stack
 from pipeline.build_config import BuildConfig
 from pipeline.loading import load_model
-from voxel.printers import printer_voxel_mm
+from pipeline.printer_profile import load_profile
 
 
 @pytest.mark.slow
@@ -18,7 +18,7 @@ def test_pyramid_at_j750(shared_mesh, tmp_path):
     import colour
 
     mesh = load_model(shared_mesh("3mf/pyramid_vertexcolor.3mf"))
-    config = BuildConfig(voxel_mm=printer_voxel_mm("j750"), printer="j750", slab_mb=128)
+    config = BuildConfig(voxel_mm=load_profile("j750").voxel_mm, printer="j750", slab_mb=128)
     manifest = build_stack(mesh, config, tmp_path, progress=False)
     assert manifest["diagnostics"]["unbalanced_rows"] == 0
     assert manifest["diagnostics"]["nesting_violations"] == 0

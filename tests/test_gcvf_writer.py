@@ -19,13 +19,13 @@ import tifffile
 from PIL import Image
 
 import voxel.gcvf_writer as gcvf_writer
+from pipeline.printer_profile import load_profile
 from voxel.atomic import atomic_path
 from voxel.gcvf_writer import GcvfJobError, GcvfWriter
 from voxel.grid import GridSpec
-from voxel.printers import printer_voxel_mm
 from voxel.tiff_writer import TiffStackWriter
 
-J750 = printer_voxel_mm("j750")
+J750 = load_profile("j750").voxel_mm
 GRID = GridSpec((-3.0, 1.0, 0.5), J750, (37, 29, 53))
 BACKGROUND = (0, 0, 0, 255)
 TABLE = [

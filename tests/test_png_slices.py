@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from pipeline.printer_profile import load_profile
 from voxel.grid import GridSpec
 from voxel.png_slices import SIDECAR_NAME, PngSliceWriter
-from voxel.printers import printer_voxel_mm
 
-GRID = GridSpec((1.0, -2.0, 0.25), printer_voxel_mm("j750"), (23, 17, 31))
+GRID = GridSpec((1.0, -2.0, 0.25), load_profile("j750").voxel_mm, (23, 17, 31))
 
 
 def _rgba() -> np.ndarray:

@@ -12,7 +12,6 @@ from pipeline.printer_profile import (
     parse_profile,
     shipped_profiles,
 )
-from voxel.printers import PRINTERS
 
 PROFILES = Path(__file__).resolve().parents[1] / "pipeline" / "profiles"
 
@@ -30,7 +29,7 @@ def test_every_shipped_profile_loads():
 def test_j750_matches_the_facts_file():
     """Values of ../shared/printing/voxel-print-facts.md, typed in here independently."""
     profile = load_profile("j750")
-    assert profile.voxel_mm == PRINTERS["j750"]
+    assert profile.voxel_mm == (25.4 / 600, 25.4 / 300, 0.027)
     assert profile.dpi == (600, 300)
     assert profile.slice_thickness_nm == 27000
     assert profile.slice_format == "gcvf"
@@ -55,7 +54,7 @@ def test_j750_matches_the_facts_file():
 
 def test_j850_hq_has_14_um_slices():
     assert load_profile("j850-hq").voxel_mm == (25.4 / 600, 25.4 / 300, 0.014)
-    assert load_profile("j850").voxel_mm == PRINTERS["j750"]
+    assert load_profile("j850").voxel_mm == (25.4 / 600, 25.4 / 300, 0.027)
 
 
 def test_user_file_loads_and_role_lookup(tmp_path):

@@ -5,8 +5,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pipeline.cli.values import parse_voxel_size
+from pipeline.errors import InputError
+from pipeline.printer_profile import load_profile
 from voxel.grid import GridSpec
-from voxel.printers import parse_voxel_size, printer_voxel_mm
 
 
 def test_centre_convention_stated_in_voxel_init():
@@ -65,12 +67,11 @@ def test_bad_grid_rejected(kwargs, match):
 
 
 def test_printer_profiles_and_voxel_size():
-    np.testing.assert_allclose(printer_voxel_mm("j750"), (25.4 / 600, 25.4 / 300, 0.027))
+    np.testing.assert_allclose(load_profile("j750").voxel_mm, (25.4 / 600, 25.4 / 300, 0.027))
     assert parse_voxel_size("0.1, 0.2,0.3") == (0.1, 0.2, 0.3)
     assert parse_voxel_size("0.5") == (0.5, 0.5, 0.5)
-    with pytest.raises(ValueError, match="printer must be one of"):
-        printer_voxel_mm("nope")
-    with pytest.raises(ValueError, match="positive"):
-        parse_voxel_size("1,-1,1")
-    with pytest.raises(ValueError, match="X,Y,Z"):
-        parse_voxel_size("a,b,c")
+    with pytest.raises(InputError, match="j750"):
+        load_profile("nope")
+    for bad in ("1,-1,1", "a,b,c", "1,1", "inf", "nan,1,1"):
+        with pytest.raises(InputError, match="--voxel-size"):
+            parse_voxel_size(bad)

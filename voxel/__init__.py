@@ -15,7 +15,8 @@ This package never imports :mod:`pipeline`; colour reaches it as a callable
 
 Modules
 -------
-- :mod:`voxel.grid` ``GridSpec`` (index space vs world space); :mod:`voxel.printers` profiles.
+- :mod:`voxel.grid` ``GridSpec`` (index space vs world space).
+- :mod:`voxel.separation`, :mod:`voxel.materials` colour to one material per voxel.
 - :mod:`voxel.winding` exact inside tests (row-crossing winding numbers, symbolic ties).
 - :mod:`voxel.nearest` exact nearest surface points; :mod:`voxel.colour` their colours.
 - :mod:`voxel.blocks` distance bounds of whole voxel blocks (which voxels need a query).

@@ -11,12 +11,14 @@ from pathlib import Path
 
 from offset import METHODS
 from pipeline.build import build_stack
-from pipeline.build_config import BuildConfig
+from pipeline.build_config import FORMATS, BuildConfig
 from pipeline.cli.loadargs import add_load_arguments, load_options
-from pipeline.cli.values import parse_lengths
+from pipeline.cli.values import parse_lengths, parse_voxel_size
 from pipeline.errors import InputError
 from pipeline.loading import load_model
-from voxel.printers import PRINTERS, parse_voxel_size, printer_voxel_mm
+from pipeline.material_plan import MaterialSettings
+from pipeline.printer_profile import PrinterProfile, load_profile, shipped_profiles
+from voxel.materials import HALFTONES
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -25,13 +27,56 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "-o", "--output", type=Path, required=True, metavar="DIR", help="output folder"
     )
-    grid = parser.add_mutually_exclusive_group()
-    grid.add_argument(
+    parser.add_argument(
         "--printer",
-        choices=sorted(PRINTERS),
-        help="printer voxel grid (default j750: 600 x 300 dpi, 27 um layers)",
+        default="j750",
+        metavar="NAME|FILE.toml",
+        help=f"printer profile: grid, materials, job format; one of {shipped_profiles()} "
+        "or your own TOML file (default j750: 600 x 300 dpi, 27 um layers)",
     )
-    grid.add_argument("--voxel-size", metavar="X,Y,Z", help="voxel size in mm instead of a printer")
+    parser.add_argument(
+        "--voxel-size",
+        metavar="X,Y,Z",
+        help="voxel size in mm instead of the printer's grid (no printer job then)",
+    )
+    parser.add_argument(
+        "--format",
+        default="auto",
+        metavar="F1,F2,...",
+        help="files to write, among " + ",".join(FORMATS) + " (tiff: layers/colour/materials"
+        ".tif, vdb: volume.vdb, gcvf: job.gcvf, png: slices/); default auto: tiff, vdb and "
+        "the printer's job format when the grid is the printer's",
+    )
+    materials = parser.add_argument_group("materials (separation and halftone)")
+    materials.add_argument(
+        "--halftone",
+        choices=HALFTONES,
+        default="blue-noise",
+        help="one material per voxel by a 3D blue-noise threshold (default, parallel) or "
+        "3D error diffusion (in z order)",
+    )
+    materials.add_argument("--seed", type=int, default=0, help="halftone seed (default 0)")
+    materials.add_argument(
+        "--icc", type=Path, metavar="FILE", help="CMYK ICC output profile for the separation"
+    )
+    materials.add_argument(
+        "--backing", metavar="ROLE", help="material role of the backing layers (default white)"
+    )
+    materials.add_argument(
+        "--core", metavar="ROLE", help="material role of the core (default: the profile's)"
+    )
+    materials.add_argument(
+        "--no-materials",
+        action="store_true",
+        help="skip materials: no materials.tif, job or colour report",
+    )
+    materials.add_argument(
+        "--report-samples",
+        type=int,
+        default=20_000,
+        metavar="N",
+        help="surface samples of the colour report (default 20000; 0: no report)",
+    )
     parser.add_argument(
         "--thickness",
         default="0.5,0.5",
@@ -61,7 +106,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--method", choices=METHODS, default="robust", help="offset construction")
     parser.add_argument("--alpha", action="store_true", help="write colour.tif as RGBA")
-    parser.add_argument("--no-vdb", action="store_true", help="skip volume.vdb")
+    parser.add_argument("--no-vdb", action="store_true", help="skip volume.vdb (see --format)")
     parser.add_argument(
         "--slab-mb", type=float, default=512.0, help="working memory per slab (default 512)"
     )
@@ -81,18 +126,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def config_from_args(args: argparse.Namespace) -> BuildConfig:
+def config_from_args(
+    args: argparse.Namespace, profile: PrinterProfile | None = None
+) -> BuildConfig:
     """Turn parsed arguments into a :class:`BuildConfig` (bad values raise InputError)."""
-    try:
-        if args.voxel_size is not None:
-            voxel, printer = parse_voxel_size(args.voxel_size), None
-        else:
-            printer = args.printer or "j750"
-            voxel = printer_voxel_mm(printer)
-    except ValueError as error:
-        raise InputError(
-            "--voxel-size", str(error), "pass e.g. --voxel-size 0.05,0.05,0.03"
-        ) from None
+    profile = profile or load_profile(args.printer)
+    voxel = profile.voxel_mm
+    if args.voxel_size is not None:
+        voxel = parse_voxel_size(args.voxel_size)
     thickness = parse_lengths("--thickness", args.thickness)
     try:
         colour_layers = tuple(int(k) for k in args.colour_layers.split(","))
@@ -114,25 +155,74 @@ def config_from_args(args: argparse.Namespace) -> BuildConfig:
             f"got {args.compression_level}, {args.slab_mb} and {args.workers}",
             "use a level in 1..9, a positive finite slab size in MB and 0 or more workers",
         )
+    if args.report_samples < 0:
+        raise InputError(
+            "--report-samples", f"got {args.report_samples}", "give 0 or more samples"
+        )
     return BuildConfig(
         voxel_mm=voxel,
-        printer=printer,
+        printer=profile.name,
         thickness_mm=thickness,
         colour_layers=colour_layers,
         layer_rule=args.layers,
         shell_meshes=args.shell_meshes or args.layers == "shells",
         shell_method=args.method,
         alpha=args.alpha,
-        write_vdb=not args.no_vdb,
+        formats=_formats(args, profile, voxel),
+        material=None if args.no_materials else MaterialSettings(
+            halftone=args.halftone,
+            seed=args.seed,
+            icc=args.icc,
+            backing_role=args.backing,
+            core_role=args.core,
+        ),
+        report_samples=args.report_samples,
         slab_mb=args.slab_mb,
         compression_level=args.compression_level,
         workers=args.workers,
     )
 
 
+def _formats(
+    args: argparse.Namespace, profile: PrinterProfile, voxel: tuple[float, float, float]
+) -> tuple[str, ...]:
+    """Return the formats to write (``--format``, ``--no-vdb``, the profile's job format)."""
+    on_printer_grid = all(math.isclose(a, b, rel_tol=1e-9) for a, b in zip(
+        voxel, profile.voxel_mm, strict=True
+    ))
+    if args.format == "auto":
+        chosen = ["tiff", "vdb"]
+        if on_printer_grid and not args.no_materials:
+            chosen.append(profile.slice_format)
+    else:
+        chosen = [part.strip() for part in args.format.split(",") if part.strip()]
+        unknown = sorted(set(chosen) - set(FORMATS))
+        if unknown or not chosen:
+            raise InputError(
+                "--format",
+                f"unknown format(s) {unknown} in {args.format!r}",
+                "choose among " + ",".join(FORMATS) + ", e.g. --format tiff,gcvf",
+            )
+        if "gcvf" in chosen and not on_printer_grid:
+            raise InputError(
+                "--format gcvf",
+                f"a .gcvf job needs the printer's grid {profile.voxel_mm} mm, got "
+                f"--voxel-size {voxel}",
+                "drop --voxel-size or the gcvf format",
+            )
+        if args.no_materials and {"gcvf", "png"} & set(chosen):
+            raise InputError(
+                "--format", "printer slices need materials", "drop --no-materials"
+            )
+    if args.no_vdb and "vdb" in chosen:
+        chosen.remove("vdb")
+    return tuple(dict.fromkeys(chosen))
+
+
 def run(args: argparse.Namespace) -> int:
     """Load the model, build the stack and print where the files are."""
-    config = config_from_args(args)
+    profile = load_profile(args.printer)
+    config = config_from_args(args, profile)
     out: Path = args.output
     if out.exists() and not out.is_dir():
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")
@@ -140,14 +230,27 @@ def run(args: argparse.Namespace) -> int:
     mesh = load_model(args.model, load_options(args))
     load_seconds = time.perf_counter() - started
     manifest = build_stack(
-        mesh, config, out, progress=args.progress, force=args.force, say=_say
+        mesh,
+        config,
+        out,
+        profile=None if config.material is None else profile,
+        progress=args.progress,
+        force=args.force,
+        say=_say,
     )
-    manifest["seconds"]["load"] = load_seconds
     shape = " x ".join(str(n) for n in manifest["grid"]["shape_zyx"])
     print(f"{out}: grid {shape} (z, y, x) voxels")
     for name, record in manifest["files"].items():
         print(f"  {name}: {record['bytes']:,} bytes")
     print(json.dumps(manifest["voxel_counts"]))
+    report = manifest.get("colour_report")
+    if report and report["ciede2000"]["median"] is not None:
+        stats = report["ciede2000"]
+        print(
+            f"predicted colour vs target, CIEDE2000: median {stats['median']:.2f}, "
+            f"p95 {stats['p95']:.2f} over {report['samples_seen']:,} surface samples"
+        )
+    print(f"loaded in {load_seconds:.1f} s, built in {manifest['seconds']['total']:.1f} s")
     return 0
 
 

@@ -37,3 +37,20 @@ def parse_lengths(option: str, text: str, count: int | None = None) -> tuple[flo
             f"pass e.g. {option} " + ",".join(["0.5"] * (count or 2)),
         )
     return values
+
+
+def parse_voxel_size(text: str) -> tuple[float, float, float]:
+    """Parse ``--voxel-size X,Y,Z`` (or one number for cubic voxels) in mm.
+
+    Examples
+    --------
+    >>> parse_voxel_size("0.1,0.1,0.05")
+    (0.1, 0.1, 0.05)
+    >>> parse_voxel_size("0.2")
+    (0.2, 0.2, 0.2)
+    """
+    parts = text.replace(" ", "").split(",")
+    values = parse_lengths("--voxel-size", text, 3 if len(parts) == 3 else 1)
+    if len(values) == 1:
+        values = values * 3
+    return (values[0], values[1], values[2])

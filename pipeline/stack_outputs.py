@@ -1,0 +1,206 @@
+"""The build's streaming writers: every output file, fed one slab at a time.
+
+``layers.tif``, ``colour.tif`` and ``materials.tif`` (ImageJ stacks), ``volume.vdb``
+(density, layer, color, sdf and material grids), ``job.gcvf`` (GrabCAD Voxel Print) and
+``slices/`` (RGBA colour-and-translucency PNGs), as ``BuildConfig.formats``
+chooses. Each file is written under a temporary name (:func:`voxel.atomic.atomic_path`)
+and appears only when the whole build succeeded; the writers only serialise.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline import __version__
+from pipeline.build_config import BuildConfig
+from pipeline.errors import InputError
+from pipeline.printer_profile import PrinterProfile
+from voxel.atomic import atomic_path
+from voxel.gcvf_writer import GcvfJobError, GcvfWriter
+from voxel.grid import GridSpec
+from voxel.materials import MaterialPlan
+from voxel.png_slices import PngSliceWriter
+from voxel.slab import SlabResult
+from voxel.tiff_writer import TiffStackWriter
+from voxel.vdb_writer import VdbStackWriter
+
+
+class StackOutputs:
+    """Open the chosen writers inside `stack`; :meth:`write` feeds them a slab.
+
+    Parameters
+    ----------
+    stack : contextlib.ExitStack
+        Owns the writers and the temporary files (closed or removed with it).
+    out_dir : Path
+        Output folder.
+    grid : GridSpec
+        The voxel grid.
+    config : BuildConfig
+        Which files, compression, colour layers.
+    profile : PrinterProfile or None
+        Materials (names, keys, display colours); None: no material outputs.
+    plan : MaterialPlan or None
+        Which material indices the voxels may hold (with `profile`).
+    """
+
+    def __init__(
+        self,
+        stack: contextlib.ExitStack,
+        out_dir: Path,
+        grid: GridSpec,
+        config: BuildConfig,
+        profile: PrinterProfile | None,
+        plan: MaterialPlan | None,
+    ) -> None:
+        self.out_dir = out_dir
+        self.grid = grid
+        self.written: list[Path] = []
+        self.samples = 4 if config.alpha else 3
+        self._is_colour = np.zeros(256, dtype=bool)
+        self._is_colour[list(config.colour_layers)] = True
+        formats = set(config.formats)
+        with_materials = profile is not None and plan is not None
+        level = config.compression_level
+        self.layers_tif = self.colour_tif = self.materials_tif = None
+        if "tiff" in formats:
+            self.layers_tif = self._tiff(stack, "layers.tif", 0, level)
+            self.colour_tif = self._tiff(stack, "colour.tif", self.samples, level)
+            if with_materials:
+                self.materials_tif = self._tiff(stack, "materials.tif", 0, level)
+        self.vdb: VdbStackWriter | None = None
+        self._vdb_path: Path | None = None
+        if "vdb" in formats:
+            self.vdb = VdbStackWriter(
+                grid,
+                sdf_half_width_mm=config.sdf_half_width_mm,
+                spool_dir=out_dir,
+                material_grid=with_materials,
+            )
+            stack.callback(self.vdb.close)  # the leaf spools go, whatever happens
+            self._vdb_path = stack.enter_context(atomic_path(out_dir / "volume.vdb"))
+            self.written.append(out_dir / "volume.vdb")
+        self.gcvf: GcvfWriter | None = None
+        self.png: PngSliceWriter | None = None
+        self._display = np.zeros((256, 4), dtype=np.uint8)
+        if with_materials:
+            assert profile is not None and plan is not None
+            for material in profile.materials[1:]:
+                self._display[material.index] = (*material.display_srgb, 255)
+            if "gcvf" in formats:
+                self.gcvf = self._gcvf(stack, profile, plan)
+            if "png" in formats:
+                self.png = stack.enter_context(
+                    PngSliceWriter(
+                        out_dir / "slices",
+                        grid,
+                        metadata={"creator": f"shellvox {__version__}", "printer": profile.name},
+                    )
+                )
+
+    def _tiff(
+        self, stack: contextlib.ExitStack, name: str, samples: int, level: int
+    ) -> TiffStackWriter:
+        path = stack.enter_context(atomic_path(self.out_dir / name))
+        self.written.append(self.out_dir / name)
+        return stack.enter_context(
+            TiffStackWriter(path, self.grid, samples=samples, compression_level=level)
+        )
+
+    def _gcvf(
+        self, stack: contextlib.ExitStack, profile: PrinterProfile, plan: MaterialPlan
+    ) -> GcvfWriter:
+        used = sorted({*plan.column_materials, plan.backing_material, plan.core_material})
+        table = [
+            (index, profile.materials[index].name, profile.materials[index].rgba_key)
+            for index in used
+        ]
+        try:
+            writer = GcvfWriter(
+                stack.enter_context(atomic_path(self.out_dir / "job.gcvf")),
+                self.grid,
+                table,
+                background_rgba=profile.materials[0].rgba_key,
+                dpi=(int(profile.dpi[0]), int(profile.dpi[1])),
+                slice_thickness_nm=profile.slice_thickness_nm,
+                max_materials=profile.max_materials,
+                min_slices=profile.min_slices,
+                tray_mm=profile.tray_mm,
+            )
+        except GcvfJobError as error:
+            raise InputError(
+                f"--printer {profile.name}", f"cannot make a .gcvf job: {error.problem}", error.fix
+            ) from None
+        self.written.append(self.out_dir / "job.gcvf")
+        return stack.enter_context(writer)
+
+    def write(self, slab: SlabResult, materials: NDArray[np.uint8] | None) -> None:
+        """Write one slab (in z order) to every open writer."""
+        if self.layers_tif is not None and self.colour_tif is not None:
+            self.layers_tif.write_slab(slab.layers)
+            self.colour_tif.write_slab(slab.rgba[..., : self.samples])
+        if self.materials_tif is not None and materials is not None:
+            self.materials_tif.write_slab(materials)
+        if self.vdb is not None:
+            coloured = self._is_colour[slab.layers]
+            self.vdb.write_slab(
+                slab.z_start, slab.layers, slab.rgba[..., :3], coloured, slab.sdf, materials
+            )
+        if self.gcvf is not None and materials is not None:
+            self.gcvf.write_slab(materials)
+        if self.png is not None and materials is not None:
+            self.png.write_slab(self.colour_slices(slab, materials))
+
+    def colour_slices(self, slab: SlabResult, materials: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        """Return the RGBA ``(Zs, Y, X, 4) uint8`` of a slab for colour-slice printers.
+
+        Colour layers carry the surface colour and its alpha, other solid voxels their
+        material's display colour, void is transparent black.
+        """
+        rgba = self._display[materials]
+        coloured = self._is_colour[slab.layers]
+        rgba[coloured] = slab.rgba[coloured]
+        return rgba
+
+    def finish(self) -> dict[str, Any]:
+        """Close every writer (files still under temporary names); return their summaries."""
+        summary: dict[str, Any] = {}
+        tiffs = {
+            "layers.tif": self.layers_tif,
+            "colour.tif": self.colour_tif,
+            "materials.tif": self.materials_tif,
+        }
+        for name, writer in tiffs.items():
+            if writer is not None:
+                writer.close()
+                summary.setdefault("tiff", {})[name] = {
+                    "bigtiff": writer.bigtiff,
+                    "samples": max(1, writer.samples),
+                }
+        if self.vdb is not None and self._vdb_path is not None:
+            summary["vdb"] = self.vdb.write(
+                self._vdb_path, {"creator": f"shellvox {__version__}"}
+            )
+        if self.gcvf is not None:
+            job = self.gcvf.close()
+            summary["gcvf"] = {
+                "slices": job.n_slices,
+                "padding_slices": job.n_padding_slices,
+                "slice_width": job.slice_width,
+                "slice_height": job.slice_height,
+                "materials": [
+                    {"index": m.index, "name": m.name, "rgba_key": list(m.rgba), "voxels": n}
+                    for m, n in job.materials
+                ],
+            }
+        if self.png is not None:
+            self.png.close()
+            folder = self.out_dir / "slices"
+            self.written.extend(sorted(p for p in folder.iterdir() if p.is_file()))
+            summary["png_slices"] = {"folder": "slices", "files": len(list(folder.iterdir()))}
+        return summary
