@@ -44,7 +44,8 @@ from pipeline.stack_outputs import StackOutputs
 from voxel.agreement import shell_agreement
 from voxel.atomic import atomic_path, write_text_atomic
 from voxel.blocks import COARSE, fine_block_size
-from voxel.colour_report import ColourReport, sample_surface
+from voxel.colour import srgb_to_linear
+from voxel.colour_report import ColourReport, sample_surface, thickness_effect
 from voxel.grid import GridSpec
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.nearest import SurfaceIndex
@@ -287,13 +288,34 @@ class _Job:
                 manifest["materials"] = tally.materials(self.profile)
                 manifest["material_voxels_per_layer"] = tally.per_layer(self.profile)
             if report is not None:
-                manifest["colour_report"] = report.result()
+                manifest["colour_report"] = self._report_result(report)
             manifest.update(extra)
         # Every file is in place (renamed when the stack closed); the manifest comes last.
         manifest["files"] = folder.commit(written)
         seconds["total"] = time.perf_counter() - started
         write_text_atomic(out_dir / "manifest.json", json.dumps(manifest, indent=2))
         return manifest
+
+    def _report_result(self, report: ColourReport) -> dict[str, Any]:
+        """Return the measured report and what the thickness changes (optical model)."""
+        assert self.plan is not None and self.profile is not None
+        result = report.result()
+        samples = report.samples
+        display = np.array([m.display_srgb for m in self.profile.materials], dtype=np.uint8)
+        linear = srgb_to_linear(display).astype(np.float64)
+        share = self.plan.separation.proportions(samples.target_rgba).astype(np.float64)
+        ideal = share @ linear[list(self.plan.column_materials)]
+        colour_depth = np.cumsum(self.thickness, axis=0)[max(self.config.colour_layers) - 1]
+        area = face_areas(self.mesh)
+        result["thickness_effect"] = thickness_effect(
+            samples.target_rgba,
+            ideal,
+            linear[self.plan.backing_material],
+            colour_depth[samples.face_ids],
+            float(np.average(colour_depth, weights=area)),
+            self.config.optical_depth_mm,
+        )
+        return result
 
     def _colour_report(self) -> ColourReport | None:
         if self.profile is None or self.plan is None or self.config.report_samples == 0:
@@ -375,11 +397,17 @@ def grid_for(mesh: ColouredMesh, config: BuildConfig) -> GridSpec:
     )
 
 
-def mesh_area(mesh: ColouredMesh) -> float:
-    """Return the surface area of the model, mm^2."""
+def face_areas(mesh: ColouredMesh) -> NDArray[np.float64]:
+    """Return the area of every face ``(F,) float64``, mm^2."""
     corners = mesh.vertices[mesh.faces]
     cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    return float(0.5 * np.linalg.norm(cross, axis=1).sum())
+    areas: NDArray[np.float64] = 0.5 * np.linalg.norm(cross, axis=1)
+    return areas
+
+
+def mesh_area(mesh: ColouredMesh) -> float:
+    """Return the surface area of the model, mm^2."""
+    return float(face_areas(mesh).sum())
 
 
 def check_depth(mesh: ColouredMesh, depth: NDArray[np.float64], *, force: bool) -> None:

@@ -64,3 +64,19 @@ def test_regions_name_lightness_and_hue():
     names = colour_regions(np.array([[250, 250, 250], [20, 20, 20], [220, 30, 30]], np.uint8))
     assert names[0] == "light neutral" and names[1] == "dark neutral"
     assert names[2].endswith("red")
+
+
+def test_layer_model_limits_and_thickness_effect():
+    from voxel.colour_report import layer_model_srgb, thickness_effect
+
+    ideal = colour.cctf_decoding(np.array([[0.8, 0.1, 0.1], [0.1, 0.1, 0.8]]), "sRGB")
+    backing = np.ones(3)
+    deep = layer_model_srgb(ideal, backing, np.array([1.0, 2.0]), 0.25)  # >= 4 L
+    assert np.allclose(deep, [[0.8, 0.1, 0.1], [0.1, 0.1, 0.8]], atol=1e-9)
+    none = layer_model_srgb(ideal, backing, np.zeros(2), 0.25)
+    assert np.allclose(none, 1.0)
+    target = np.array([[204, 26, 26, 255], [26, 26, 204, 255]], np.uint8)
+    effect = thickness_effect(target, ideal, backing, np.array([1.0, 1.0]), 0.1, 0.25)
+    # a deep layer shows the separation's own mix; a thin one lets the white through
+    assert effect["adaptive"]["max"] == pytest.approx(effect["gamut"]["max"], abs=1e-6)
+    assert effect["constant"]["median"] > effect["adaptive"]["median"] + 5
