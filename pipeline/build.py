@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import trimesh
 from tqdm import tqdm
 
 from offset import offset_shells
@@ -27,6 +26,7 @@ from pipeline.build_config import BuildConfig
 from pipeline.config import as_json
 from pipeline.errors import ShellvoxWarning
 from pipeline.mesh import ColouredMesh
+from pipeline.shell_files import write_shell
 from pipeline.slab_runner import SlabRunner, resolve_workers
 from voxel.agreement import shell_agreement
 from voxel.atomic import atomic_path
@@ -192,13 +192,11 @@ def build_stack(
             seconds["shells_wait"] = time.perf_counter() - tick
         if shells is not None:
             (out_dir / "shells").mkdir(exist_ok=True)
-            for shell in shells:
-                ply = stack.enter_context(
-                    atomic_path(out_dir / "shells" / f"shell_{shell.layer}.ply")
-                )
-                trimesh.Trimesh(shell.vertices, shell.faces, process=False).export(
-                    str(ply), file_type="ply"
-                )
+            shells = [  # cleaned, float64, as read back from the files
+                write_shell(stack.enter_context(atomic_path(target)), shell, target=target).shell
+                for shell in shells
+                for target in [out_dir / "shells" / f"shell_{shell.layer}.ply"]
+            ]
             if by_distance:
                 tick = time.perf_counter()
                 points, sampled = sampler.samples()

@@ -1,0 +1,69 @@
+"""Independent checks of a shell PLY as other tools read it: trimesh, and MeshLab when present.
+
+Both merge coincident vertices first (trimesh's ``merge_vertices``, MeshLab's
+``meshing_remove_duplicate_vertices``), as a slicer does.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from offset.intersections import count_self_intersections
+
+HAVE_PYMESHLAB = importlib.util.find_spec("pymeshlab") is not None
+
+
+def header(path: Path) -> list[str]:
+    """Return the PLY header lines up to ``end_header``."""
+    data = Path(path).read_bytes()
+    return data[: data.index(b"end_header")].decode("ascii").splitlines()
+
+
+def _zero_area(vertices: np.ndarray, faces: np.ndarray) -> int:
+    tri = vertices[faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    return int(np.count_nonzero(np.linalg.norm(cross, axis=1) == 0.0))
+
+
+def trimesh_checks(path: Path) -> dict[str, Any]:
+    """Read with trimesh, merge coincident vertices, and measure."""
+    mesh = trimesh.load(path, process=False, force="mesh")
+    n_vertices = len(mesh.vertices)
+    mesh.merge_vertices()
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces, dtype=np.int64)
+    return {
+        "vertex_dtype": str(np.asarray(trimesh.load(path, process=False).vertices).dtype),
+        "merged_vertices": n_vertices - len(v),
+        "closed": bool(mesh.is_watertight),
+        "oriented": bool(mesh.is_winding_consistent) and float(mesh.volume) > 0,
+        "zero_area_faces": _zero_area(v, f),
+        "self_intersections": count_self_intersections(v, f),
+        "n_faces": len(f),
+    }
+
+
+def meshlab_checks(path: Path) -> dict[str, Any]:
+    """Read with pymeshlab, remove duplicate vertices, and measure."""
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(path))
+    ms.meshing_remove_duplicate_vertices()
+    topo = ms.get_topological_measures()
+    mesh = ms.current_mesh()
+    ms.compute_selection_by_self_intersections_per_face()
+    return {
+        "two_manifold": bool(topo["is_mesh_two_manifold"]),
+        "boundary_edges": int(topo["boundary_edges"]),
+        "non_manifold_edges": int(topo["non_two_manifold_edges"]),
+        "non_manifold_vertices": int(topo["non_two_manifold_vertices"]),
+        "zero_area_faces": _zero_area(mesh.vertex_matrix(), mesh.face_matrix()),
+        "self_intersecting_faces": int(ms.current_mesh().selected_face_number()),
+        "n_faces": int(mesh.face_number()),
+    }
