@@ -133,7 +133,11 @@ def _edge_kind(original: trimesh.Trimesh, points: FloatArray, face: IntArray) ->
 
 
 def mesh_checks(vertices: FloatArray, faces: IntArray) -> dict[str, Any]:
-    """Return closure, orientation, self-intersection count and volume of a mesh.
+    """Return closure, orientation, degenerate faces and crossings of a mesh as a file holds it.
+
+    Vertices at exactly the same position are merged first, as a reader that welds
+    coincident vertices does: a shell that is closed only because two copies of a point
+    are kept apart does not count as closed.
 
     Parameters
     ----------
@@ -143,20 +147,34 @@ def mesh_checks(vertices: FloatArray, faces: IntArray) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``n_faces``, ``closed``, ``oriented`` (consistent winding, positive volume),
-        ``self_intersections``, ``volume_mm3`` (``None`` unless closed).
+        ``n_faces``; ``coincident_vertices`` (vertices at the position of another);
+        ``zero_area_faces`` (exactly zero area, after merging) and ``zero_length_edges``;
+        after merging: ``closed``, ``oriented`` (consistent winding, positive volume),
+        ``self_intersections`` (:func:`offset.intersections.count_self_intersections`)
+        and ``volume_mm3`` (``None`` unless closed).
     """
     if faces.shape[0] == 0:
-        return {"n_faces": 0, "closed": True, "oriented": True, "self_intersections": 0,
-                "volume_mm3": 0.0}
-    mesh = trimesh.Trimesh(vertices, faces, process=False)
+        return {"n_faces": 0, "coincident_vertices": 0, "zero_area_faces": 0,
+                "zero_length_edges": 0, "closed": True, "oriented": True,
+                "self_intersections": 0, "volume_mm3": 0.0}
+    unique, inverse = np.unique(vertices, axis=0, return_inverse=True)
+    merged = np.asarray(inverse, dtype=np.int64).reshape(-1)[faces]
+    tri = unique[merged]
+    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    edges = np.unique(np.sort(np.stack([faces, np.roll(faces, -1, axis=1)], axis=2)
+                              .reshape(-1, 2), axis=1), axis=0)
+    mesh = trimesh.Trimesh(unique, merged, process=False)
     closed = bool(mesh.is_watertight)
     volume = float(mesh.volume) if closed else None
     return {
         "n_faces": int(faces.shape[0]),
+        "coincident_vertices": int(len(vertices) - len(unique)),
+        "zero_area_faces": int(np.count_nonzero(area2 == 0.0)),
+        "zero_length_edges": int(np.count_nonzero(
+            np.all(vertices[edges[:, 0]] == vertices[edges[:, 1]], axis=1))),
         "closed": closed,
         "oriented": bool(mesh.is_winding_consistent) and (volume is None or volume > 0),
-        "self_intersections": count_self_intersections(vertices, faces),
+        "self_intersections": count_self_intersections(unique, merged),
         "volume_mm3": volume,
     }
 

@@ -186,8 +186,8 @@ def robust_offset(
         (crossing, deep), vert, tri = best
         if crossing or deep:
             warnings.warn(
-                f"layer {k + 1}: {crossing} crossing triangle pairs, {deep} triangles "
-                "deeper than asked remain",
+                f"robust shell of layer {k + 1}: {crossing} crossing triangle pairs and "
+                f"{deep} triangles deeper than asked remain after every union order",
                 ShellDefectWarning,
                 stacklevel=3,
             )

@@ -24,7 +24,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import trimesh
 from numpy.typing import NDArray
 from tqdm import tqdm
 
@@ -39,6 +38,7 @@ from pipeline.material_plan import build_material_plan
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import OutputFolder
 from pipeline.printer_profile import PrinterProfile
+from pipeline.shell_files import write_shell
 from pipeline.slab_runner import SlabRunner, resolve_workers
 from pipeline.stack_outputs import StackOutputs
 from voxel.agreement import shell_agreement
@@ -252,13 +252,13 @@ class _Job:
             written = list(outputs.written)
             if shells is not None:
                 (out_dir / "shells").mkdir(exist_ok=True)
+                cleaned = []  # cleaned, float64, as read back from the files
                 for shell in shells:
                     target = out_dir / "shells" / f"shell_{shell.layer}.ply"
                     ply = stack.enter_context(atomic_path(target))
-                    trimesh.Trimesh(shell.vertices, shell.faces, process=False).export(
-                        str(ply), file_type="ply"
-                    )
+                    cleaned.append(write_shell(ply, shell, target=target).shell)
                     written.append(target)
+                shells = cleaned
                 if by_distance:
                     tick = time.perf_counter()
                     points, sampled = sampler.samples()

@@ -18,6 +18,7 @@ import warnings
 from collections.abc import Sequence
 from types import ModuleType
 
+from offset.robust import ShellDefectWarning
 from pipeline import __version__
 from pipeline.errors import ShellvoxWarning
 from pipeline.faults import describe, signals_raise
@@ -62,6 +63,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         # Our own warnings are shown as one line each; library chatter is not.
         warnings.simplefilter("ignore")
         warnings.simplefilter("always", ShellvoxWarning)
+        warnings.simplefilter("always", ShellDefectWarning)  # offset cannot import pipeline
         warnings.showwarning = _show_warning
         return _run(args)
 

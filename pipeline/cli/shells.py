@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import trimesh
 
 from offset import METHODS, offset_shells, shell_report
 from pipeline import __version__
@@ -20,7 +19,8 @@ from pipeline.cli.values import parse_lengths
 from pipeline.config import ShellConfig, as_json
 from pipeline.errors import InputError
 from pipeline.loading import load_model
-from voxel.atomic import atomic_path, write_text_atomic
+from pipeline.shell_files import save_shells
+from voxel.atomic import write_text_atomic
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -78,10 +78,8 @@ def run(args: argparse.Namespace) -> int:
     _say(f"offsetting {len(mesh.faces):,} faces into {len(thickness)} shells ({config.method})")
     shells = offset_shells(mesh.vertices, mesh.faces, thickness, method=config.method)
     offset_seconds = time.perf_counter() - started
-    for shell in shells:
-        with atomic_path(out / f"shell_{shell.layer}.ply") as temporary:
-            ply = trimesh.Trimesh(shell.vertices, shell.faces, process=False)
-            ply.export(str(temporary), file_type="ply")
+    _say("cleaning, writing and reading back the shell files")
+    written = save_shells(out, shells)
     _say("measuring the shells" + ("" if args.no_baselines else " and the baselines"))
     report: dict[str, Any] = {
         "tool": f"shellvox {__version__}",
@@ -94,15 +92,24 @@ def run(args: argparse.Namespace) -> int:
             mesh.vertices,
             mesh.faces,
             thickness,
-            shells,
+            [w.shell for w in written],
             baselines=not args.no_baselines,
             layer_height_mm=config.layer_height_mm,
         )
     )
+    for layer, w in zip(report["layers"], written, strict=True):
+        # The report's "shell" entry is measured on the file as read back; this is how
+        # it was written.
+        layer["file"] = {
+            "path": w.path.name,
+            "format": "binary_little_endian PLY, property double x/y/z",
+            "bytes": w.path.stat().st_size,
+            "cleaning": w.cleaning,
+        }
     report["seconds"]["total"] = time.perf_counter() - started
     write_text_atomic(out / "report.json", json.dumps(report, indent=2))
-    for shell in shells:
-        print(f"{out / f'shell_{shell.layer}.ply'}: {len(shell.faces):,} faces")
+    for w in written:
+        print(f"{w.path}: {len(w.shell.faces):,} faces")
     print(f"{out / 'report.json'}")
     return 0
 
