@@ -3,8 +3,8 @@
 A face's thickness comes from one robust colour, so a large face over very different
 colours gets one compromise depth. :func:`split_faces` splits the edges longer than
 ``max_edge_mm`` of the chosen faces at their midpoints, again and again, until none is
-left; :func:`split_for_thickness` chooses the faces whose colour spread exceeds the rule's
-``split.min_spread_de00`` (faces of one colour gain nothing from splitting).
+left; :func:`split_for_thickness` chooses the faces whose colour spread is at least the
+rule's ``split.min_spread_de00`` (faces of one colour gain nothing from splitting).
 
 The split is conforming: a midpoint is one vertex shared by both faces of its edge, and a
 face with 1, 2 or 3 split edges becomes 2, 3 (the shorter diagonal) or 4 faces with the
@@ -143,7 +143,7 @@ def split_for_thickness(
     colour: FaceColour | None = None,
     max_faces: int = 5_000_000,
 ) -> ColouredMesh:
-    """Split the faces whose colour spread exceeds ``rule.split.min_spread_de00``.
+    """Split the faces whose colour spread is at least ``rule.split.min_spread_de00``.
 
     Parameters
     ----------
@@ -162,7 +162,7 @@ def split_for_thickness(
     """
     if colour is None:
         colour = face_colour(mesh)
-    chosen = colour.spread_de00 > rule.split.min_spread_de00
+    chosen = colour.spread_de00 >= rule.split.min_spread_de00
     if not chosen.any():
         return mesh
     return split_faces(mesh, max_edge_mm, where=chosen, max_faces=max_faces).mesh

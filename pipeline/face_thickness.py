@@ -280,7 +280,8 @@ def thickness_summary(thickness: FaceThickness) -> dict[str, Any]:
         of ``faces``, ``area_mm2``, ``min_mm``, ``p50_mm``, ``max_mm`` (p50 area-weighted;
         ``None`` for empty groups), ``smoothing_change_mm`` (largest change made by the
         smoothing), ``curvature_capped_faces``, and ``colour_spread_de00`` (``p50``,
-        ``p90``, ``max`` over faces and ``faces_above_split``).
+        ``p90``, ``max`` over faces and ``faces_to_split``: spread at least the rule's
+        ``split.min_spread_de00``).
     """
     t = thickness
     area = t.area_mm2
@@ -327,7 +328,7 @@ def thickness_summary(thickness: FaceThickness) -> dict[str, Any]:
             "p50": float(np.percentile(spread, 50)),
             "p90": float(np.percentile(spread, 90)),
             "max": float(spread.max()),
-            "faces_above_split": int(np.count_nonzero(spread > t.rule.split.min_spread_de00)),
+            "faces_to_split": int(np.count_nonzero(spread >= t.rule.split.min_spread_de00)),
         },
     }
 

@@ -56,7 +56,7 @@ file):
 - **Layers**: one colour layer and one 0.5 mm backing layer (shellvox's earlier constant
   default was 0.5, 0.5 mm).
 - **Splitting** (``--max-edge``): faces whose colour spread (p90 CIEDE2000 from their
-  median) exceeds 5 are split; a CIEDE2000 of about 5 is a clearly visible difference.
+  median) is 5 or more are split; a CIEDE2000 of about 5 is a clearly visible difference.
 
 TOML layout (every key optional; missing keys keep the default)::
 
@@ -326,7 +326,7 @@ class SplitRule:
     Parameters
     ----------
     min_spread_de00 : float
-        Faces whose colour spread (p90 CIEDE2000) exceeds this are split (``>= 0``; 0
+        Faces whose colour spread (p90 CIEDE2000) is at least this are split (``>= 0``; 0
         splits every face with a long edge).
     """
 

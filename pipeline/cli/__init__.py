@@ -17,7 +17,7 @@ from types import ModuleType
 from pipeline import __version__
 from pipeline.errors import InputError, ShellvoxWarning, SlabWorkerDied
 
-COMMANDS = ("info", "shells", "build", "inspect")
+COMMANDS = ("info", "thickness", "shells", "build", "inspect")
 
 
 def _subcommands() -> dict[str, ModuleType]:

@@ -10,15 +10,16 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import trimesh
 
 from offset import METHODS, offset_shells, shell_report
 from pipeline import __version__
 from pipeline.cli.loadargs import add_load_arguments, load_options
+from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness, write_thickness_ply
 from pipeline.cli.values import parse_lengths
 from pipeline.config import ShellConfig, as_json
 from pipeline.errors import InputError
+from pipeline.face_thickness import thickness_summary
 from pipeline.loading import load_model
 from voxel.atomic import atomic_path, write_text_atomic
 
@@ -32,14 +33,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         required=True,
         metavar="DIR",
-        help="output folder for shell_1.ply ... and report.json",
+        help="output folder for shell_1.ply ..., report.json and (with a thickness rule) "
+        "thickness.ply",
     )
     parser.add_argument(
         "--thickness",
-        default="0.5,0.5",
         metavar="T1,T2,...",
-        help="thickness of each layer in mm, outside in (default 0.5,0.5)",
+        help="the same thickness on every face for each layer in mm, outside in "
+        "(default: the per-face thickness of the thickness rule)",
     )
+    add_rule_arguments(parser)
     parser.add_argument(
         "--method",
         choices=METHODS,
@@ -62,17 +65,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write the shells and their quality report."""
+    constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
     config = ShellConfig(
-        thickness_mm=parse_lengths("--thickness", args.thickness),
+        thickness_mm=constant or (),
         method=args.method,
         layer_height_mm=parse_lengths("--layer-height", str(args.layer_height), 1)[0],
     )
-    mesh = load_model(args.model, load_options(args))
     out: Path = args.output
     if out.exists() and not out.is_dir():
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")
+    options = load_options(args)
+    mesh = load_model(args.model, options)
+    choice = choose_thickness(args, mesh, constant, max_faces=options.max_faces)
+    mesh = choice.mesh
+    thickness = choice.thickness_mm
     out.mkdir(parents=True, exist_ok=True)
-    thickness = np.asarray(config.thickness_mm, dtype=np.float64)
 
     started = time.perf_counter()
     _say(f"offsetting {len(mesh.faces):,} faces into {len(thickness)} shells ({config.method})")
@@ -99,10 +106,15 @@ def run(args: argparse.Namespace) -> int:
             layer_height_mm=config.layer_height_mm,
         )
     )
+    if choice.faces is not None:
+        report["thickness"] = {"source": choice.source, **thickness_summary(choice.faces)}
+        write_thickness_ply(out / "thickness.ply", mesh, choice.faces)
     report["seconds"]["total"] = time.perf_counter() - started
     write_text_atomic(out / "report.json", json.dumps(report, indent=2))
     for shell in shells:
         print(f"{out / f'shell_{shell.layer}.ply'}: {len(shell.faces):,} faces")
+    if choice.faces is not None:
+        print(f"{out / 'thickness.ply'}")
     print(f"{out / 'report.json'}")
     return 0
 
