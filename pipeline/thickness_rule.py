@@ -44,13 +44,15 @@ file):
   layer partly offsets. A side face's depth is resolved by 42-85 um voxels instead of
   27 um layers, so half a voxel of boundary error is a larger share of its depth.
 - **Curvature**: a colour layer at most ``0.5 / H`` deep, half the local radius of convex
-  curvature, with ``H`` the mean curvature measured over a ball of 1 mm (about the
-  colour layer's own depth, and independent of the tessellation). An inward offset of
+  curvature, with ``H`` the mean curvature at a scale of 1 mm (about the colour layer's
+  own depth, and independent of the tessellation). An inward offset of
   depth ``d`` shrinks a convex surface's area by about ``2 H d`` and closes at
   ``d = 1 / H``: on a thin rounded feature a full-depth colour layer would leave no room
   for the backing behind it, and colour seen through from the other side mixes in. Half
   the radius leaves room for the backing. Concave regions are not capped. A sharp 90
-  degree edge measures ``H = 1 / (2 r) = 0.5 / mm`` and keeps up to 1 mm.
+  degree edge measures about ``pi / (8 r) = 0.39 / mm`` and is not capped (1.27 mm), a
+  cube's corner is; a rounded edge of radius 1.5 mm (``H = 1 / 3 mm``) keeps 1.5 mm, a
+  sphere of 1.5 mm 0.75 mm.
 - **Smoothing**: 3 iterations of area-weighted averaging over the face and its
   edge neighbours, so the depth follows colour regions and not single triangles.
 - **Layers**: one colour layer and one 0.5 mm backing layer (shellvox's earlier constant
@@ -234,8 +236,8 @@ class CurvatureRule:
         The colour layer is at most this fraction of the local convex radius ``1 / H``
         (``>= 0``; 0 turns the cap off and skips the curvature computation).
     radius_mm : float, mm
-        Scale at which the mean curvature ``H`` is measured: the radius of the ball of
-        :func:`pipeline.face_thickness.mean_curvature` (``> 0``).
+        Scale ``r`` of the mean curvature ``H``: the local curvature is diffused over
+        about this distance (:func:`pipeline.face_thickness.mean_curvature`; ``> 0``).
     """
 
     max_depth_per_radius: float = 0.5
