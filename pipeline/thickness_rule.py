@@ -40,9 +40,11 @@ file):
 - **Orientation** (upper ``n_z > 0.5``, lower ``n_z < -0.05``, else side): upper 1.0,
   side 1.1, lower 1.2. PolyJet prints every overhang on support material, and
   support-contact surfaces come out matte (University of Cologne RRZK, "Notes on the 3D
-  printing form"): surface scatter lightens and desaturates them, which a deeper colour
-  layer partly offsets. A side face's depth is resolved by 42-85 um voxels instead of
-  27 um layers, so half a voxel of boundary error is a larger share of its depth.
+  printing form", https://rrzk.uni-koeln.de/en/software-multimedia/3d-scan-and-3d-printing/
+  3d-printing/notes-on-the-3d-printing-form): surface scatter lightens and desaturates
+  them, which a deeper colour layer partly offsets. A side face's depth is resolved by
+  42-85 um voxels instead of 27 um layers, so half a voxel of boundary error is a larger
+  share of its depth.
 - **Curvature**: a colour layer at most ``0.5 / H`` deep, half the local radius of convex
   curvature, with ``H`` the mean curvature at a scale of 1 mm (about the colour layer's
   own depth, and independent of the tessellation). An inward offset of
