@@ -15,8 +15,6 @@ import dataclasses
 import hashlib
 import json
 import math
-import multiprocessing
-import os
 import time
 import warnings
 from collections.abc import Callable
@@ -30,10 +28,11 @@ from tqdm import tqdm
 from offset import offset_shells
 from pipeline import __version__
 from pipeline.build_config import BuildConfig
-from pipeline.children import init_child
+from pipeline.children import BackgroundCall
 from pipeline.config import as_json
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.estimate import BYTES_PER_VOXEL, check_resources, estimate_build
+from pipeline.face_thickness import FaceThickness, thickness_summary, write_thickness_ply
 from pipeline.material_plan import build_material_plan
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import OutputFolder
@@ -59,6 +58,7 @@ def build_stack(
     out_dir: Path,
     *,
     thickness: NDArray[np.float64] | None = None,
+    faces: FaceThickness | None = None,
     profile: PrinterProfile | None = None,
     progress: bool | None = None,
     force: bool = False,
@@ -80,6 +80,9 @@ def build_stack(
     thickness : (K, F) float64, mm, optional
         Thickness of each layer per face (from a thickness rule); default: the constant
         ``config.thickness_mm`` for every face.
+    faces : FaceThickness, optional
+        The thickness rule's result behind `thickness`: written to ``thickness.ply`` and
+        summarised in the manifest.
     profile : PrinterProfile, optional
         The printer's materials: with ``config.material``, every voxel gets one material
         (``materials.tif``, the job, the colour report).
@@ -142,7 +145,7 @@ def build_stack(
         plan = build_material_plan(
             profile, config.material, colour_layers=config.colour_layers, n_bands=len(depth)
         )
-    job = _Job(mesh, config, grid, thickness, rows, workers, profile, plan, progress)
+    job = _Job(mesh, config, grid, thickness, faces, rows, workers, profile, plan, progress)
     with OutputFolder(out_dir) as folder:
         manifest = job.run(out_dir, folder, started, {"estimate": dataclasses.asdict(estimate)})
     return manifest
@@ -156,6 +159,7 @@ class _Job:
     config: BuildConfig
     grid: GridSpec
     thickness: NDArray[np.float64]
+    faces: FaceThickness | None
     rows: int
     workers: int
     profile: PrinterProfile | None
@@ -195,13 +199,8 @@ class _Job:
                 SlabRunner(model, grid, self.rows, self.workers, self.plan)
             )
             if by_distance and config.shell_meshes:  # beside the voxels, in another process
-                pool = stack.enter_context(
-                    multiprocessing.get_context("spawn").Pool(
-                        1, initializer=init_child, initargs=(os.getpid(),)
-                    )
-                )
-                pending = pool.apply_async(
-                    timed_shells, (mesh.vertices, mesh.faces, self.thickness, config)
+                pending = stack.enter_context(
+                    BackgroundCall(timed_shells, mesh.vertices, mesh.faces, self.thickness, config)
                 )
             outputs = StackOutputs(stack, out_dir, grid, config, self.profile, self.plan)
             sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / self.rows))
@@ -239,7 +238,7 @@ class _Job:
             if pending is not None:
                 tick = time.perf_counter()
                 try:
-                    shells, seconds["shells"] = pending.get()
+                    shells, seconds["shells"] = pending.result()
                 except Exception as error:  # the voxels do not depend on the shell meshes
                     warnings.warn(
                         f"{mesh.source}: the shell meshes failed ({error}); the voxel stack "
@@ -250,6 +249,9 @@ class _Job:
                     )
                 seconds["shells_wait"] = time.perf_counter() - tick
             written = list(outputs.written)
+            if self.faces is not None:
+                write_thickness_ply(out_dir / "thickness.ply", mesh, self.faces)
+                written.append(out_dir / "thickness.ply")
             if shells is not None:
                 (out_dir / "shells").mkdir(exist_ok=True)
                 cleaned = []  # cleaned, float64, as read back from the files
@@ -283,6 +285,11 @@ class _Job:
             manifest["shell_agreement"] = agreement
             manifest.update(summaries)
             manifest["slab_rows"] = self.rows
+            manifest["thickness"] = (
+                {"source": config.thickness_source, **thickness_summary(self.faces)}
+                if self.faces is not None
+                else {"source": config.thickness_source}
+            )
             if self.profile is not None and self.plan is not None:
                 manifest["printer"] = self.profile.name
                 manifest["materials"] = tally.materials(self.profile)

@@ -24,6 +24,10 @@ class BuildConfig:
         Printer profile the voxel size came from (``"j750"``), for the manifest.
     thickness_mm : tuple of float, mm
         Thickness of each shell band, outside in (``K`` values).
+    thickness_source : str
+        Where the thickness came from: ``"--thickness"`` (``thickness_mm`` on every face),
+        ``"default rule"`` or a rule file (per face; ``thickness_mm`` then holds each
+        layer's median, and the per-face values are in ``thickness.ply``).
     colour_layers : tuple of int
         Layers (1..K+1) whose voxels take the nearest surface colour.
     layer_rule : {"distance", "shells"}
@@ -65,6 +69,7 @@ class BuildConfig:
     voxel_mm: tuple[float, float, float]
     printer: str | None = None
     thickness_mm: tuple[float, ...] = (0.5, 0.5)
+    thickness_source: str = "--thickness"
     colour_layers: tuple[int, ...] = (1,)
     layer_rule: Literal["distance", "shells"] = "distance"
     shell_meshes: bool = True

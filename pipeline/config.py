@@ -77,7 +77,8 @@ class ShellConfig:
     Parameters
     ----------
     thickness_mm : tuple of float
-        Thickness of each layer, outside in (mm), the same for every face.
+        Thickness of each layer, outside in (mm), the same for every face (``--thickness``);
+        empty when a thickness rule sets it per face.
     method : {"robust", "paper"}
         Offset construction (see :mod:`offset`).
     layer_height_mm : float

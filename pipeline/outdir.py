@@ -56,7 +56,7 @@ BUILD_OUTPUTS = (
 )
 
 #: Names of what ``shells`` writes.
-SHELL_OUTPUTS = ("report.json", "shell_*.ply")
+SHELL_OUTPUTS = ("report.json", "shell_*.ply", "thickness.ply")
 
 #: Temporary names any shellvox run may leave when killed.
 TEMPORARY = (".*.partial", ".vdb-spool.*", ".staging.*")

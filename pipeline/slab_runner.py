@@ -29,7 +29,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.children import init_child
+from pipeline.children import init_child, kill_pool
 from pipeline.errors import SlabWorkerDied
 from voxel.grid import GridSpec
 from voxel.materials import MaterialPlan, materials_for_slab
@@ -131,19 +131,9 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         global _WORKER
         if self._pool is not None:
             if kind is not None:  # do not wait for slabs nobody will write
-                self._kill_workers()
+                kill_pool(self._pool)
             self._pool.shutdown(wait=True, cancel_futures=True)
             _WORKER = None
-
-    def _kill_workers(self) -> None:
-        assert self._pool is not None
-        processes = list((getattr(self._pool, "_processes", None) or {}).values())
-        for process in processes:
-            with contextlib.suppress(OSError, ValueError):
-                process.kill()
-        for process in processes:
-            with contextlib.suppress(OSError, ValueError, AssertionError):
-                process.join(timeout=5)
 
     def __iter__(self) -> Iterator[StackSlab]:
         if self._pool is None:

@@ -23,7 +23,7 @@ from pipeline import __version__
 from pipeline.errors import ShellvoxWarning
 from pipeline.faults import describe, signals_raise
 
-COMMANDS = ("info", "shells", "build", "inspect")
+COMMANDS = ("info", "thickness", "shells", "build", "inspect")
 
 
 def _subcommands() -> dict[str, ModuleType]:

@@ -9,10 +9,13 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from offset import METHODS
 from pipeline.build import build_stack
 from pipeline.build_config import FORMATS, BuildConfig
 from pipeline.cli.loadargs import add_load_arguments, load_options
+from pipeline.cli.thicknessargs import ThicknessChoice, add_rule_arguments, choose_thickness
 from pipeline.cli.values import parse_lengths, parse_voxel_size
 from pipeline.errors import InputError
 from pipeline.loading import load_model
@@ -79,17 +82,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--thickness",
-        default="0.5,0.5",
         metavar="T1,T2,...",
-        help="thickness of each shell band in mm, outside in (default 0.5,0.5)",
+        help="the same thickness on every face: each layer in mm, outside in (e.g. 0.5,0.5); "
+        "default: the thickness rule (colour-adaptive per face)",
     )
+    add_rule_arguments(parser)
     parser.add_argument(
         "--colour-layers",
         "--color-layers",
         dest="colour_layers",
-        default="1",
         metavar="K1,K2,...",
-        help="layers that take the surface colour (default 1, the outermost)",
+        help="layers that take the surface colour (default: the rule's, or 1 with --thickness)",
     )
     parser.add_argument(
         "--layers",
@@ -101,8 +104,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--shell-meshes",
         action=argparse.BooleanOptionalAction,
-        default=True,
-        help="also write the offset shells to DIR/shells/ (default: yes)",
+        default=None,
+        help="also write the offset shells to DIR/shells/ (default: with --thickness only; "
+        "shells of a per-face thickness take minutes: `shellvox shells` makes them alone)",
     )
     parser.add_argument("--method", choices=METHODS, default="robust", help="offset construction")
     parser.add_argument("--alpha", action="store_true", help="write colour.tif as RGBA")
@@ -127,22 +131,36 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(
-    args: argparse.Namespace, profile: PrinterProfile | None = None
+    args: argparse.Namespace,
+    profile: PrinterProfile | None = None,
+    choice: ThicknessChoice | None = None,
 ) -> BuildConfig:
-    """Turn parsed arguments into a :class:`BuildConfig` (bad values raise InputError)."""
+    """Turn parsed arguments into a :class:`BuildConfig` (bad values raise InputError).
+
+    `choice` is the thickness chosen for the model (:func:`choose_thickness`); without it
+    ``--thickness`` must be given.
+    """
     profile = profile or load_profile(args.printer)
     voxel = profile.voxel_mm
     if args.voxel_size is not None:
         voxel = parse_voxel_size(args.voxel_size)
-    thickness = parse_lengths("--thickness", args.thickness)
+    if choice is None or choice.faces is None:
+        thickness = parse_lengths("--thickness", args.thickness or "0.5,0.5")
+        default_colour = "1"
+        source = "--thickness"
+    else:
+        thickness = tuple(float(np.median(row)) for row in choice.thickness_mm)
+        default_colour = ",".join(str(k) for k in choice.faces.rule.layers.colour)
+        source = choice.source
+    text = args.colour_layers or default_colour
     try:
-        colour_layers = tuple(int(k) for k in args.colour_layers.split(","))
+        colour_layers = tuple(int(k) for k in text.split(","))
     except ValueError:
         colour_layers = ()
     if not colour_layers or not all(1 <= k <= len(thickness) + 1 for k in colour_layers):
         raise InputError(
             "--colour-layers",
-            f"expected layer numbers in 1..{len(thickness) + 1}, got {args.colour_layers!r}",
+            f"expected layer numbers in 1..{len(thickness) + 1}, got {text!r}",
             "pass e.g. --colour-layers 1",
         )
     if (
@@ -163,9 +181,14 @@ def config_from_args(
         voxel_mm=voxel,
         printer=profile.name,
         thickness_mm=thickness,
+        thickness_source=source,
         colour_layers=colour_layers,
         layer_rule=args.layers,
-        shell_meshes=args.shell_meshes or args.layers == "shells",
+        shell_meshes=(
+            args.layers == "shells"
+            or args.shell_meshes
+            or (args.shell_meshes is None and source == "--thickness")
+        ),
         shell_method=args.method,
         alpha=args.alpha,
         formats=_formats(args, profile, voxel),
@@ -222,17 +245,23 @@ def _formats(
 def run(args: argparse.Namespace) -> int:
     """Load the model, build the stack and print where the files are."""
     profile = load_profile(args.printer)
-    config = config_from_args(args, profile)
+    constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
+    config_from_args(args, profile)  # bad options fail before the model is read
     out: Path = args.output
     if out.exists() and not out.is_dir():
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")
     started = time.perf_counter()
-    mesh = load_model(args.model, load_options(args))
+    options = load_options(args)
+    mesh = load_model(args.model, options)
+    choice = choose_thickness(args, mesh, constant, max_faces=options.max_faces)
+    config = config_from_args(args, profile, choice)
     load_seconds = time.perf_counter() - started
     manifest = build_stack(
-        mesh,
+        choice.mesh,
         config,
         out,
+        thickness=choice.thickness_mm,
+        faces=choice.faces,
         profile=None if config.material is None else profile,
         progress=args.progress,
         force=args.force,

@@ -10,15 +10,20 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from offset import METHODS, offset_shells, shell_report
 from pipeline import __version__
 from pipeline.cli.loadargs import add_load_arguments, load_options
+from pipeline.cli.thicknessargs import (
+    ThicknessChoice,
+    add_rule_arguments,
+    choose_thickness,
+)
 from pipeline.cli.values import parse_lengths
 from pipeline.config import ShellConfig, as_json
 from pipeline.errors import InputError
+from pipeline.face_thickness import thickness_summary, write_thickness_ply
 from pipeline.loading import load_model
+from pipeline.outdir import SHELL_OUTPUTS, OutputFolder
 from pipeline.shell_files import save_shells
 from voxel.atomic import write_text_atomic
 
@@ -32,14 +37,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         required=True,
         metavar="DIR",
-        help="output folder for shell_1.ply ... and report.json",
+        help="output folder for shell_1.ply ..., report.json and (with a thickness rule) "
+        "thickness.ply",
     )
     parser.add_argument(
         "--thickness",
-        default="0.5,0.5",
         metavar="T1,T2,...",
-        help="thickness of each layer in mm, outside in (default 0.5,0.5)",
+        help="the same thickness on every face for each layer in mm, outside in "
+        "(default: the per-face thickness of the thickness rule)",
     )
+    add_rule_arguments(parser)
     parser.add_argument(
         "--method",
         choices=METHODS,
@@ -62,17 +69,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write the shells and their quality report."""
+    constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
     config = ShellConfig(
-        thickness_mm=parse_lengths("--thickness", args.thickness),
+        thickness_mm=constant or (),
         method=args.method,
         layer_height_mm=parse_lengths("--layer-height", str(args.layer_height), 1)[0],
     )
-    mesh = load_model(args.model, load_options(args))
     out: Path = args.output
     if out.exists() and not out.is_dir():
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")
-    out.mkdir(parents=True, exist_ok=True)
-    thickness = np.asarray(config.thickness_mm, dtype=np.float64)
+    options = load_options(args)
+    mesh = load_model(args.model, options)
+    choice = choose_thickness(args, mesh, constant, max_faces=options.max_faces)
+    with OutputFolder(out, SHELL_OUTPUTS, marker="report.json") as folder:
+        return _write(args, config, choice, out, folder)
+
+
+def _write(
+    args: argparse.Namespace,
+    config: ShellConfig,
+    choice: ThicknessChoice,
+    out: Path,
+    folder: OutputFolder,
+) -> int:
+    mesh = choice.mesh
+    thickness = choice.thickness_mm
 
     started = time.perf_counter()
     _say(f"offsetting {len(mesh.faces):,} faces into {len(thickness)} shells ({config.method})")
@@ -106,10 +127,18 @@ def run(args: argparse.Namespace) -> int:
             "bytes": w.path.stat().st_size,
             "cleaning": w.cleaning,
         }
+    files = [w.path for w in written]
+    if choice.faces is not None:
+        report["thickness"] = {"source": choice.source, **thickness_summary(choice.faces)}
+        write_thickness_ply(out / "thickness.ply", mesh, choice.faces)
+        files.append(out / "thickness.ply")
     report["seconds"]["total"] = time.perf_counter() - started
+    report["files"] = folder.commit(files)
     write_text_atomic(out / "report.json", json.dumps(report, indent=2))
     for w in written:
         print(f"{w.path}: {len(w.shell.faces):,} faces")
+    if choice.faces is not None:
+        print(f"{out / 'thickness.ply'}")
     print(f"{out / 'report.json'}")
     return 0
 
