@@ -125,3 +125,75 @@ def histogram_image(
         fill=(0, 0, 0),
     )
     return image
+
+
+def halftone_image(
+    target_rgb: NDArray[np.uint8],
+    materials: NDArray[np.uint8],
+    display_rgb: NDArray[np.uint8],
+    *,
+    pixel_mm: tuple[float, float],
+    inset_voxels: int = 48,
+    max_pixels: int = 900,
+) -> Image.Image:
+    """Render a slice's target colours beside its halftoned materials, with a voxel inset.
+
+    Parameters
+    ----------
+    target_rgb : (H, W, 3) uint8
+        What each voxel should look like: the surface colour in the colour layers and
+        the material's display colour elsewhere.
+    materials : (H, W) uint8
+        Material index per voxel (0 void, drawn white).
+    display_rgb : (256, 3) uint8
+        Display colour of each material index.
+    pixel_mm : (2,) float, mm
+        Physical ``(width, height)`` of one voxel.
+    inset_voxels : int
+        Side of the zoomed square, in voxels, centred on the densest colour.
+    max_pixels : int
+        Longest side of each of the two full views.
+
+    Returns
+    -------
+    PIL.Image.Image
+        ``[target | halftone]`` at true aspect above ``[target inset | halftone inset]``
+        at voxel scale (each voxel a block of pixels).
+    """
+    palette = np.asarray(display_rgb, dtype=np.uint8).copy()
+    palette[0] = OUTSIDE_RGB
+    halftone = palette[materials]
+    target = np.where((materials == 0)[..., None], np.uint8(255), target_rgb).astype(np.uint8)
+    height_mm = materials.shape[0] * pixel_mm[1]
+    width_mm = materials.shape[1] * pixel_mm[0]
+    scale = max_pixels / max(height_mm, width_mm)
+    size = (max(1, round(width_mm * scale)), max(1, round(height_mm * scale)))
+    full = [Image.fromarray(a, "RGB").resize(size, Image.Resampling.NEAREST)
+            for a in (target, halftone)]
+    # inset: the window with the most non-white, non-void voxels of the target
+    colourful = (materials > 0) & (np.ptp(target.astype(np.int16), axis=-1) > 24)
+    side = max(1, min(inset_voxels, *materials.shape))
+    window = ndimage.uniform_filter(colourful.astype(np.float32), size=side, mode="constant")
+    cy, cx = np.unravel_index(int(np.argmax(window)), window.shape)
+    y0 = int(np.clip(cy - side // 2, 0, materials.shape[0] - side))
+    x0 = int(np.clip(cx - side // 2, 0, materials.shape[1] - side))
+    crop = (slice(y0, y0 + side), slice(x0, x0 + side))
+    block = max(1, round(max_pixels / side / max(pixel_mm) * min(pixel_mm)))
+    inset_size = (
+        max(1, round(side * block * pixel_mm[0] / min(pixel_mm))),
+        max(1, round(side * block * pixel_mm[1] / min(pixel_mm))),
+    )
+    insets = [Image.fromarray(np.ascontiguousarray(a[crop]), "RGB").resize(
+        inset_size, Image.Resampling.NEAREST) for a in (target, halftone)]
+    gap = 8
+    width = max(2 * size[0], 2 * inset_size[0]) + gap
+    height = size[1] + inset_size[1] + gap + 20
+    canvas = Image.new("RGB", (width, height), (255, 255, 255))
+    canvas.paste(full[0], (0, 0))
+    canvas.paste(full[1], (size[0] + gap, 0))
+    canvas.paste(insets[0], (0, size[1] + gap))
+    canvas.paste(insets[1], (inset_size[0] + gap, size[1] + gap))
+    draw = ImageDraw.Draw(canvas)
+    draw.text((4, height - 16), f"target colour | halftoned materials; inset: {side} x {side} "
+              f"voxels at ({x0}, {y0})", fill=(0, 0, 0))
+    return canvas

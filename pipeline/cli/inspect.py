@@ -19,7 +19,7 @@ import tifffile
 from pipeline.errors import InputError
 from pipeline.outdir import OutputFolder, sha256
 from voxel.atomic import atomic_path
-from voxel.preview import boundary_depths, histogram_image, section_image
+from voxel.preview import boundary_depths, halftone_image, histogram_image, section_image
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -139,6 +139,9 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
     yz_layers = np.zeros((n_z, n_y), np.uint8)
     xz_rgb = np.zeros((n_z, n_x, 3), np.uint8)
     yz_rgb = np.zeros((n_z, n_y, 3), np.uint8)
+    is_colour = np.zeros(256, dtype=bool)
+    is_colour[list(colour_layers)] = True
+    colour_voxels = np.zeros(n_z, dtype=np.int64)
     with (
         tifffile.TiffFile(folder / "layers.tif") as lt,
         tifffile.TiffFile(folder / "colour.tif") as ct,
@@ -146,6 +149,7 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
         for z in range(n_z):  # one page at a time: memory stays one page
             page = lt.pages[z].asarray()
             colour = ct.pages[z].asarray()[..., :3]
+            colour_voxels[z] = np.count_nonzero(is_colour[page])
             xz_layers[z], yz_layers[z] = page[n_y // 2], page[:, n_x // 2]
             xz_rgb[z], yz_rgb[z] = colour[n_y // 2], colour[:, n_x // 2]
             if z == n_z // 2:
@@ -173,7 +177,34 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
     with atomic_path(preview / "layer_depth_histogram.png") as temporary:
         image.save(temporary, format="PNG")
     written.append(preview / "layer_depth_histogram.png")
+    if "materials.tif" in manifest["files"] and manifest.get("materials"):
+        written.append(_halftone_preview(folder, manifest, int(np.argmax(colour_voxels))))
     return written
+
+
+def _halftone_preview(folder: Path, manifest: dict[str, Any], z: int) -> Path:
+    """Draw slice `z` (the one with the most colour-layer voxels): target vs halftone."""
+    vx, vy, _ = manifest["grid"]["voxel_size_mm"]
+    display = np.zeros((256, 3), dtype=np.uint8)
+    for material in manifest["materials"]:
+        display[int(material["index"])] = material["display_srgb"]
+    with (
+        tifffile.TiffFile(folder / "layers.tif") as lt,
+        tifffile.TiffFile(folder / "colour.tif") as ct,
+        tifffile.TiffFile(folder / "materials.tif") as mt,
+    ):
+        layers = lt.pages[z].asarray()
+        colour = ct.pages[z].asarray()[..., :3]
+        materials = mt.pages[z].asarray()
+    colour_layers = [layer["index"] for layer in manifest["layers"] if layer["colour"]]
+    target = np.where(np.isin(layers, colour_layers)[..., None], colour, display[materials])
+    image = halftone_image(
+        target[::-1].astype(np.uint8), materials[::-1], display, pixel_mm=(vx, vy)
+    )
+    path = folder / "preview" / f"halftone_z{z:05d}.png"
+    with atomic_path(path) as temporary:
+        image.save(temporary, format="PNG")
+    return path
 
 
 def _thickness(layer: dict[str, Any]) -> float:
