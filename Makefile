@@ -12,9 +12,9 @@ setup:
 
 demo: setup
 	$(BIN)/shellvox info $(MODEL)
-	$(BIN)/shellvox build $(MODEL) -o $(OUT) --printer j750 --thickness 0.5,0.5
+	$(BIN)/shellvox build $(MODEL) -o $(OUT) --printer j750
 	$(BIN)/shellvox inspect $(OUT)
-	@echo "shellvox demo: outputs in $(OUT)/ (layers.tif, colour.tif, volume.vdb, shells/, preview/*.png, manifest.json)"
+	@echo "shellvox demo: outputs in $(OUT)/ (job.gcvf, materials.tif, layers.tif, colour.tif, volume.vdb, thickness.ply, preview/*.png incl. halftone_z*.png, manifest.json)"
 
 test: setup
 	$(BIN)/ruff check .
