@@ -120,7 +120,7 @@ def build_stack(
         )
     depth = np.cumsum(thickness, axis=0)
     grid = grid_for(mesh, config)
-    check_depth(mesh, depth, force=force)
+    check_depth(mesh, depth, force=force, source=config.thickness_source)
     workers = resolve_workers(config.workers)
     # the rows of a coarse block (voxel.slab.aligned_rows): whole ones waste no block queries
     reach = config.sdf_half_width_mm
@@ -417,24 +417,30 @@ def mesh_area(mesh: ColouredMesh) -> float:
     return float(face_areas(mesh).sum())
 
 
-def check_depth(mesh: ColouredMesh, depth: NDArray[np.float64], *, force: bool) -> None:
+def check_depth(
+    mesh: ColouredMesh, depth: NDArray[np.float64], *, force: bool, source: str = "--thickness"
+) -> None:
     """Refuse layers deeper than half the part's smallest extent (no core could remain).
 
     Parameters
     ----------
     depth : (K, F) float64, mm
         Cumulative depth of each layer per face.
+    source : str
+        Where the thickness came from (named in the message).
     """
     extent = mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)
     limit = 0.5 * float(extent.min())
     total = float(depth[-1].min())
     if total >= limit and not force:
+        option = "--thickness" if source == "--thickness" else f"--thickness-rule ({source})"
         raise InputError(
-            "--thickness",
+            option,
             f"the layers reach at least {total:g} mm deep but {mesh.source or 'the model'} is "
             f"only {2 * limit:g} mm thick at its thinnest extent, so every voxel would be in "
             "a layer and none in the core",
-            f"use layers thinner than {limit:g} mm in all, or --force",
+            f"use layers thinner than {limit:g} mm in all (e.g. --thickness "
+            f"{limit / 3:.2g},{limit / 3:.2g}), or --force",
         )
 
 
