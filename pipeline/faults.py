@@ -16,7 +16,8 @@ status      meaning
 ==========  ==========================================================================
 
 SIGINT and SIGTERM raise :class:`Interrupted` in the main thread, so every ``with`` block
-on the way out removes its temporary files and stops its workers.
+on the way out removes its temporary files and stops its workers; a signal that arrives
+during that cleanup is recorded, not raised.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import signal
+import sys
 from collections.abc import Iterator
 from types import FrameType
 
@@ -48,20 +50,32 @@ class Interrupted(BaseException):
         super().__init__(signal.Signals(signum).name)
 
 
+_STOP = {signal.SIGINT, signal.SIGTERM}
+
+#: The signals received in the current :func:`signals_raise` block, first first.
+_received: list[int] = []
+
+
 def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
-    # Further signals are ignored until the block ends: cleanup must not be cut short.
-    for other in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(other, signal.SIG_IGN)
-    raise Interrupted(signum)
+    _received.append(signum)
+    # While an exception is being handled (cleanup: ``__exit__``, ``finally``, ``except``
+    # on the way out), the signal is only recorded: cleanup must not be cut short. It is
+    # raised by the next :func:`raise_if_interrupted` if the run goes on.
+    if sys.exception() is None:
+        raise Interrupted(signum)
 
 
 @contextlib.contextmanager
 def signals_raise() -> Iterator[None]:
     """Within the block, SIGINT and SIGTERM raise :class:`Interrupted` in the main thread.
 
-    After the first signal, further ones are ignored until the block ends, so the
-    cleanup on the way out (temporary files, workers) finishes.
+    A signal that arrives while an exception is being handled (the cleanup on the way
+    out of an earlier signal or error) is recorded, not raised, so the cleanup finishes.
+    Libraries that catch ``BaseException`` (trimesh does, around optional imports) may
+    swallow an :class:`Interrupted`; long-running loops call :func:`raise_if_interrupted`
+    so a recorded signal still stops the run.
     """
+    _received.clear()
     previous = {
         signum: signal.signal(signum, _raise_interrupted)
         for signum in (signal.SIGINT, signal.SIGTERM)
@@ -71,6 +85,43 @@ def signals_raise() -> Iterator[None]:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+class DeferredSignals(contextlib.AbstractContextManager["DeferredSignals"]):
+    """Block SIGINT and SIGTERM until :meth:`close` (or the block's end); then deliver them.
+
+    For code that must not be cut: imports (whose modules would be left half made), and
+    setting up what the cleanup needs (temporary files, threads, workers) together with
+    registering that cleanup. Child processes started meanwhile inherit the blocked mask,
+    so a terminal's Ctrl-C (sent to the whole process group) cannot hit them before they
+    have set up their own handling (:func:`pipeline.children.init_child`).
+    """
+
+    def __init__(self) -> None:
+        self._previous: set[int | signal.Signals] | None = None
+
+    def __enter__(self) -> DeferredSignals:
+        self._previous = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP)
+        return self
+
+    def close(self) -> None:
+        """Unblock the signals (a signal that arrived meanwhile is delivered now)."""
+        if self._previous is not None:
+            previous, self._previous = self._previous, None
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def raise_if_interrupted() -> None:
+    """Raise :class:`Interrupted` if a signal arrived in this :func:`signals_raise` block.
+
+    Called by long-running loops: a signal whose exception was swallowed (or recorded
+    during some unrelated exception handling) still stops the run.
+    """
+    if _received:
+        raise Interrupted(_received[0])
 
 
 def describe(error: BaseException) -> tuple[int, str]:
