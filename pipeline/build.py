@@ -15,8 +15,6 @@ import dataclasses
 import hashlib
 import json
 import math
-import multiprocessing
-import os
 import time
 import warnings
 from collections.abc import Callable
@@ -30,10 +28,11 @@ from tqdm import tqdm
 from offset import offset_shells
 from pipeline import __version__
 from pipeline.build_config import BuildConfig
-from pipeline.children import init_child
+from pipeline.children import ChildCall
 from pipeline.config import as_json
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.estimate import BYTES_PER_VOXEL, check_resources, estimate_build
+from pipeline.faults import DeferredSignals
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import OutputFolder
 from pipeline.slab_runner import SlabRunner, resolve_workers
@@ -155,14 +154,12 @@ def _build(
         n_z = grid.shape_zyx[0]
         # Before any other thread (shell pool, writers, progress bar) starts: the slab
         # workers are forked.
+        setup = stack.enter_context(DeferredSignals())  # no signal until all is registered
         slabs = stack.enter_context(SlabRunner(model, grid, rows, workers))
         if by_distance and config.shell_meshes:  # beside the voxels, in another process
-            pool = stack.enter_context(
-                multiprocessing.get_context("spawn").Pool(
-                    1, initializer=init_child, initargs=(os.getpid(),)
-                )
+            pending = stack.enter_context(  # a process that dies fails the call, not hangs
+                ChildCall(timed_shells, mesh.vertices, mesh.faces, thickness, config)
             )
-            pending = pool.apply_async(timed_shells, (mesh.vertices, mesh.faces, thickness, config))
         sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / rows))
         counts = np.zeros(model.n_bands + 2, dtype=np.int64)
         diagnostics = {
@@ -209,6 +206,7 @@ def _build(
         )
         is_colour_layer = np.zeros(256, dtype=bool)
         is_colour_layer[list(config.colour_layers)] = True
+        setup.close()  # a signal that came during the set-up is raised here
         tick = time.perf_counter()
         for slab in slabs:
             counts += np.bincount(slab.layers.ravel(), minlength=len(counts))[: len(counts)]
@@ -238,7 +236,7 @@ def _build(
         if pending is not None:
             tick = time.perf_counter()
             try:
-                shells, seconds["shells"] = pending.get()
+                shells, seconds["shells"] = pending.result()
             except Exception as error:  # the voxels do not depend on the shell meshes
                 warnings.warn(
                     f"{mesh.source}: the shell meshes failed ({error}); the voxel stack is "

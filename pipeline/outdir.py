@@ -36,6 +36,7 @@ from types import TracebackType
 from typing import Any
 
 from pipeline.errors import InputError, OutputBusy
+from pipeline.faults import DeferredSignals
 
 LOCK_NAME = ".shellvox.lock"
 
@@ -97,7 +98,8 @@ class OutputFolder:
         if self.path.exists() and not self.path.is_dir():
             raise InputError(self.path, "exists and is not a folder", "choose another -o DIR")
         self.path.mkdir(parents=True, exist_ok=True)
-        self._lock = _acquire(self.path / LOCK_NAME)
+        with DeferredSignals():  # the lock file is made and its removal registered as one
+            self._lock = _acquire(self.path / LOCK_NAME)
         try:
             self._old_files = _listed_files(self.path / self.marker)
             remove_leftovers(self.path)
@@ -164,10 +166,11 @@ class OutputFolder:
 
     def _release(self) -> None:
         if self._lock is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(self.path / LOCK_NAME)  # still held: no one else can own it
-            os.close(self._lock)
-            self._lock = None
+            with DeferredSignals():  # not cut between the removal and the release
+                with contextlib.suppress(OSError):
+                    os.unlink(self.path / LOCK_NAME)  # still held: no one else can own it
+                os.close(self._lock)
+                self._lock = None
 
 
 def _acquire(lock_path: Path) -> int:
