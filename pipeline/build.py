@@ -30,7 +30,7 @@ from pipeline import __version__
 from pipeline.build_config import BuildConfig
 from pipeline.children import ChildCall
 from pipeline.config import as_json
-from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.errors import InputError, ResourceError, ShellvoxWarning
 from pipeline.estimate import BYTES_PER_VOXEL, check_resources, estimate_build
 from pipeline.faults import DeferredSignals
 from pipeline.mesh import ColouredMesh
@@ -39,7 +39,7 @@ from pipeline.slab_runner import SlabRunner, resolve_workers
 from voxel.agreement import shell_agreement
 from voxel.atomic import atomic_path, write_text_atomic
 from voxel.blocks import COARSE, fine_block_size
-from voxel.grid import GridSpec
+from voxel.grid import GridRangeError, GridSpec
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
 from voxel.slab import StackModel
@@ -289,12 +289,17 @@ def _build(
 
 def grid_for(mesh: ColouredMesh, config: BuildConfig) -> GridSpec:
     """Return the voxel grid of a build: the model's bounds plus the margin."""
-    return GridSpec.from_bounds(
-        mesh.vertices.min(axis=0),
-        mesh.vertices.max(axis=0),
-        config.voxel_mm,
-        margin_mm=max(config.margin_mm, config.sdf_half_width_mm),
-    )
+    try:
+        return GridSpec.from_bounds(
+            mesh.vertices.min(axis=0),
+            mesh.vertices.max(axis=0),
+            config.voxel_mm,
+            margin_mm=max(config.margin_mm, config.sdf_half_width_mm),
+        )
+    except GridRangeError as error:
+        raise ResourceError(
+            "--voxel-size", str(error), "pass sizes in mm such as 0.05,0.05,0.03; check --scale"
+        ) from None
 
 
 def mesh_area(mesh: ColouredMesh) -> float:

@@ -20,6 +20,10 @@ from pipeline.loading.trimesh_formats import read_with_trimesh
 from pipeline.mesh import ColouredMesh
 from pipeline.topology import prepare
 
+#: Largest coordinate accepted (mm, after units and scale): far past any print, and far
+#: below where squared distances and areas overflow.
+MAX_COORDINATE_MM = 1e12
+
 FORMATS = {
     ".obj": "obj",
     ".ply": "ply",
@@ -104,9 +108,17 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
             f"has {bad} vertices with NaN or infinite coordinates",
             "fix or re-export the model",
         )
-    mesh = dataclasses.replace(
-        mesh, vertices=mesh.vertices * (mm_per_unit * options.scale), source=str(path)
-    )
+    with np.errstate(over="ignore"):
+        vertices = mesh.vertices * (mm_per_unit * options.scale)
+    reach = float(np.abs(vertices).max(initial=0.0))
+    if not reach <= MAX_COORDINATE_MM:  # also inf: later arithmetic would overflow
+        raise InputError(
+            path,
+            f"has coordinates up to {reach:.3g} mm once scaled (unit {mm_per_unit:g} mm, "
+            f"--scale {options.scale:g}), past the {MAX_COORDINATE_MM:g} mm shellvox computes with",
+            "check --units and --scale, or the file's coordinates",
+        )
+    mesh = dataclasses.replace(mesh, vertices=vertices, source=str(path))
     if mesh.colour_kind == "none" and options.colour is not None:
         face_rgba = np.tile(np.asarray(options.colour, np.uint8), (len(mesh.faces), 1))
         mesh = dataclasses.replace(mesh, colour_kind="face", face_rgba=face_rgba)
