@@ -23,6 +23,7 @@ from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 from multiprocessing import resource_tracker
 from multiprocessing.connection import Connection
+from multiprocessing.reduction import ForkingPickler
 from types import TracebackType
 from typing import Any, Generic, TypeVar
 
@@ -145,7 +146,8 @@ class ChildCall(contextlib.AbstractContextManager["ChildCall[T]"], Generic[T]):
         task_receive.close()  # the child's ends: EOF / EPIPE here once the child is gone
         result_send.close()
         try:
-            task_send.send_bytes(pickle.dumps((function, args), protocol=pickle.HIGHEST_PROTOCOL))
+            # multiprocessing's own pickler: protocol 5 would unpickle read-only arrays
+            task_send.send_bytes(ForkingPickler.dumps((function, args)))
         except OSError:  # the child is already gone: result() says so
             pass
         finally:

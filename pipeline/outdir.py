@@ -136,11 +136,15 @@ class OutputFolder:
             ``{relative path: {"bytes": int, "sha256": str}}``, sorted by path.
         """
         keep = {Path(p).resolve() for p in written}
-        for path in self._old_outputs():
+        old = self._old_outputs()
+        for path in old:
             if path.resolve() not in keep and path.name != self.marker:
                 path.unlink(missing_ok=True)
-        for folder in sorted({p.parent for p in self._candidates()}, reverse=True):
-            if folder != self.path:
+        # the folders the old outputs were in (shells/, preview/), deepest first
+        root = self.path.resolve()
+        folders = {p.parent.resolve() for p in old}
+        for folder in sorted(folders, key=lambda p: len(p.parts), reverse=True):
+            if root in folder.parents:
                 with contextlib.suppress(OSError):
                     folder.rmdir()  # only when empty
         return {

@@ -33,24 +33,31 @@ def run(args: argparse.Namespace) -> int:
     folder: Path = args.folder
     if not folder.is_dir():
         raise InputError(folder, "is not a folder", "give the -o DIR of a shellvox build")
+    if args.no_preview:  # reads only: no lock, so a build on a read-only medium verifies
+        _verify_and_print(folder)
+        return 0
     with OutputFolder(folder, outputs=("preview/*.png",), marker=".no-marker") as lock:
-        manifest = read_manifest(folder)
-        verify_files(folder, manifest)
-        for row in summary_rows(manifest, folder):
-            print(f"{row[0]:<24} {row[1]}")
-        if not args.no_preview:
-            try:
-                written = write_previews(folder, manifest)
-            except (ValueError, OSError, KeyError, IndexError) as error:
-                if isinstance(error, OSError) and not isinstance(error, FileNotFoundError):
-                    raise
-                raise InputError(
-                    folder, f"the stack cannot be read ({error})", "rebuild with shellvox build"
-                ) from None
-            lock.commit(written)
-            for path in written:
-                print(f"{path}")
+        manifest = _verify_and_print(folder)
+        try:
+            written = write_previews(folder, manifest)
+        except (ValueError, OSError, KeyError, IndexError) as error:
+            if isinstance(error, OSError) and not isinstance(error, FileNotFoundError):
+                raise
+            raise InputError(
+                folder, f"the stack cannot be read ({error})", "rebuild with shellvox build"
+            ) from None
+        lock.commit(written)
+        for path in written:
+            print(f"{path}")
     return 0
+
+
+def _verify_and_print(folder: Path) -> dict[str, Any]:
+    manifest = read_manifest(folder)
+    verify_files(folder, manifest)
+    for row in summary_rows(manifest, folder):
+        print(f"{row[0]:<24} {row[1]}")
+    return manifest
 
 
 def read_manifest(folder: Path) -> dict[str, Any]:
