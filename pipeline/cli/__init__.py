@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import logging
 import sys
 import traceback
 import warnings
@@ -65,12 +66,21 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit status (see :mod:`pipeline.faults`)."""
-    with warnings.catch_warnings():
-        # Our own warnings are shown as one line each; library chatter is not.
-        warnings.simplefilter("ignore")
-        warnings.simplefilter("always", ShellvoxWarning)
-        warnings.showwarning = _show_warning
-        return _run(sys.argv[1:] if argv is None else list(argv))
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # Libraries' log records (tifffile logs a warning for a broken file) would go to
+    # stderr through logging's last-resort handler: not without --debug.
+    quiet = logging.NullHandler()
+    if "--debug" not in argv:
+        logging.getLogger().addHandler(quiet)
+    try:
+        with warnings.catch_warnings():
+            # Our own warnings are shown as one line each; library chatter is not.
+            warnings.simplefilter("ignore")
+            warnings.simplefilter("always", ShellvoxWarning)
+            warnings.showwarning = _show_warning
+            return _run(argv)
+    finally:
+        logging.getLogger().removeHandler(quiet)
 
 
 def _run(argv: list[str]) -> int:
