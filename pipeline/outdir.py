@@ -210,11 +210,15 @@ def remove_leftovers(folder: Path) -> list[Path]:
 
     Looks in `folder` and its direct subfolders. Returns what was removed.
     """
+    def temporary(entry: Path) -> bool:
+        return any(fnmatch.fnmatch(entry.name, pattern) for pattern in TEMPORARY)
+
     removed = []
-    places = [folder, *(p for p in folder.iterdir() if p.is_dir() and not p.is_symlink())]
-    for place in places:
+    # (not into the temporary folders themselves: they go as a whole, from `folder`)
+    subfolders = [p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()]
+    for place in [folder, *(p for p in subfolders if not temporary(p))]:
         for entry in list(place.iterdir()):
-            if not any(fnmatch.fnmatch(entry.name, pattern) for pattern in TEMPORARY):
+            if not temporary(entry):
                 continue
             if entry.is_dir() and not entry.is_symlink():
                 shutil.rmtree(entry, ignore_errors=True)
