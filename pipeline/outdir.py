@@ -210,6 +210,7 @@ def remove_leftovers(folder: Path) -> list[Path]:
 
     Looks in `folder` and its direct subfolders. Returns what was removed.
     """
+
     def temporary(entry: Path) -> bool:
         return any(fnmatch.fnmatch(entry.name, pattern) for pattern in TEMPORARY)
 

@@ -15,9 +15,13 @@ from fault_harness import Command, assert_failed, build_argv, run, wait_for
 TWO_GB = 2 * 1024**3
 
 
+def _cases(*cases):
+    return [pytest.param(options, needles, id=" ".join(options)) for options, needles in cases]
+
+
 @pytest.mark.parametrize(
     ("options", "needles"),
-    [
+    _cases(
         # 2.4e7 x 1.6e7 x 6e6 voxels: one row of the grid alone is 4e14 voxels
         (["--voxel-size", "1e-6,1e-6,1e-6"], ["--voxel-size", "memory", "larger --voxel-size"]),
         # a 24 km model at printer resolution
@@ -34,8 +38,7 @@ TWO_GB = 2 * 1024**3
         (["--voxel-size", "1e-300,1e-300,1e-300"], ["--voxel-size", "index range"]),
         (["--workers", "-1"], ["--workers"]),
         (["--compression-level", "99"], ["--compression-level"]),
-    ],
-    ids=lambda value: " ".join(value) if isinstance(value, list) and "--" in value[0] else "",
+    ),
 )
 def test_refused_before_allocating(tmp_path, options, needles):
     out = tmp_path / "out"
@@ -46,7 +49,7 @@ def test_refused_before_allocating(tmp_path, options, needles):
 
 @pytest.mark.parametrize(
     ("options", "needles"),
-    [
+    _cases(
         # 2.4e10 mm across at printer resolution: 5.7e11 voxels on a side, past 2^31
         (["--scale", "1e9"], ["2^31", "--scale"]),
         (["--scale", "1e9", "--force"], ["2^31"]),  # no --force past the index range
@@ -54,8 +57,7 @@ def test_refused_before_allocating(tmp_path, options, needles):
         # the scaled coordinates overflow the arithmetic (areas, distances)
         (["--scale", "1e300"], ["colour_target.obj", "--scale"]),
         (["--scale", "1e300", "--force"], ["colour_target.obj", "--scale"]),
-    ],
-    ids=lambda value: " ".join(value) if isinstance(value, list) and "--" in value[0] else "",
+    ),
 )
 def test_model_scaled_past_the_grid_range(tmp_path, options, needles):
     out = tmp_path / "out"

@@ -76,6 +76,18 @@ def test_ctrl_c_to_the_process_group_with_shell_process(tmp_path):
     assert holds_nothing(out)
 
 
+def test_sigterm_to_the_process_group(tmp_path):
+    # kill -TERM -PGID (a service manager stopping the job): the workers die at once, the
+    # main process reports the signal, not a dead worker.
+    out = tmp_path / "out"
+    command = Command(build_argv(out, "--shell-meshes"), tmp_path / "run")
+    wait_for(lambda: len(command.children()) >= 4, what="workers, shell process, tracker")
+    os.killpg(command.pid, signal.SIGTERM)
+    result = command.finish(timeout=60)
+    assert_failed(result, 143, "interrupted (SIGTERM)", folder=out)
+    assert holds_nothing(out)
+
+
 def test_interrupted_rebuild_leaves_no_build(tmp_path):
     # One complete build or none: the interrupted rebuild takes the old build with it,
     # but not the user's own files.

@@ -113,8 +113,7 @@ def _numbers(value: Any, *, integer: bool = False, low: float = -math.inf) -> bo
         isinstance(value, list)
         and len(value) == 3
         and all(
-            isinstance(v, kinds) and not isinstance(v, bool) and low <= v < math.inf
-            for v in value
+            isinstance(v, kinds) and not isinstance(v, bool) and low <= v < math.inf for v in value
         )
     )
 
