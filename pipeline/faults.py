@@ -55,13 +55,16 @@ _STOP = {signal.SIGINT, signal.SIGTERM}
 #: The signals received in the current :func:`signals_raise` block, first first.
 _received: list[int] = []
 
+#: Open :class:`DeferredSignals` blocks.
+_deferring = [0]
+
 
 def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
     _received.append(signum)
-    # While an exception is being handled (cleanup: ``__exit__``, ``finally``, ``except``
-    # on the way out), the signal is only recorded: cleanup must not be cut short. It is
-    # raised by the next :func:`raise_if_interrupted` if the run goes on.
-    if sys.exception() is None:
+    # Within a DeferredSignals block, or while an exception is being handled (cleanup:
+    # ``__exit__``, ``finally``, ``except`` on the way out), the signal is only recorded:
+    # it is raised when the block closes, or by the next raise_if_interrupted().
+    if not _deferring[0] and sys.exception() is None:
         raise Interrupted(signum)
 
 
@@ -76,6 +79,7 @@ def signals_raise() -> Iterator[None]:
     so a recorded signal still stops the run.
     """
     _received.clear()
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, set())
     previous = {
         signum: signal.signal(signum, _raise_interrupted)
         for signum in (signal.SIGINT, signal.SIGTERM)
@@ -83,32 +87,52 @@ def signals_raise() -> Iterator[None]:
     try:
         yield
     finally:
+        # The signals blocked before stay blocked: ``python -m pipeline.cli`` blocks them
+        # from its first line, so no signal cuts the interpreter's shutdown either.
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+        _received.clear()  # not to stop a later run in this process
+
+
+def unblock_signals() -> None:
+    """Unblock SIGINT and SIGTERM in this thread (a pending one is delivered now)."""
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP)
 
 
 class DeferredSignals(contextlib.AbstractContextManager["DeferredSignals"]):
-    """Block SIGINT and SIGTERM until :meth:`close` (or the block's end); then deliver them.
+    """Hold SIGINT and SIGTERM back until :meth:`close` (or the block's end).
 
     For code that must not be cut: imports (whose modules would be left half made), and
     setting up what the cleanup needs (temporary files, threads, workers) together with
-    registering that cleanup. Child processes started meanwhile inherit the blocked mask,
-    so a terminal's Ctrl-C (sent to the whole process group) cannot hit them before they
-    have set up their own handling (:func:`pipeline.children.init_child`).
+    registering that cleanup. A signal that arrives meanwhile raises :class:`Interrupted`
+    at :meth:`close` (unless an exception is already on its way out).
+
+    The signals are also blocked in this thread: child processes and threads started
+    meanwhile inherit the mask, so a terminal's Ctrl-C (sent to the whole process group)
+    cannot hit a child before it has set up its own handling
+    (:func:`pipeline.children.init_child`). The mask alone would not hold them back from
+    this process: any other thread that does not block them receives them, and Python
+    runs the handler in the main thread all the same.
     """
 
     def __init__(self) -> None:
         self._previous: set[int | signal.Signals] | None = None
 
     def __enter__(self) -> DeferredSignals:
+        _deferring[0] += 1
         self._previous = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP)
         return self
 
     def close(self) -> None:
-        """Unblock the signals (a signal that arrived meanwhile is delivered now)."""
-        if self._previous is not None:
-            previous, self._previous = self._previous, None
-            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        """End the block; raise :class:`Interrupted` if a signal arrived (see above)."""
+        if self._previous is None:
+            return
+        previous, self._previous = self._previous, None
+        _deferring[0] -= 1
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)  # delivers a blocked one
+        if not _deferring[0] and sys.exception() is None:
+            raise_if_interrupted()
 
     def __exit__(self, *exc: object) -> None:
         self.close()

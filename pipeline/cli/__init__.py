@@ -22,7 +22,7 @@ from typing import NoReturn
 
 from pipeline import __version__
 from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.faults import DeferredSignals, describe, signals_raise
+from pipeline.faults import DeferredSignals, describe, signals_raise, unblock_signals
 
 COMMANDS = ("info", "shells", "build", "inspect")
 
@@ -91,6 +91,7 @@ def _run(argv: list[str]) -> int:
         try:
             with DeferredSignals():
                 parser = _parser()
+            unblock_signals()  # blocked since the start by python -m pipeline.cli
             args = parser.parse_args(argv)
             status: int = args.handler(args)
             return status
@@ -102,7 +103,3 @@ def _run(argv: list[str]) -> int:
                 traceback.print_exception(error, file=sys.stderr)
             print(f"shellvox: error: {message}", file=sys.stderr)
             return status
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
