@@ -35,6 +35,7 @@ import random
 import shutil
 import signal
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -120,6 +121,20 @@ def trial(index: int, signum: int, delay: float, voxel: str, root: Path) -> dict
     return record
 
 
+def _commit() -> str | None:
+    """The code's commit: git's, or $SHELLVOX_COMMIT for an exported copy."""
+    try:
+        done = subprocess.run(
+            ["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return done.stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return os.environ.get("SHELLVOX_COMMIT")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=50)
@@ -180,6 +195,7 @@ def main() -> None:
         "uninterrupted_s": [round(b, 1) for b in baseline],
         "signal_time": f"uniform in [0, {duration:.1f}] s after the start",
         "seed": args.seed,
+        "commit": _commit(),
         "machine": {
             "cpus": os.cpu_count(),
             "python": platform.python_version(),
