@@ -18,8 +18,9 @@ the trials each signal, shuffled), then the next (fast) build into the same fold
 * ``wrong_exit``: SIGINT not 130, SIGTERM not 143, SIGKILL not -9 (a run that finished
   before the signal may exit 0: then its folder must verify);
 * also ``not_one_line`` (SIGINT/SIGTERM: not exactly one ``shellvox: error:`` line, or
-  other stderr lines), ``leftovers_after_signal`` (SIGINT/SIGTERM: temporary files or any
-  output left), ``next_failed`` (the next build did not succeed and verify).
+  other stderr lines), ``leftovers_after_signal`` (SIGINT/SIGTERM: temporary files left),
+  ``folder_mixed_after_signal`` (SIGINT/SIGTERM: the folder neither empty nor one whole
+  build), ``next_failed`` (the next build did not succeed and verify).
 
 Results go to ``benchmarks/results/bench_faults.json``.
 """
@@ -110,7 +111,11 @@ def trial(index: int, signum: int, delay: float, voxel: str, root: Path) -> dict
         record["not_one_line"] = not clean_stderr(result.stderr)
         leftover = temporary_files(out)
         record["leftovers_after_signal"] = [p.name for p in leftover]
-        record["folder_holds_no_build"] = holds_nothing(out)
+        # one build or none: nothing (the old build went), or the old build whole (the
+        # signal came before the run touched the folder), never a mix
+        record["folder_after_signal"] = (
+            "empty" if holds_nothing(out) else "a whole build" if verifies(out) else "mixed"
+        )
     else:
         record["leftovers_after_kill"] = [p.name for p in temporary_files(out)]
     after = Command(build_argv(out), work / "next").finish(timeout=300)
@@ -179,8 +184,8 @@ def main() -> None:
         "wrong_exit": count("wrong_exit"),
         "not_one_line": count("not_one_line"),
         "leftovers_after_signal": count("leftovers_after_signal"),
-        "folder_not_empty_after_signal": sum(
-            1 for r in records if r.get("folder_holds_no_build") is False
+        "folder_mixed_after_signal": sum(
+            1 for r in records if r.get("folder_after_signal") == "mixed"
         ),
         "next_failed": sum(1 for r in records if not r["next_verifies"]),
         "finished_before_signal": count("finished_before_signal"),
