@@ -28,11 +28,12 @@ from tqdm import tqdm
 from offset import offset_shells
 from pipeline import __version__
 from pipeline.build_config import BuildConfig
-from pipeline.children import BackgroundCall
+from pipeline.children import ChildCall
 from pipeline.config import as_json
-from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.errors import InputError, ResourceError, ShellvoxWarning
 from pipeline.estimate import BYTES_PER_VOXEL, check_resources, estimate_build
 from pipeline.face_thickness import FaceThickness, thickness_summary, write_thickness_ply
+from pipeline.faults import DeferredSignals
 from pipeline.material_plan import build_material_plan
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import OutputFolder
@@ -45,7 +46,7 @@ from voxel.atomic import atomic_path, write_text_atomic
 from voxel.blocks import COARSE, fine_block_size
 from voxel.colour import srgb_to_linear
 from voxel.colour_report import ColourReport, sample_surface, thickness_effect
-from voxel.grid import GridSpec
+from voxel.grid import GridRangeError, GridSpec
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
@@ -195,12 +196,13 @@ class _Job:
             n_z = grid.shape_zyx[0]
             # Before any other thread (shell pool, writers, progress bar) starts: the slab
             # workers are forked.
+            setup = stack.enter_context(DeferredSignals())  # no signal until all is registered
             slabs = stack.enter_context(
                 SlabRunner(model, grid, self.rows, self.workers, self.plan)
             )
             if by_distance and config.shell_meshes:  # beside the voxels, in another process
-                pending = stack.enter_context(
-                    BackgroundCall(timed_shells, mesh.vertices, mesh.faces, self.thickness, config)
+                pending = stack.enter_context(  # a process that dies fails the call, not hangs
+                    ChildCall(timed_shells, mesh.vertices, mesh.faces, self.thickness, config)
                 )
             outputs = StackOutputs(stack, out_dir, grid, config, self.profile, self.plan)
             sampler = LayerSampler(grid, model.n_bands, n_slabs=math.ceil(n_z / self.rows))
@@ -214,6 +216,7 @@ class _Job:
                     disable=None if self.progress is None else not self.progress,
                 )
             )
+            setup.close()  # a signal that came during the set-up is raised here
             tick = time.perf_counter()
             carry = None
             for item in slabs:
@@ -396,12 +399,17 @@ class _Tally:
 
 def grid_for(mesh: ColouredMesh, config: BuildConfig) -> GridSpec:
     """Return the voxel grid of a build: the model's bounds plus the margin."""
-    return GridSpec.from_bounds(
-        mesh.vertices.min(axis=0),
-        mesh.vertices.max(axis=0),
-        config.voxel_mm,
-        margin_mm=max(config.margin_mm, config.sdf_half_width_mm),
-    )
+    try:
+        return GridSpec.from_bounds(
+            mesh.vertices.min(axis=0),
+            mesh.vertices.max(axis=0),
+            config.voxel_mm,
+            margin_mm=max(config.margin_mm, config.sdf_half_width_mm),
+        )
+    except GridRangeError as error:
+        raise ResourceError(
+            "--voxel-size", str(error), "pass sizes in mm such as 0.05,0.05,0.03; check --scale"
+        ) from None
 
 
 def face_areas(mesh: ColouredMesh) -> NDArray[np.float64]:

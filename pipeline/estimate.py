@@ -24,6 +24,9 @@ BYTES_PER_VOXEL = 64
 #: Largest grid side: OpenVDB and TIFF index voxels with signed 32-bit integers.
 MAX_SIDE = 2**31 - 1
 
+#: The fix for a grid past the index range.
+GRID_RANGE_FIX = "use a larger --voxel-size or a smaller --scale"
+
 #: Model bytes per face held by every process (vertices, faces, AABB tree, colours).
 BYTES_PER_FACE = 600
 
@@ -140,17 +143,27 @@ def check_resources(estimate: BuildEstimate, out_dir: Path, *, force: bool) -> N
             "--voxel-size",
             f"the grid would be {z:,} x {y:,} x {x:,} voxels, past the 2^31 voxels per side "
             "that TIFF and OpenVDB can index",
-            "use a larger --voxel-size or a smaller --scale",
+            GRID_RANGE_FIX,
         )
     if force:
         return
     available = available_memory_bytes()
     if available is not None and estimate.memory_bytes > available:
+        rows = estimate.slab_rows
+        needs = (
+            f"the build needs about {_size(estimate.memory_bytes)} of memory "
+            f"({estimate.workers} workers, slabs of {rows} row{'s' if rows != 1 else ''} of "
+            f"{y:,} x {x:,} voxels) but {_size(available)} is available"
+        )
+        if rows == 1:  # no --slab-mb makes a slab thinner than one row: the grid is too fine
+            raise ResourceError(
+                "--voxel-size",
+                needs,
+                "use a larger --voxel-size (or a smaller --scale); --force to try anyway",
+            )
         raise ResourceError(
             "--slab-mb",
-            f"the build needs about {_size(estimate.memory_bytes)} of memory "
-            f"({estimate.workers} workers, slabs of {estimate.slab_rows} rows of "
-            f"{y:,} x {x:,} voxels) but {_size(available)} is available",
+            needs,
             "use a smaller --slab-mb, fewer --workers or a larger --voxel-size "
             "(--force to try anyway)",
         )

@@ -16,7 +16,8 @@ status      meaning
 ==========  ==========================================================================
 
 SIGINT and SIGTERM raise :class:`Interrupted` in the main thread, so every ``with`` block
-on the way out removes its temporary files and stops its workers.
+on the way out removes its temporary files and stops its workers; a signal that arrives
+during that cleanup is recorded, not raised.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import signal
+import sys
 from collections.abc import Iterator
 from types import FrameType
 
@@ -48,20 +50,36 @@ class Interrupted(BaseException):
         super().__init__(signal.Signals(signum).name)
 
 
+_STOP = {signal.SIGINT, signal.SIGTERM}
+
+#: The signals received in the current :func:`signals_raise` block, first first.
+_received: list[int] = []
+
+#: Open :class:`DeferredSignals` blocks.
+_deferring = [0]
+
+
 def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
-    # Further signals are ignored until the block ends: cleanup must not be cut short.
-    for other in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(other, signal.SIG_IGN)
-    raise Interrupted(signum)
+    _received.append(signum)
+    # Within a DeferredSignals block, or while an exception is being handled (cleanup:
+    # ``__exit__``, ``finally``, ``except`` on the way out), the signal is only recorded:
+    # it is raised when the block closes, or by the next raise_if_interrupted().
+    if not _deferring[0] and sys.exception() is None:
+        raise Interrupted(signum)
 
 
 @contextlib.contextmanager
 def signals_raise() -> Iterator[None]:
     """Within the block, SIGINT and SIGTERM raise :class:`Interrupted` in the main thread.
 
-    After the first signal, further ones are ignored until the block ends, so the
-    cleanup on the way out (temporary files, workers) finishes.
+    A signal that arrives while an exception is being handled (the cleanup on the way
+    out of an earlier signal or error) is recorded, not raised, so the cleanup finishes.
+    Libraries that catch ``BaseException`` (trimesh does, around optional imports) may
+    swallow an :class:`Interrupted`; long-running loops call :func:`raise_if_interrupted`
+    so a recorded signal still stops the run.
     """
+    _received.clear()
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, set())
     previous = {
         signum: signal.signal(signum, _raise_interrupted)
         for signum in (signal.SIGINT, signal.SIGTERM)
@@ -69,8 +87,65 @@ def signals_raise() -> Iterator[None]:
     try:
         yield
     finally:
+        # The signals blocked before stay blocked: ``python -m pipeline.cli`` blocks them
+        # from its first line, so no signal cuts the interpreter's shutdown either.
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+        _received.clear()  # not to stop a later run in this process
+
+
+def unblock_signals() -> None:
+    """Unblock SIGINT and SIGTERM in this thread (a pending one is delivered now)."""
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP)
+
+
+class DeferredSignals(contextlib.AbstractContextManager["DeferredSignals"]):
+    """Hold SIGINT and SIGTERM back until :meth:`close` (or the block's end).
+
+    For code that must not be cut: imports (whose modules would be left half made), and
+    setting up what the cleanup needs (temporary files, threads, workers) together with
+    registering that cleanup. A signal that arrives meanwhile raises :class:`Interrupted`
+    at :meth:`close` (unless an exception is already on its way out).
+
+    The signals are also blocked in this thread: child processes and threads started
+    meanwhile inherit the mask, so a terminal's Ctrl-C (sent to the whole process group)
+    cannot hit a child before it has set up its own handling
+    (:func:`pipeline.children.init_child`). The mask alone would not hold them back from
+    this process: any other thread that does not block them receives them, and Python
+    runs the handler in the main thread all the same.
+    """
+
+    def __init__(self) -> None:
+        self._previous: set[int | signal.Signals] | None = None
+
+    def __enter__(self) -> DeferredSignals:
+        _deferring[0] += 1
+        self._previous = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP)
+        return self
+
+    def close(self) -> None:
+        """End the block; raise :class:`Interrupted` if a signal arrived (see above)."""
+        if self._previous is None:
+            return
+        previous, self._previous = self._previous, None
+        _deferring[0] -= 1
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)  # delivers a blocked one
+        if not _deferring[0] and sys.exception() is None:
+            raise_if_interrupted()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def raise_if_interrupted() -> None:
+    """Raise :class:`Interrupted` if a signal arrived in this :func:`signals_raise` block.
+
+    Called by long-running loops: a signal whose exception was swallowed (or recorded
+    during some unrelated exception handling) still stops the run.
+    """
+    if _received:
+        raise Interrupted(_received[0])
 
 
 def describe(error: BaseException) -> tuple[int, str]:

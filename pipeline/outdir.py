@@ -36,6 +36,7 @@ from types import TracebackType
 from typing import Any
 
 from pipeline.errors import InputError, OutputBusy
+from pipeline.faults import DeferredSignals
 
 LOCK_NAME = ".shellvox.lock"
 
@@ -97,7 +98,8 @@ class OutputFolder:
         if self.path.exists() and not self.path.is_dir():
             raise InputError(self.path, "exists and is not a folder", "choose another -o DIR")
         self.path.mkdir(parents=True, exist_ok=True)
-        self._lock = _acquire(self.path / LOCK_NAME)
+        with DeferredSignals():  # the lock file is made and its removal registered as one
+            self._lock = _acquire(self.path / LOCK_NAME)
         try:
             self._old_files = _listed_files(self.path / self.marker)
             remove_leftovers(self.path)
@@ -134,11 +136,15 @@ class OutputFolder:
             ``{relative path: {"bytes": int, "sha256": str}}``, sorted by path.
         """
         keep = {Path(p).resolve() for p in written}
-        for path in self._old_outputs():
+        old = self._old_outputs()
+        for path in old:
             if path.resolve() not in keep and path.name != self.marker:
                 path.unlink(missing_ok=True)
-        for folder in sorted({p.parent for p in self._candidates()}, reverse=True):
-            if folder != self.path:
+        # the folders the old outputs were in (shells/, preview/), deepest first
+        root = self.path.resolve()
+        folders = {p.parent.resolve() for p in old}
+        for folder in sorted(folders, key=lambda p: len(p.parts), reverse=True):
+            if root in folder.parents:
                 with contextlib.suppress(OSError):
                     folder.rmdir()  # only when empty
         return {
@@ -164,10 +170,11 @@ class OutputFolder:
 
     def _release(self) -> None:
         if self._lock is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(self.path / LOCK_NAME)  # still held: no one else can own it
-            os.close(self._lock)
-            self._lock = None
+            with DeferredSignals():  # not cut between the removal and the release
+                with contextlib.suppress(OSError):
+                    os.unlink(self.path / LOCK_NAME)  # still held: no one else can own it
+                os.close(self._lock)
+                self._lock = None
 
 
 def _acquire(lock_path: Path) -> int:
@@ -203,11 +210,16 @@ def remove_leftovers(folder: Path) -> list[Path]:
 
     Looks in `folder` and its direct subfolders. Returns what was removed.
     """
+
+    def temporary(entry: Path) -> bool:
+        return any(fnmatch.fnmatch(entry.name, pattern) for pattern in TEMPORARY)
+
     removed = []
-    places = [folder, *(p for p in folder.iterdir() if p.is_dir() and not p.is_symlink())]
-    for place in places:
+    # (not into the temporary folders themselves: they go as a whole, from `folder`)
+    subfolders = [p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()]
+    for place in [folder, *(p for p in subfolders if not temporary(p))]:
         for entry in list(place.iterdir()):
-            if not any(fnmatch.fnmatch(entry.name, pattern) for pattern in TEMPORARY):
+            if not temporary(entry):
                 continue
             if entry.is_dir() and not entry.is_symlink():
                 shutil.rmtree(entry, ignore_errors=True)

@@ -11,8 +11,8 @@ forked once, before the caller starts any thread. ``workers`` slabs are computed
 the caller holds one, so memory stays bounded by the slab size times ``workers + 1``. A
 worker that dies (e.g. killed for lack of memory) fails the build with a clear error
 instead of hanging it. Workers ignore Ctrl-C and die with the parent
-(:mod:`pipeline.children`); leaving the runner early (an error, an interrupt) kills them
-at once instead of waiting for the slabs they are computing.
+(:class:`pipeline.children.ChildPool`); leaving the runner early (an error, an interrupt)
+kills them at once instead of waiting for the slabs they are computing.
 """
 
 from __future__ import annotations
@@ -22,15 +22,17 @@ import contextlib
 import multiprocessing
 import os
 from collections.abc import Iterator
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
+from types import TracebackType
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.children import init_child, kill_pool
+from pipeline.children import ChildPool
 from pipeline.errors import SlabWorkerDied
+from pipeline.faults import raise_if_interrupted
 from voxel.grid import GridSpec
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.slab import SlabResult, StackModel, compute_slab
@@ -108,39 +110,43 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         n_z = grid.shape_zyx[0]
         self._ranges = iter([(z, min(n_z, z + rows)) for z in range(0, n_z, rows)])
         self.workers = max(1, min(workers, -(-n_z // rows)))
-        self._pool: ProcessPoolExecutor | None = None
+        self._pool: ChildPool | None = None
         self._pending: collections.deque[Future[StackSlab]] = collections.deque()
         if self.workers > 1:
             global _WORKER
             _WORKER = (model, grid, plan)  # inherited by the forked workers
-            self._pool = ProcessPoolExecutor(
-                self.workers,
-                mp_context=multiprocessing.get_context("fork"),
-                initializer=init_child,
-                initargs=(os.getpid(),),
-            )
-            for _ in range(self.workers):  # forks every worker now
-                self._submit()
+            self._pool = ChildPool(self.workers)
+            try:
+                for _ in range(self.workers):  # the first submit forks every worker
+                    self._submit()
+            except BaseException as error:  # e.g. a signal delivered once they are forked
+                self.__exit__(type(error), error, error.__traceback__)
+                raise
 
     def _submit(self) -> None:
         job = next(self._ranges, None)
         if job is not None and self._pool is not None:
             self._pending.append(self._pool.submit(_worker_slab, *job))
 
-    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        trace: TracebackType | None,
+    ) -> None:
         global _WORKER
         if self._pool is not None:
-            if kind is not None:  # do not wait for slabs nobody will write
-                kill_pool(self._pool)
-            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool.__exit__(kind, error, trace)  # kills the workers on an error
             _WORKER = None
 
     def __iter__(self) -> Iterator[StackSlab]:
         if self._pool is None:
             for z_start, z_stop in self._ranges:
+                raise_if_interrupted()
                 yield stack_slab(self.model, self.grid, self.plan, z_start, z_stop)
             return
         while self._pending:
+            raise_if_interrupted()  # a signal whose exception a library swallowed
             try:
                 result = self._pending.popleft().result()
                 self._submit()

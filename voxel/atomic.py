@@ -28,12 +28,12 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
     """
     target = Path(target)
     handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".partial", dir=target.parent)
-    os.close(handle)
     temporary = Path(name)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the usual file mode
-    try:
+    try:  # from the first moment: an exception (a signal) anywhere below removes it
+        os.close(handle)
+        umask = os.umask(0o022)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the usual file mode
         yield temporary
         with open(temporary, "rb+") as stream:
             os.fsync(stream.fileno())

@@ -15,6 +15,10 @@ from numpy.typing import ArrayLike, NDArray
 Vec3 = tuple[float, float, float]
 
 
+class GridRangeError(ValueError):
+    """The grid asked for has more voxels on a side than any index can count."""
+
+
 @dataclass(frozen=True)
 class GridSpec:
     """An axis-aligned grid of anisotropic voxels.
@@ -66,6 +70,11 @@ class GridSpec:
         -------
         GridSpec
             Voxel centres span at least ``[lower - margin, upper + margin]`` on each axis.
+
+        Raises
+        ------
+        GridRangeError
+            A side would have 2**62 voxels or more (or the sizes overflow).
         """
         lower = np.asarray(lower_mm, dtype=np.float64).reshape(3)
         upper = np.asarray(upper_mm, dtype=np.float64).reshape(3)
@@ -78,7 +87,14 @@ class GridSpec:
             raise ValueError(f"margin_mm must be >= 0, got {margin_mm}")
         pad = np.maximum(margin_mm, size)
         origin = lower - pad
-        counts = np.ceil((upper + pad - origin) / size).astype(np.int64) + 1
+        with np.errstate(over="ignore", invalid="ignore"):
+            span = np.ceil((upper + pad - origin) / size) + 1
+        if not np.all(span < 2.0**62):  # also inf and NaN: int64 would wrap round
+            raise GridRangeError(
+                f"the grid would have {span[0]:.3g} x {span[1]:.3g} x {span[2]:.3g} voxels "
+                "(x, y, z), past any index range"
+            )
+        counts = span.astype(np.int64)
         return cls(
             (float(origin[0]), float(origin[1]), float(origin[2])),
             (float(size[0]), float(size[1]), float(size[2])),

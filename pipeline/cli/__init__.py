@@ -12,16 +12,18 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import logging
 import sys
 import traceback
 import warnings
 from collections.abc import Sequence
 from types import ModuleType
+from typing import NoReturn
 
 from offset.robust import ShellDefectWarning
 from pipeline import __version__
-from pipeline.errors import ShellvoxWarning
-from pipeline.faults import describe, signals_raise
+from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.faults import DeferredSignals, describe, signals_raise, unblock_signals
 
 COMMANDS = ("info", "thickness", "shells", "build", "inspect")
 
@@ -35,7 +37,7 @@ def _subcommands() -> dict[str, ModuleType]:
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="shellvox",
         description="Per-face colour-layer shells and layered voxel stacks for colour 3D printing.",
     )
@@ -52,36 +54,54 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (``shellvox: error: ...``, exit 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        raise InputError(None, message, f"see {self.prog} --help")
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:  # type: ignore[no-untyped-def]
     print(f"shellvox: warning: {message}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit status (see :mod:`pipeline.faults`)."""
-    args = _parser().parse_args(argv)
-    with warnings.catch_warnings():
-        # Our own warnings are shown as one line each; library chatter is not.
-        warnings.simplefilter("ignore")
-        warnings.simplefilter("always", ShellvoxWarning)
-        warnings.simplefilter("always", ShellDefectWarning)  # offset cannot import pipeline
-        warnings.showwarning = _show_warning
-        return _run(args)
-
-
-def _run(args: argparse.Namespace) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # Libraries' log records (tifffile logs a warning for a broken file) would go to
+    # stderr through logging's last-resort handler: not without --debug.
+    quiet = logging.NullHandler()
+    if "--debug" not in argv:
+        logging.getLogger().addHandler(quiet)
     try:
-        with signals_raise():
+        with warnings.catch_warnings():
+            # Our own warnings are shown as one line each; library chatter is not.
+            warnings.simplefilter("ignore")
+            warnings.simplefilter("always", ShellvoxWarning)
+            warnings.simplefilter("always", ShellDefectWarning)  # offset cannot import pipeline
+            warnings.showwarning = _show_warning
+            return _run(argv)
+    finally:
+        logging.getLogger().removeHandler(quiet)
+
+
+def _run(argv: list[str]) -> int:
+    args: argparse.Namespace | None = None
+    # The boundary holds from the first line: a signal during the imports of the
+    # subcommands (seconds) is held back until they are done, then stops the run.
+    with signals_raise():
+        try:
+            with DeferredSignals():
+                parser = _parser()
+            unblock_signals()  # blocked since the start by python -m pipeline.cli
+            args = parser.parse_args(argv)
             status: int = args.handler(args)
             return status
-    except (SystemExit, GeneratorExit):
-        raise
-    except BaseException as error:
-        status, message = describe(error)
-        if getattr(args, "debug", False):
-            traceback.print_exception(error, file=sys.stderr)
-        print(f"shellvox: error: {message}", file=sys.stderr)
-        return status
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+        except (SystemExit, GeneratorExit):
+            raise
+        except BaseException as error:
+            status, message = describe(error)
+            if getattr(args, "debug", "--debug" in argv):
+                traceback.print_exception(error, file=sys.stderr)
+            print(f"shellvox: error: {message}", file=sys.stderr)
+            return status

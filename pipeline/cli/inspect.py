@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import stat
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,9 @@ from pipeline.errors import InputError
 from pipeline.outdir import OutputFolder, sha256
 from voxel.atomic import atomic_path
 from voxel.preview import boundary_depths, halftone_image, histogram_image, section_image
+
+#: The files inspect reads: a manifest must list (and so verify) them.
+STACK_FILES = ("layers.tif", "colour.tif")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,24 +37,39 @@ def run(args: argparse.Namespace) -> int:
     folder: Path = args.folder
     if not folder.is_dir():
         raise InputError(folder, "is not a folder", "give the -o DIR of a shellvox build")
+    if args.no_preview:  # reads only: no lock, so a build on a read-only medium verifies
+        _verify_and_print(folder)
+        return 0
     with OutputFolder(folder, outputs=("preview/*.png",), marker=".no-marker") as lock:
-        manifest = read_manifest(folder)
-        verify_files(folder, manifest)
-        for row in summary_rows(manifest, folder):
-            print(f"{row[0]:<24} {row[1]}")
-        if not args.no_preview:
-            try:
-                written = write_previews(folder, manifest)
-            except (ValueError, OSError, KeyError, IndexError) as error:
-                if isinstance(error, OSError) and not isinstance(error, FileNotFoundError):
-                    raise
-                raise InputError(
-                    folder, f"the stack cannot be read ({error})", "rebuild with shellvox build"
-                ) from None
-            lock.commit(written)
-            for path in written:
-                print(f"{path}")
+        manifest = _verify_and_print(folder)
+        try:
+            written = write_previews(folder, manifest)
+        except (ValueError, OSError, KeyError, IndexError) as error:
+            if isinstance(error, OSError) and not isinstance(error, FileNotFoundError):
+                raise
+            raise InputError(
+                folder, f"the stack cannot be read ({error})", "rebuild with shellvox build"
+            ) from None
+        lock.commit(written)
+        for path in written:
+            print(f"{path}")
     return 0
+
+
+def _verify_and_print(folder: Path) -> dict[str, Any]:
+    manifest = read_manifest(folder)
+    verify_files(folder, manifest)
+    try:
+        rows = summary_rows(manifest, folder)
+    except (KeyError, TypeError, ValueError, AttributeError) as error:
+        raise InputError(
+            folder / "manifest.json",
+            f"has a malformed entry ({type(error).__name__}: {error})",
+            "rebuild with shellvox build -o " + str(folder),
+        ) from None
+    for row in rows:
+        print(f"{row[0]:<24} {row[1]}")
+    return manifest
 
 
 def read_manifest(folder: Path) -> dict[str, Any]:
@@ -72,7 +91,31 @@ def read_manifest(folder: Path) -> dict[str, Any]:
             "is not a shellvox build manifest (or one written before files were listed)",
             fix,
         )
+    grid = manifest["grid"]
+    valid = {
+        "shape_zyx": _numbers(grid.get("shape_zyx"), integer=True, low=1),
+        "voxel_size_mm": _numbers(grid.get("voxel_size_mm"), low=1e-300),
+        "origin_mm": _numbers(grid.get("origin_mm")),
+    }
+    problems = [f"grid {key} is {grid.get(key)!r}" for key, ok in valid.items() if not ok]
+    missing = [name for name in STACK_FILES if name not in manifest["files"]]
+    if missing:
+        problems.append(f"it does not list {' and '.join(missing)}")
+    if problems:
+        raise InputError(path, f"is not a valid build manifest: {'; '.join(problems)}", fix)
     return manifest
+
+
+def _numbers(value: Any, *, integer: bool = False, low: float = -math.inf) -> bool:
+    """Return whether `value` is a list of 3 finite numbers (integers) >= `low`."""
+    kinds = (int,) if integer else (int, float)
+    return (
+        isinstance(value, list)
+        and len(value) == 3
+        and all(
+            isinstance(v, kinds) and not isinstance(v, bool) and low <= v < math.inf for v in value
+        )
+    )
 
 
 def verify_files(folder: Path, manifest: dict[str, Any]) -> None:
@@ -135,17 +178,24 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
     vx, vy, vz = manifest["grid"]["voxel_size_mm"]
     n_bands = len(manifest["layers"]) - 2
     colour_layers = tuple(layer["index"] for layer in manifest["layers"] if layer["colour"])
-    xz_layers = np.zeros((n_z, n_x), np.uint8)
-    yz_layers = np.zeros((n_z, n_y), np.uint8)
-    xz_rgb = np.zeros((n_z, n_x, 3), np.uint8)
-    yz_rgb = np.zeros((n_z, n_y, 3), np.uint8)
-    is_colour = np.zeros(256, dtype=bool)
-    is_colour[list(colour_layers)] = True
-    colour_voxels = np.zeros(n_z, dtype=np.int64)
     with (
         tifffile.TiffFile(folder / "layers.tif") as lt,
         tifffile.TiffFile(folder / "colour.tif") as ct,
     ):
+        for name, tif in (("layers.tif", lt), ("colour.tif", ct)):  # before allocating
+            shape = (len(tif.pages), *tif.pages[0].shape[:2]) if len(tif.pages) else (0,)
+            if shape != (n_z, n_y, n_x):
+                raise ValueError(
+                    f"{name} holds {shape} (z, y, x) voxels but the manifest's grid is "
+                    f"{(n_z, n_y, n_x)}"
+                )
+        xz_layers = np.zeros((n_z, n_x), np.uint8)
+        yz_layers = np.zeros((n_z, n_y), np.uint8)
+        xz_rgb = np.zeros((n_z, n_x, 3), np.uint8)
+        yz_rgb = np.zeros((n_z, n_y, 3), np.uint8)
+        is_colour = np.zeros(256, dtype=bool)
+        is_colour[list(colour_layers)] = True
+        colour_voxels = np.zeros(n_z, dtype=np.int64)
         for z in range(n_z):  # one page at a time: memory stays one page
             page = lt.pages[z].asarray()
             colour = ct.pages[z].asarray()[..., :3]

@@ -1,0 +1,77 @@
+"""An output folder holds one build or none (issue 9, 3 and 7): rebuilds and concurrent runs."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import signal
+
+import pytest
+from fault_harness import (
+    Command,
+    assert_failed,
+    assert_succeeded,
+    build_argv,
+    run,
+    verified_files,
+    wait_for,
+)
+
+
+@pytest.mark.parametrize(
+    "shells",
+    [pytest.param(False, id="no-shells"), pytest.param(True, id="shells", marks=pytest.mark.slow)],
+)
+def test_rebuild_with_other_options_replaces_the_old_build(tmp_path, shells):
+    out = tmp_path / "out"
+    # Old: three layers, VDB (and the shell meshes: ~20 s); then inspect adds previews.
+    extra = ["--shell-meshes"] if shells else []
+    old = run(build_argv(out, "--thickness", "0.5,0.5,0.5", *extra), tmp_path / "a")
+    assert_succeeded(old, out)
+    assert_succeeded(run(["inspect", str(out)], tmp_path / "inspect"), out)
+    old_files = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
+    assert {"volume.vdb", "preview/xy_mid.png"} <= old_files
+    assert ("shells/shell_3.ply" in old_files) == shells
+    (out / "notes.txt").write_text("mine")  # not shellvox's: stays
+    # New: two layers, no VDB, no shell meshes.
+    new = run(build_argv(out, "--thickness", "0.4,0.4", "--no-vdb"), tmp_path / "b")
+    assert_succeeded(new, out)
+    manifest = verified_files(out, extra=("notes.txt",))  # every file listed, checksums
+    assert set(manifest["files"]) == {"layers.tif", "colour.tif"}
+    assert manifest["config"]["thickness_mm"] == [0.4, 0.4]
+    # No folder of the old build is left either (shells/, preview/).
+    assert sorted(p.name for p in out.iterdir()) == [
+        "colour.tif",
+        "layers.tif",
+        "manifest.json",
+        "notes.txt",
+    ]
+    # The new manifest describes the new files, byte for byte (not stale records).
+    for name in ("layers.tif", "colour.tif"):
+        digest = hashlib.sha256((out / name).read_bytes()).hexdigest()
+        assert json.loads((out / "manifest.json").read_text())["files"][name]["sha256"] == digest
+    assert_succeeded(run(["inspect", str(out), "--no-preview"], tmp_path / "check"), out)
+
+
+def test_concurrent_builds_into_one_folder(tmp_path):
+    # The first build holds the folder; it is stopped (SIGSTOP) while it does, so the
+    # second build and inspect surely meet it. Both are refused at once; the first, let
+    # go on, completes intact.
+    out = tmp_path / "out"
+    first = Command(build_argv(out), tmp_path / "first")
+    wait_for(lambda: len(first.workers()) == 2, what="the first build's slab workers")
+    os.killpg(first.pid, signal.SIGSTOP)
+    try:
+        assert (out / ".shellvox.lock").is_file()
+        second = run(build_argv(out, "--thickness", "0.3,0.3"), tmp_path / "second")
+        line = assert_failed(second, 2, "another shellvox run", f"pid {first.pid}")
+        assert str(out) in line
+        busy = run(["inspect", str(out)], tmp_path / "inspect")
+        assert_failed(busy, 2, "another shellvox run")
+    finally:
+        os.killpg(first.pid, signal.SIGCONT)
+    result = first.finish(timeout=120)
+    assert_succeeded(result, out)
+    manifest = verified_files(out)
+    assert manifest["config"]["thickness_mm"] == [0.5, 0.5]  # the first build's, not mixed
