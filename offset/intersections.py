@@ -17,11 +17,13 @@ FINE_CELLS = 27
 def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000) -> IntArray:
     """Return the pairs of triangles that cross each other.
 
-    Pairs sharing a vertex index are skipped (edge neighbours touch by construction), and
-    coplanar overlaps, contacts of zero length and contacts along a common line where
-    neither triangle straddles the other's plane are not counted: a pair counts when the
-    segments in which each triangle meets the other's plane overlap over a positive length
-    (the interval test of Moeller [1]_), with a tolerance of ``1e-10`` of the mesh extent.
+    Pairs sharing an edge are skipped (they touch by construction), and coplanar
+    overlaps, contacts of zero length and contacts along a common line where neither
+    triangle straddles the other's plane are not counted: a pair counts when the segments
+    in which each triangle meets the other's plane overlap over a positive length (the
+    interval test of Moeller [1]_), with a tolerance of ``1e-10`` of the mesh extent.
+    Pairs sharing one vertex are tested too: both segments then start at that vertex, so
+    they count when the triangles pass through each other beyond it (a fold at a vertex).
 
     Parameters
     ----------
@@ -49,8 +51,8 @@ def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 20
     hi = tri.max(axis=1) + eps
     hits = []
     for a, b in _candidate_chunks(lo, hi, chunk=chunk):
-        shared = (faces[a][:, :, None] == faces[b][:, None, :]).any(axis=(1, 2))
-        a, b = a[~shared], b[~shared]
+        shared = (faces[a][:, :, None] == faces[b][:, None, :]).sum(axis=(1, 2))
+        a, b = a[shared < 2], b[shared < 2]
         mask = _crossing(tri[a], tri[b], eps)
         hits.append(a[mask] * len(faces) + b[mask])
     code = np.sort(np.concatenate(hits)) if hits else np.zeros(0, dtype=np.int64)

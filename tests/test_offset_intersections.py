@@ -86,7 +86,7 @@ def test_intersecting_pairs_match_all_pairs_test():
     v = np.asarray(sphere.vertices) + rng.normal(0.0, 0.2, (len(sphere.vertices), 3))
     f = np.asarray(sphere.faces, dtype=np.int64)
     i, j = np.triu_indices(len(f), k=1)
-    apart = ~(f[i][:, :, None] == f[j][:, None, :]).any(axis=(1, 2))
+    apart = (f[i][:, :, None] == f[j][:, None, :]).sum(axis=(1, 2)) < 2  # no common edge
     i, j = i[apart], j[apart]
     eps = 1e-10 * float(np.ptp(v, axis=0).max())
     hit = _crossing(v[f[i]], v[f[j]], eps)
@@ -136,7 +136,7 @@ def _brute_crossing(v, f):
     eps = 1e-10 * float(np.ptp(v, axis=0).max())
     tri = v[f]
     i, j = _brute_overlaps(tri.min(axis=1) - eps, tri.max(axis=1) + eps)
-    apart = ~(f[i][:, :, None] == f[j][:, None, :]).any(axis=(1, 2))
+    apart = (f[i][:, :, None] == f[j][:, None, :]).sum(axis=(1, 2)) < 2  # no common edge
     i, j = i[apart], j[apart]
     hit = _crossing(tri[i], tri[j], eps)
     return np.stack([i[hit], j[hit]], axis=1)
@@ -167,3 +167,20 @@ def test_robust_offset_of_a_cylinder_checks_its_shell_exactly():
     np.testing.assert_array_equal(first, ref_i)
     np.testing.assert_array_equal(second, ref_j)
     assert len(intersecting_pairs(v, f)) == len(_brute_crossing(v, f)) == 0
+
+
+@pytest.mark.parametrize(
+    ("apex", "expected"),
+    [
+        ([0.5, 0.5, 1.0], 0),  # a fan around the shared vertex: apart beyond it
+        ([0.5, -0.5, 0.0], 0),  # meets z = 0 beside triangle 0
+        ([1.0, 1.0, -1.0], 1),  # passes through the other triangle beyond the vertex
+    ],
+)
+def test_pairs_sharing_one_vertex(apex, expected):
+    # Triangle 0 in z = 0; triangle 1 shares its vertex 0 (the origin) and runs from
+    # there through (1, 1, 0.5)...: its segment in z = 0 starts at the origin and, for
+    # the last apex, crosses the interior of triangle 0.
+    v = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [1, 1, 1], apex], dtype=np.float64)
+    f = np.array([[0, 1, 2], [0, 3, 4]])
+    assert count_self_intersections(v, f) == expected
