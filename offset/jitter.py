@@ -1,0 +1,128 @@
+"""Move a shell's vertices by a tiny random amount so that no two faces are coplanar.
+
+A robust shell (:mod:`offset.robust`) is made of flat regions, one per moved face plane,
+each triangulated into many triangles whose vertices lie on the plane to within
+round-off (about ``1e-16`` of the coordinates). Two triangles of one plane that share no
+vertex and whose bounding boxes overlap are disjoint, but a triangle-triangle test
+without a coplanarity tolerance cannot tell: the signed distances of one triangle's
+corners to the other's plane are pure round-off, and Moeller's interval test [1]_ then
+answers at random. MeshLab's "Select Self Intersecting Faces" (vcg's
+``Clean::SelfIntersections`` and ``NoDivTriTriIsect``) is such a test: vcg's
+``triangle_triangle3.h`` defines ``USE_EPSILON_TEST`` but tests
+``#ifdef USE_TRI_TRI_INT_EPSILON_TEST``, so its coplanarity tolerance is never compiled
+in, and it flagged 230 to 500 faces of each bunny and spot shell (every one beside a
+coplanar, disjoint face), and a different number in a process that had loaded another
+mesh first.
+
+:func:`jitter_vertices` removes the cause rather than the symptom: every vertex moves by
+``amplitude`` in a random direction, so corners lie ``~amplitude`` off the other
+triangles' planes, a million times the round-off, and any floating-point test decides
+correctly. Two triangles farther apart than ``2 * amplitude`` cannot come to meet, and a
+face at least ``tol`` high (:mod:`offset.clean`) turns by at most ``2 * amplitude / tol``
+(1e-4 rad at the defaults), so only configurations that already touch can change: a
+face folded flat onto its neighbour, or lying on another along a line. Those are found
+(new crossing pairs of :func:`offset.intersections.intersecting_pairs`, new folds of
+:func:`offset.clean.folded_faces`), their vertices are kept in place, and the rest are
+moved again; if that does not settle after :data:`MAX_FREEZES` attempts, the input is
+returned unchanged.
+
+References
+----------
+.. [1] T. Moeller, "A fast triangle-triangle intersection test", Journal of Graphics
+   Tools 2(2), 1997.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from offset._validate import FloatArray, IntArray
+from offset.clean import folded_faces
+from offset.intersections import intersecting_pairs
+
+#: Default amplitude as a fraction of the mesh extent: 50 nm on a 50 mm part, a million
+#: times the round-off of its coordinates and 1/300 of a 14 um printer voxel.
+JITTER_FRACTION = 1e-9
+#: Attempts with more vertices kept in place (see :func:`jitter_vertices`).
+MAX_FREEZES = 4
+
+
+@dataclass(frozen=True)
+class JitteredMesh:
+    """A mesh after :func:`jitter_vertices`.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64, mm
+    amplitude_mm : float, mm
+        How far each moved vertex moved (0 when the input was returned unchanged).
+    n_moved : int
+        Vertices moved.
+    n_kept : int
+        Vertices kept in place because moving them made faces cross or fold.
+    """
+
+    vertices: FloatArray
+    amplitude_mm: float
+    n_moved: int
+    n_kept: int
+
+
+def jitter_vertices(
+    vertices: FloatArray,
+    faces: IntArray,
+    *,
+    amplitude: float | None = None,
+    seed: int = 0,
+) -> JitteredMesh:
+    """Move every vertex by `amplitude` in a random direction, without new crossings.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+        Closed, consistently oriented, manifold triangles (or none).
+    amplitude : float, optional, mm
+        Distance each vertex moves; by default :data:`JITTER_FRACTION` of the extent.
+        Must be > 0.
+    seed : int, optional
+        Seed of the directions (the result is reproducible).
+
+    Returns
+    -------
+    JitteredMesh
+        Same faces; no more crossing pairs and folded faces than the input.
+    """
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    if f.shape[0] == 0:
+        return JitteredMesh(v, 0.0, 0, 0)
+    if amplitude is None:
+        amplitude = JITTER_FRACTION * float(np.ptp(v, axis=0).max())
+    if not amplitude > 0:
+        raise ValueError(f"amplitude must be > 0 mm, got {amplitude!r}")
+    step = np.random.default_rng(seed).normal(size=v.shape)
+    step *= amplitude / np.linalg.norm(step, axis=1, keepdims=True)
+    crossing = len(intersecting_pairs(v, f))
+    folded = len(folded_faces(v, f))
+    kept = np.zeros(len(v), dtype=bool)
+    for _ in range(MAX_FREEZES + 1):
+        moved = v + np.where(kept[:, None], 0.0, step)
+        pairs = intersecting_pairs(moved, f)
+        folds = folded_faces(moved, f)
+        if len(pairs) <= crossing and len(folds) <= folded:
+            n_kept = int(np.count_nonzero(kept))
+            return JitteredMesh(moved, float(amplitude), len(v) - n_kept, n_kept)
+        kept |= _touching(f, np.union1d(pairs.reshape(-1), folds), len(v))
+    return JitteredMesh(v, 0.0, 0, len(v))
+
+
+def _touching(f: IntArray, bad_faces: IntArray, n: int) -> npt.NDArray[np.bool_]:
+    """Return the vertices of `bad_faces` and of every face sharing a vertex with them."""
+    ring = np.zeros(n, dtype=bool)
+    ring[f[bad_faces].reshape(-1)] = True
+    ring[f[np.any(ring[f], axis=1)].reshape(-1)] = True
+    return ring
