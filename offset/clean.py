@@ -19,9 +19,11 @@ tests of other tools see crossings among the slivers.
 A collapse is refused where it would make the mesh non-manifold (the link condition) or
 turn a face over; a flip where it would duplicate an edge or turn a face over; the rounds
 repeat until nothing changes. :func:`clean_shell` then checks the result with the
-crossing test of :mod:`offset.intersections` and, where it finds crossing triangles,
-freezes the vertices around them and cleans again, so the result is never less valid
-than the input. manifold3d's own ``simplify`` does not do this: it collapses short edges
+crossing test of :mod:`offset.intersections` and for faces folded flat onto a neighbour
+(:func:`folded_faces`, a double layer that test does not see: flips and collapses among
+slivers made a few on the bunny's shells) and, where it finds either, freezes the
+vertices around them and cleans again, so the result is never less valid than the
+input. manifold3d's own ``simplify`` does not do this: it collapses short edges
 only below its internal epsilon (about ``1e-12`` of the extent, see ``CollapseShortEdges``
 in its ``edge_op.cpp``) and keeps edges between faces that are not coplanar.
 """
