@@ -228,8 +228,49 @@ def _cell_pairs(
         a0, base = a1, int(ends[a1 - 1])
 
 
-def _crossing(a: FloatArray, b: FloatArray, eps: float) -> npt.NDArray[np.bool_]:
-    """Vectorised triangle-triangle crossing test on ``(P, 3, 3)`` pairs; ``(P,)`` bool."""
+def coplanar_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000) -> IntArray:
+    """Return the pairs of triangles that share no vertex and lie in one plane.
+
+    These are the pairs :func:`intersecting_pairs` leaves undecided: bounding boxes
+    overlapping, and the corners of one triangle within its tolerance (``1e-10`` of the
+    mesh extent) of the other's plane. A test without such a tolerance reads their
+    round-off as crossings at random (see :mod:`offset.jitter`).
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+    chunk : int, optional
+        Candidate pairs generated and tested at once (bounds memory).
+
+    Returns
+    -------
+    (P, 2) int64
+        Face index pairs ``i < j``, sorted.
+    """
+    if len(faces) < 2:
+        return np.zeros((0, 2), dtype=np.int64)
+    tri = vertices[faces]
+    eps = 1e-10 * max(float(np.ptp(vertices, axis=0).max()), 1e-12)
+    hits = []
+    for a, b in _candidate_chunks(tri.min(axis=1) - eps, tri.max(axis=1) + eps, chunk=chunk):
+        apart = ~(faces[a][:, :, None] == faces[b][:, None, :]).any(axis=(1, 2))
+        a, b = a[apart], b[apart]
+        _, _, da, db = _plane_distances(tri[a], tri[b], eps)
+        mask = np.all(db == 0, axis=1) | np.all(da == 0, axis=1)
+        hits.append(a[mask] * len(faces) + b[mask])
+    code = np.sort(np.concatenate(hits)) if hits else np.zeros(0, dtype=np.int64)
+    return np.stack([code // len(faces), code % len(faces)], axis=1)
+
+
+def _plane_distances(
+    a: FloatArray, b: FloatArray, eps: float
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Return the unit normals and the corners' distances to the other's plane.
+
+    For ``(P, 3, 3)`` triangles `a` and `b`: normals ``na, nb`` ``(P, 3)``, and ``da``
+    (`a`'s corners to plane `b`), ``db`` ``(P, 3)`` mm, those within `eps` set to 0.
+    """
     na = np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0])
     nb = np.cross(b[:, 1] - b[:, 0], b[:, 2] - b[:, 0])
     na /= np.maximum(np.linalg.norm(na, axis=1, keepdims=True), 1e-300)
@@ -238,6 +279,12 @@ def _crossing(a: FloatArray, b: FloatArray, eps: float) -> npt.NDArray[np.bool_]
     da = np.einsum("pij,pj->pi", a - b[:, :1], nb)
     db = np.where(np.abs(db) <= eps, 0.0, db)
     da = np.where(np.abs(da) <= eps, 0.0, da)
+    return na, nb, da, db
+
+
+def _crossing(a: FloatArray, b: FloatArray, eps: float) -> npt.NDArray[np.bool_]:
+    """Vectorised triangle-triangle crossing test on ``(P, 3, 3)`` pairs; ``(P,)`` bool."""
+    na, nb, da, db = _plane_distances(a, b, eps)
     separated = (
         np.all(db > 0, axis=1) | np.all(db < 0, axis=1) | np.all(da > 0, axis=1)
         | np.all(da < 0, axis=1)

@@ -5,10 +5,11 @@ vertices and slivers far below a micrometre; written in float32 (trimesh's PLY e
 they become zero-area faces and coincident vertices. Its flat regions are also exactly
 coplanar, which a triangle test without a coplanarity tolerance (MeshLab's) reads as
 crossings at random. Here every shell is cleaned (:func:`offset.clean.clean_offset_shell`),
-its vertices moved by a tiny random amount (:func:`offset.jitter.jitter_vertices`, 1e-9
-of the extent), written with ``property double x/y/z``, read back with trimesh, and
-checked on what was read (:func:`offset.quality.mesh_checks`, after merging coincident
-vertices), so what is reported is what the file holds.
+the vertices of coplanar triangle pairs moved by a tiny random amount
+(:func:`offset.jitter.jitter_vertices`, 1e-8 of the extent), written with
+``property double x/y/z``, read back with trimesh, and checked on what was read
+(:func:`offset.quality.mesh_checks`, after merging coincident vertices), so what is
+reported is what the file holds.
 """
 
 from __future__ import annotations
@@ -48,9 +49,9 @@ class WrittenShell:
     cleaning : dict
         ``tol_mm``, ``collapsed_vertices``, ``flipped_edges``, ``max_move_mm``,
         ``short_edges_left``, ``thin_faces_left`` (see :class:`offset.clean.CleanedMesh`),
-        then ``jitter_mm`` and ``jitter_kept_vertices`` (see
-        :class:`offset.jitter.JitteredMesh`); a vertex moved at most
-        ``max_move_mm + jitter_mm`` in all.
+        then ``jitter_mm``, ``jitter_moved_vertices``, ``jitter_kept_vertices`` and
+        ``coplanar_pairs_left`` (see :class:`offset.jitter.JitteredMesh`); a vertex moved
+        at most ``max_move_mm + jitter_mm`` in all.
     checks : dict
         :func:`offset.quality.mesh_checks` of the mesh read back.
     """
@@ -143,7 +144,9 @@ def write_shell(path: Path, shell: Shell, *, target: Path | None = None) -> Writ
             "short_edges_left": cleaned.short_edges,
             "thin_faces_left": cleaned.thin_faces,
             "jitter_mm": jittered.amplitude_mm,
+            "jitter_moved_vertices": jittered.n_moved,
             "jitter_kept_vertices": jittered.n_kept,
+            "coplanar_pairs_left": jittered.coplanar_pairs,
         },
         checks=checks,
     )

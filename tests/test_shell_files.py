@@ -21,8 +21,8 @@ from shell_file_checks import HAVE_PYMESHLAB, header, meshlab_checks, trimesh_ch
 from offset import offset_shells
 from offset.adjacency import edge_adjacency
 from offset.clean import clean_degenerate, clean_shell, folded_faces
-from offset.intersections import count_self_intersections
-from offset.jitter import jitter_vertices
+from offset.intersections import coplanar_pairs, count_self_intersections
+from offset.jitter import JITTER_FRACTION, jitter_vertices
 from offset.robust import ShellDefectWarning
 from offset.shells import Shell
 from pipeline.cli import main
@@ -179,7 +179,7 @@ def test_icosphere_shell_files_are_valid_as_trimesh_reads_them(icosphere_out):
         # Cleaning moved the surface by far less than a printer voxel (>= 14 um).
         cleaning = entry["file"]["cleaning"]
         assert cleaning["max_move_mm"] < 4 * cleaning["tol_mm"]
-        assert 0 < cleaning["jitter_mm"] <= 1e-9 * 20.0
+        assert 0 < cleaning["jitter_mm"] <= JITTER_FRACTION * 20.0
         mesh = trimesh.load(path, process=False, force="mesh")
         radius = np.linalg.norm(mesh.vertices, axis=1)
         # Inside the sphere of radius 10 - 0.5 k, outside the inscribed one of the polytope.
@@ -328,12 +328,19 @@ def test_jitter_clears_meshlab_flags_of_coplanar_faces(tmp_path):
     v, f = _rotated_box(3)  # 768 faces on 6 planes, none axis-aligned
     write_ply(tmp_path / "box.ply", v, f)
     assert meshlab_checks(tmp_path / "box.ply")["self_intersecting_faces"] > 0
+    pairs = coplanar_pairs(v, f)
+    assert len(pairs) > 0
     jittered = jitter_vertices(v, f)
     extent = float(np.ptp(v, axis=0).max())
-    assert jittered.amplitude_mm == pytest.approx(1e-9 * extent)
-    assert jittered.n_kept == 0
+    assert jittered.amplitude_mm == pytest.approx(JITTER_FRACTION * extent)
+    assert jittered.n_kept == 0 and jittered.coplanar_pairs == 0
+    # The vertices of coplanar pairs moved by the amplitude, the others not at all.
     moved = np.linalg.norm(jittered.vertices - v, axis=1)
-    np.testing.assert_allclose(moved, jittered.amplitude_mm, rtol=1e-6)
+    target = np.zeros(len(v), dtype=bool)
+    target[f[pairs.reshape(-1)].reshape(-1)] = True
+    assert jittered.n_moved == np.count_nonzero(target)
+    np.testing.assert_allclose(moved[target], jittered.amplitude_mm, rtol=1e-6)
+    assert np.all(moved[~target] == 0)
     write_ply(tmp_path / "jittered.ply", jittered.vertices, f)
     seen = meshlab_checks(tmp_path / "jittered.ply")
     assert seen["self_intersecting_faces"] == 0
@@ -344,28 +351,53 @@ def test_jitter_clears_meshlab_flags_of_coplanar_faces(tmp_path):
     assert abs(volume - 480.0) <= jittered.amplitude_mm * 376.0
 
 
+def test_jitter_leaves_a_mesh_without_coplanar_pairs_alone():
+    ico = trimesh.creation.icosphere(subdivisions=2)
+    v, f = np.asarray(ico.vertices), np.asarray(ico.faces, dtype=np.int64)
+    jittered = jitter_vertices(v, f)
+    assert jittered.n_moved == 0 and jittered.amplitude_mm == 0.0
+    assert np.array_equal(jittered.vertices, v)
+
+
+def test_jitter_leaves_exact_axis_planes_exact():
+    # An axis-aligned box's faces are coplanar pairs, but held exactly (z = 3, ...):
+    # every test's plane distances are exact zeros there, so nothing moves.
+    box = trimesh.creation.box((10.0, 8.0, 6.0)).subdivide().subdivide()
+    v, f = np.asarray(box.vertices), np.asarray(box.faces, dtype=np.int64)
+    assert len(coplanar_pairs(v, f)) > 0
+    jittered = jitter_vertices(v, f)
+    assert jittered.n_moved == 0 and jittered.coplanar_pairs == 0
+    assert np.array_equal(jittered.vertices, v)
+
+
 def test_jitter_keeps_touching_solids_touching():
-    # Two boxes sharing a face (as separate vertices): moved at random they cross,
-    # so the vertices where they touch stay; the rest move by the amplitude.
+    # Two boxes sharing a face (as separate vertices), which cross when moved at random,
+    # beside a third, apart: the vertices of the first two stay, the third's move.
+    rotation = Rotation.from_euler("xyz", [0.3, 0.5, 0.7])
     a = trimesh.creation.box((2.0, 2.0, 2.0)).subdivide()
     b = a.copy().apply_translation((2.0, 0.0, 0.0))
-    both = trimesh.util.concatenate([a, b])
-    v = Rotation.from_euler("xyz", [0.3, 0.5, 0.7]).apply(both.vertices) + 10.0
-    f = np.asarray(both.faces, dtype=np.int64)
+    touching = trimesh.util.concatenate([a, b])
+    v_touch = rotation.apply(touching.vertices) + 10.0
+    f_touch = np.asarray(touching.faces, dtype=np.int64)
+    v_apart, f_apart = _rotated_box(2)
+    v = np.concatenate([v_touch, v_apart])
+    f = np.concatenate([f_touch, f_apart + len(v_touch)])
     assert count_self_intersections(v, f) == 0
-    step = np.random.default_rng(0).normal(size=v.shape)
-    amplitude = 1e-9 * float(np.ptp(v, axis=0).max())
+    amplitude = JITTER_FRACTION * float(np.ptp(v, axis=0).max())
+    step = np.random.default_rng(0).normal(size=v_touch.shape)
     step *= amplitude / np.linalg.norm(step, axis=1, keepdims=True)
-    assert count_self_intersections(v + step, f) > 0
+    assert count_self_intersections(v_touch + step, f_touch) > 0
     jittered = jitter_vertices(v, f, seed=0)
+    assert jittered.amplitude_mm == pytest.approx(amplitude)
     assert count_self_intersections(jittered.vertices, f) == 0
-    assert 0 < jittered.n_kept < len(v)
     moved = np.linalg.norm(jittered.vertices - v, axis=1)
-    assert np.count_nonzero(moved == 0) == jittered.n_kept
+    # The shared face's corners stay; the apart box's coplanar pairs are resolved.
+    x = (v_touch - 10.0) @ rotation.as_matrix()
+    assert np.all(moved[: len(v_touch)][np.abs(x[:, 0] - 1.0) < 1e-9] == 0)
+    assert jittered.n_kept > 0 and jittered.n_moved > 0
     np.testing.assert_allclose(moved[moved > 0], amplitude, rtol=1e-6)
-    # The touching face's corners are among those kept.
-    x = (v - 10.0) @ Rotation.from_euler("xyz", [0.3, 0.5, 0.7]).as_matrix()
-    assert np.all(moved[np.abs(x[:, 0] - 1.0) < 1e-9] == 0)
+    assert np.count_nonzero(moved[len(v_touch):]) == jittered.n_moved
+    assert len(coplanar_pairs(jittered.vertices[len(v_touch):], f_apart)) == 0
 
 
 def test_folded_faces_finds_faces_back_to_back():
