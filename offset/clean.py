@@ -130,9 +130,8 @@ def clean_shell(vertices: FloatArray, faces: IntArray, *, tol: float) -> Cleaned
 
     Where the cleaned mesh has more crossing triangle pairs (:func:`offset.intersections.
     intersecting_pairs`) or more folded faces (:func:`folded_faces`) than the input, the
-    input vertices within
-    ``2 * MAX_CLUSTER * tol`` of them are frozen and the mesh is cleaned again; after
-    :data:`MAX_FREEZES` attempts the input is returned unchanged.
+    input vertices within ``2 * MAX_CLUSTER * tol`` of them are frozen and the mesh is
+    cleaned again; after :data:`MAX_FREEZES` attempts the input is returned unchanged.
 
     Parameters
     ----------
@@ -432,8 +431,7 @@ def _flip(v: FloatArray, f: IntArray, tol: float, frozen: BoolArray) -> tuple[In
     new1 = np.stack([p, a, q], axis=1)
     new2 = np.stack([q, b, p], axis=1)
     # The new faces must face as the higher face of the pair did (a thin face's normal
-    # is round-off: with it as reference, a flip in a non-convex quad folded a face
-    # flat onto its neighbour), and as each other.
+    # is mostly round-off), and as each other.
     g_height = _heights(v, f[g])[0]
     ref = np.where((g_height >= height[cand])[:, None], _normals(v, f[g]), _normals(v, f[cand]))
     n1, n2 = _normals(v, new1), _normals(v, new2)

@@ -1,4 +1,4 @@
-"""Move a shell's vertices by a tiny random amount so that no two faces are coplanar.
+"""Move a shell's vertices by a tiny random amount so that no disjoint faces are coplanar.
 
 A robust shell (:mod:`offset.robust`) is made of flat regions, one per moved face plane,
 each triangulated into many triangles whose vertices lie on the plane to within
@@ -26,7 +26,10 @@ folded flat onto its neighbour, or lying on another along a line. Those are foun
 crossing pairs of :func:`offset.intersections.intersecting_pairs`, new folds of
 :func:`offset.clean.folded_faces`), their vertices are kept in place, and the rest are
 moved again; if that does not settle after :data:`MAX_FREEZES` attempts, the input is
-returned unchanged.
+returned unchanged. A crossing smaller than the crossing test's tolerance (1e-10 of the
+extent) would go unseen; at 100 times that amplitude none was left on the icosphere,
+bunny, spot, cylinder, capsule, torus and fan-triangulated box shells (MeshLab flags
+none), where at 10 times it MeshLab still flagged a few faces of a torus's shells.
 
 References
 ----------
