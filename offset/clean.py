@@ -19,9 +19,11 @@ tests of other tools see crossings among the slivers.
 A collapse is refused where it would make the mesh non-manifold (the link condition) or
 turn a face over; a flip where it would duplicate an edge or turn a face over; the rounds
 repeat until nothing changes. :func:`clean_shell` then checks the result with the
-crossing test of :mod:`offset.intersections` and, where it finds crossing triangles,
-freezes the vertices around them and cleans again, so the result is never less valid
-than the input. manifold3d's own ``simplify`` does not do this: it collapses short edges
+crossing test of :mod:`offset.intersections` and for faces folded flat onto a neighbour
+(:func:`folded_faces`, a double layer that test does not see: flips and collapses among
+slivers made a few on the bunny's shells) and, where it finds either, freezes the
+vertices around them and cleans again, so the result is never less valid than the
+input. manifold3d's own ``simplify`` does not do this: it collapses short edges
 only below its internal epsilon (about ``1e-12`` of the extent, see ``CollapseShortEdges``
 in its ``edge_op.cpp``) and keeps edges between faces that are not coplanar.
 """
@@ -37,6 +39,7 @@ import scipy.sparse.csgraph
 import scipy.spatial
 
 from offset._validate import FloatArray, IntArray
+from offset.adjacency import edge_adjacency
 from offset.intersections import intersecting_pairs
 from offset.shells import Shell
 
@@ -56,6 +59,10 @@ MAX_TRIES = 6
 MAX_FREEZES = 3
 #: A face at least ``tol`` high may turn by at most this angle in a collapse (cosine).
 MIN_TURN_COS = 0.5
+#: Two faces sharing an edge whose unit normals have a dot product below this are folded
+#: flat onto each other (an opening angle below 0.08 degrees): a double layer of surface
+#: that the crossing test, which ignores coplanar overlaps, does not see.
+FOLD_COS = -1.0 + 1e-6
 
 
 @dataclass(frozen=True)
@@ -121,10 +128,10 @@ def clean_offset_shell(
 def clean_shell(vertices: FloatArray, faces: IntArray, *, tol: float) -> CleanedMesh:
     """Return the shell cleaned by :func:`clean_degenerate` with no new crossings.
 
-    Where the cleaned mesh has crossing triangle pairs (:func:`offset.intersections.
-    intersecting_pairs`) beyond those of the input, the input vertices within
-    ``2 * MAX_CLUSTER * tol`` of them are frozen and the mesh is cleaned again; after
-    :data:`MAX_FREEZES` attempts the input is returned unchanged.
+    Where the cleaned mesh has more crossing triangle pairs (:func:`offset.intersections.
+    intersecting_pairs`) or more folded faces (:func:`folded_faces`) than the input, the
+    input vertices within ``2 * MAX_CLUSTER * tol`` of them are frozen and the mesh is
+    cleaned again; after :data:`MAX_FREEZES` attempts the input is returned unchanged.
 
     Parameters
     ----------
@@ -141,18 +148,49 @@ def clean_shell(vertices: FloatArray, faces: IntArray, *, tol: float) -> Cleaned
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
     before = len(intersecting_pairs(v, f))
+    folds_before = len(folded_faces(v, f))
     frozen = np.zeros(len(v), dtype=bool)
     tree: scipy.spatial.cKDTree | None = None
     for _ in range(MAX_FREEZES + 1):
         cleaned, source = _clean(v, f, tol, frozen)
         pairs = intersecting_pairs(cleaned.vertices, cleaned.faces)
-        if len(pairs) <= before and _euler(cleaned.faces) == _euler(f):
+        folded = folded_faces(cleaned.vertices, cleaned.faces)
+        if (
+            len(pairs) <= before
+            and len(folded) <= folds_before
+            and _euler(cleaned.faces) == _euler(f)
+        ):
             return cleaned
-        bad = source[np.unique(cleaned.faces[np.unique(pairs)])]
+        bad = source[np.unique(cleaned.faces[np.union1d(pairs.reshape(-1), folded)])]
         tree = tree or scipy.spatial.cKDTree(v)
         near = tree.query_ball_point(v[bad.reshape(-1)], 2.0 * MAX_CLUSTER * tol)
         frozen[np.concatenate([np.asarray(n, dtype=np.int64) for n in near])] = True
     return CleanedMesh(v, f, 0.0, 0, 0, 0.0, *_count_degenerate(v, f, tol))
+
+
+def folded_faces(vertices: FloatArray, faces: IntArray) -> IntArray:
+    """Return the faces folded flat onto a neighbour across an edge (see :data:`FOLD_COS`).
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+        Closed, consistently oriented, manifold triangles (or none).
+
+    Returns
+    -------
+    (k,) int64
+        Sorted face indices.
+    """
+    if faces.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64)
+    adj = edge_adjacency(faces)
+    normal = _normals(vertices, faces)
+    dot = np.einsum("ij,ij->i", normal[adj.face_left], normal[adj.face_right])
+    fold = dot < FOLD_COS
+    return np.asarray(
+        np.unique(np.concatenate([adj.face_left[fold], adj.face_right[fold]])), dtype=np.int64
+    )
 
 
 def clean_degenerate(
@@ -392,15 +430,19 @@ def _flip(v: FloatArray, f: IntArray, tol: float, frozen: BoolArray) -> tuple[In
     pq = np.minimum(p, q) * n + np.maximum(p, q)
     new1 = np.stack([p, a, q], axis=1)
     new2 = np.stack([q, b, p], axis=1)
-    # The new faces must face as the non-degenerate one of the pair did.
-    ref = _normals(v, f[g]) + _normals(v, f[cand])
+    # The new faces must face as the higher face of the pair did (a thin face's normal
+    # is mostly round-off), and as each other.
+    g_height = _heights(v, f[g])[0]
+    ref = np.where((g_height >= height[cand])[:, None], _normals(v, f[g]), _normals(v, f[cand]))
+    n1, n2 = _normals(v, new1), _normals(v, new2)
     ok = (
         found
         & (p != q)
         & ~np.isin(pq, _edges(f, n)[1])
         & ~(frozen[a] | frozen[b] | frozen[p] | frozen[q])
-        & (np.einsum("ij,ij->i", _normals(v, new1), ref) > 0)
-        & (np.einsum("ij,ij->i", _normals(v, new2), ref) > 0)
+        & (np.einsum("ij,ij->i", n1, ref) > 0)
+        & (np.einsum("ij,ij->i", n2, ref) > 0)
+        & (np.einsum("ij,ij->i", n1, n2) > 0)
         & (_heights(v, new1)[0] > height[cand])
         & (_heights(v, new2)[0] > height[cand])
     )

@@ -1,21 +1,29 @@
-"""Count self-intersecting triangle pairs of a mesh (broad phase R-tree, vectorised test)."""
+"""Count self-intersecting triangle pairs of a mesh (hierarchical hash grid, vectorised test)."""
 
 from __future__ import annotations
+
+from collections.abc import Iterator
 
 import numpy as np
 import numpy.typing as npt
 
 from offset._validate import FloatArray, IntArray
 
+#: Boxes spanning at most this many cells of the fine grid (3 per axis) are binned there;
+#: larger ones in coarser grids (see :func:`_candidate_chunks`).
+FINE_CELLS = 27
+
 
 def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000) -> IntArray:
     """Return the pairs of triangles that cross each other.
 
-    Pairs sharing a vertex index are skipped (edge neighbours touch by construction), and
-    coplanar overlaps, contacts of zero length and contacts along a common line where
-    neither triangle straddles the other's plane are not counted: a pair counts when the
-    segments in which each triangle meets the other's plane overlap over a positive length
-    (the interval test of Moeller [1]_), with a tolerance of ``1e-10`` of the mesh extent.
+    Pairs sharing an edge are skipped (they touch by construction), and coplanar
+    overlaps, contacts of zero length and contacts along a common line where neither
+    triangle straddles the other's plane are not counted: a pair counts when the segments
+    in which each triangle meets the other's plane overlap over a positive length (the
+    interval test of Moeller [1]_), with a tolerance of ``1e-10`` of the mesh extent.
+    Pairs sharing one vertex are tested too: both segments then start at that vertex, so
+    they count when the triangles pass through each other beyond it (a fold at a vertex).
 
     Parameters
     ----------
@@ -41,15 +49,14 @@ def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 20
     eps = 1e-10 * scale
     lo = tri.min(axis=1) - eps
     hi = tri.max(axis=1) + eps
-    first, second = _candidate_pairs(lo, hi, chunk=chunk)
     hits = []
-    for s in range(0, len(first), chunk):
-        a, b = first[s : s + chunk], second[s : s + chunk]
-        shared = (faces[a][:, :, None] == faces[b][:, None, :]).any(axis=(1, 2))
-        a, b = a[~shared], b[~shared]
+    for a, b in _candidate_chunks(lo, hi, chunk=chunk):
+        shared = (faces[a][:, :, None] == faces[b][:, None, :]).sum(axis=(1, 2))
+        a, b = a[shared < 2], b[shared < 2]
         mask = _crossing(tri[a], tri[b], eps)
-        hits.append(np.stack([a[mask], b[mask]], axis=1))
-    return np.concatenate(hits) if hits else np.zeros((0, 2), dtype=np.int64)
+        hits.append(a[mask] * len(faces) + b[mask])
+    code = np.sort(np.concatenate(hits)) if hits else np.zeros(0, dtype=np.int64)
+    return np.stack([code // len(faces), code % len(faces)], axis=1)
 
 
 def _candidate_pairs(
@@ -57,12 +64,44 @@ def _candidate_pairs(
 ) -> tuple[IntArray, IntArray]:
     """Return the pairs ``i < j`` of overlapping boxes (closed), sorted by ``(i, j)``.
 
-    Boxes are binned into the cells of a uniform hash grid they touch; pairs sharing a
-    cell are candidates. A pair is kept only in the cell holding the low corner of the
-    two boxes' intersection (``max(lo_i, lo_j)``), where both boxes are binned, so each
-    overlapping pair is found exactly once and the pairs of a cell can be generated and
-    tested a bounded number at a time: memory is ``O(F + chunk)`` however many boxes
-    crowd into one cell (a shell's fans of sliver triangles put over a thousand there).
+    All of :func:`_candidate_chunks` at once, sorted.
+
+    Parameters
+    ----------
+    lo, hi : (F, 3) float64, mm
+        Box corners.
+    chunk : int, optional
+        See :func:`_candidate_chunks`.
+
+    Returns
+    -------
+    first, second : (P,) int64
+    """
+    n_box = len(lo)
+    codes = [a * n_box + b for a, b in _candidate_chunks(lo, hi, chunk=chunk)]
+    pair = np.sort(np.concatenate(codes)) if codes else np.zeros(0, dtype=np.int64)
+    return pair // max(n_box, 1), pair % max(n_box, 1)
+
+
+def _candidate_chunks(
+    lo: FloatArray, hi: FloatArray, *, chunk: int = 200_000
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield the pairs ``i < j`` of overlapping boxes (closed), each exactly once.
+
+    A hierarchical hash grid [1]_. The fine grid's cell is the median box size ``s``;
+    a box spanning at most :data:`FINE_CELLS` of its cells is binned there, a larger one
+    at the level ``m >= 1`` whose cell ``S_m = s 2^(m + 1)`` is the first at least its
+    size, where it spans at most 2 cells per axis. Pairs of two fine boxes are found in
+    the fine grid; a pair whose larger level is ``m`` is found in level ``m``'s grid,
+    where the boxes of lower levels are binned too (at most 8 cells each), but only in
+    cells that a box of level ``m`` occupies, and paired only with those. A pair is kept
+    only in the cell holding the low corner of the two boxes' intersection
+    (``max(lo_i, lo_j)``), where both boxes are binned, so it is found once. Entries per
+    box are thus bounded (27 in the fine grid, 8 per coarser level) whatever the sizes:
+    long sliver triangles among tiny ones (CAD fans) no longer span billions of cells.
+    The pairs of a cell are generated a bounded number at a time, so memory is
+    ``O(F + chunk)`` however many boxes crowd into one cell (fans of sliver triangles
+    put over a thousand there).
 
     Parameters
     ----------
@@ -71,65 +110,167 @@ def _candidate_pairs(
     chunk : int, optional
         Candidate pairs generated at once, at least those of one box in one cell.
 
-    Returns
-    -------
-    first, second : (P,) int64
+    Yields
+    ------
+    first, second : (p,) int64
+        Overlapping pairs, ``first < second``, in no particular order.
+
+    References
+    ----------
+    .. [1] B. Mirtich, "Efficient algorithms for two-phase collision detection", in
+       Practical Motion Planning in Robotics, Wiley, 1998 (hierarchical hash tables).
     """
     n_box = len(lo)
+    if n_box < 2:
+        return
+    # Cells are indexed from the lowest corner (indices stay small wherever the mesh
+    # is); overlaps are tested on the boxes as given (shifting rounds).
+    origin = lo.min(axis=0)
+    lo_c = lo - origin
+    hi_c = hi - origin
+    ext = (hi_c - lo_c).max(axis=1)
+    scale = float(hi_c.max())
     # Cells of the median box size: on offset shells (fans of slivers) half as many
-    # candidates, and twice as fast, as cells twice that size; the result is the same.
-    size = float(np.median((hi - lo).max(axis=1))) + 1e-12
-    i0 = np.floor(lo / size).astype(np.int64)
-    n = np.floor(hi / size).astype(np.int64) - i0 + 1
+    # candidates, and twice as fast, as cells twice that size. At least 2^-20 of the
+    # extent, so that a cell key (three indices in one int64) cannot overflow.
+    size = max(float(np.median(ext)), scale * 2.0**-20) or 1.0
+    cells = np.prod(np.floor(hi_c / size) - np.floor(lo_c / size) + 1, axis=1)
+    level = np.zeros(n_box, dtype=np.int64)
+    coarse = cells > FINE_CELLS
+    level[coarse] = np.maximum(np.ceil(np.log2(ext[coarse] / size)).astype(np.int64) - 1, 1)
+    while True:  # round-off of log2: the level's cell must hold the box's extent
+        short = coarse & (ext > size * 2.0 ** (level + 1))
+        if not np.any(short):
+            break
+        level[short] += 1
+    fine = np.flatnonzero(~coarse)
+    corners = (lo, hi, lo_c, hi_c)
+    yield from _cell_pairs(corners, fine, np.ones(fine.size, dtype=bool), size, chunk)
+    for m in np.unique(level[coarse]):
+        boxes = np.flatnonzero(level <= m)
+        yield from _cell_pairs(corners, boxes, level[boxes] == m, size * 2.0 ** (m + 1), chunk)
+
+
+def _cell_pairs(
+    corners: tuple[FloatArray, FloatArray, FloatArray, FloatArray], boxes: IntArray,
+    lead: npt.NDArray[np.bool_], size: float, chunk: int,
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield the overlapping pairs of `boxes` with at least one leader, binned at `size`.
+
+    Parameters
+    ----------
+    corners : tuple of four (F, 3) float64, mm
+        Box corners ``lo, hi`` (tested for overlap) and the same shifted to be at least
+        0 (binned).
+    boxes : (B,) int64
+        Indices of the boxes binned.
+    lead : (B,) bool
+        Leaders: a pair is yielded when at least one of its boxes leads.
+    size : float, mm
+        Cell size.
+    chunk : int
+
+    Yields
+    ------
+    first, second : (p,) int64
+        Pairs of indices into `lo`, ``first < second``.
+    """
+    if boxes.size < 2 or not np.any(lead):
+        return
+    lo, hi, lo_c, hi_c = corners
+    i0 = np.floor(lo_c[boxes] / size).astype(np.int64)
+    n = np.floor(hi_c[boxes] / size).astype(np.int64) - i0 + 1
     per = n.prod(axis=1)
-    owner = np.repeat(np.arange(n_box), per)
+    owner = np.repeat(np.arange(boxes.size), per)
     rank = np.arange(owner.size) - np.repeat(np.cumsum(per) - per, per)
     nx, ny = n[owner, 0], n[owner, 1]
     cell = i0[owner] + np.stack([rank % nx, (rank // nx) % ny, rank // (nx * ny)], axis=1)
     del rank, nx, ny
-    cell_lo = cell.min(axis=0)
-    cell -= cell_lo
     span = cell.max(axis=0) + 1
     key = (cell[:, 0] * span[1] + cell[:, 1]) * span[2] + cell[:, 2]  # one int64 per cell
     del cell
-    order = np.argsort(key, kind="stable")
+    led = lead[owner]
+    if not np.all(led):
+        # Followers only matter in cells that a leader occupies.
+        keep = led | np.isin(key, key[led])
+        key, owner, led = key[keep], owner[keep], led[keep]
+    # Cells in order, and in a cell the leaders first: each pairs with all entries after it.
+    order = np.argsort(key, kind="stable") if np.all(led) else np.lexsort((~led, key))
     key_sorted = key[order]
     owner_sorted = owner[order]
-    del key, owner, order
+    led_sorted = led[order]
+    del key, owner, led, order
     start = np.flatnonzero(np.r_[True, key_sorted[1:] != key_sorted[:-1]])
     size_g = np.diff(np.r_[start, key_sorted.size])
-    # Entry `a` of the sorted list pairs with the `later[a]` entries after it in its cell.
-    later = np.repeat(size_g, size_g) - (np.arange(key_sorted.size) - np.repeat(start, size_g)) - 1
-    del start, size_g
+    after = np.repeat(size_g, size_g) - (np.arange(key_sorted.size) - np.repeat(start, size_g)) - 1
+    later = np.where(led_sorted, after, 0)
+    del start, size_g, after, led_sorted
     ends = np.cumsum(later)
-    pairs = []
-    a0 = 0
-    while a0 < key_sorted.size:
+    total = int(ends[-1])
+    a0 = base = 0
+    while base < total:
         # Entries a0 .. a1 - 1 give at most `chunk` pairs (at least one entry's worth).
-        base = int(ends[a0 - 1]) if a0 else 0
         a1 = max(int(np.searchsorted(ends, base + chunk, side="right")), a0 + 1)
         cnt = later[a0:a1]
         a = np.repeat(np.arange(a0, a1), cnt)
         b = a + 1 + (np.arange(a.size) - np.repeat(np.cumsum(cnt) - cnt, cnt))
-        fa, fb = owner_sorted[a], owner_sorted[b]
-        fa, fb = np.minimum(fa, fb), np.maximum(fa, fb)
+        la, lb = owner_sorted[a], owner_sorted[b]
         here = key_sorted[a]
         del a, b
+        low = np.maximum(i0[la], i0[lb])  # floor is monotone: the exact cell
+        fa, fb = boxes[la], boxes[lb]
         # Overlap, and this cell is the one of the intersection's low corner.
-        low = np.maximum(i0[fa], i0[fb]) - cell_lo  # floor is monotone: exact cell
-        keep = (
-            np.all((lo[fa] <= hi[fb]) & (lo[fb] <= hi[fa]), axis=1)
-            & ((low[:, 0] * span[1] + low[:, 1]) * span[2] + low[:, 2] == here)
-            & (fa != fb)
+        keep = np.all((lo[fa] <= hi[fb]) & (lo[fb] <= hi[fa]), axis=1) & (
+            (low[:, 0] * span[1] + low[:, 1]) * span[2] + low[:, 2] == here
         )
-        pairs.append(fa[keep] * n_box + fb[keep])
-        a0 = a1
-    pair = np.sort(np.concatenate(pairs)) if pairs else np.zeros(0, dtype=np.int64)
-    return pair // n_box, pair % n_box
+        fa, fb = fa[keep], fb[keep]
+        yield np.minimum(fa, fb), np.maximum(fa, fb)
+        a0, base = a1, int(ends[a1 - 1])
 
 
-def _crossing(a: FloatArray, b: FloatArray, eps: float) -> npt.NDArray[np.bool_]:
-    """Vectorised triangle-triangle crossing test on ``(P, 3, 3)`` pairs; ``(P,)`` bool."""
+def coplanar_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000) -> IntArray:
+    """Return the pairs of triangles that share no vertex and lie in one plane.
+
+    These are the pairs :func:`intersecting_pairs` leaves undecided: bounding boxes
+    overlapping, and the corners of one triangle within its tolerance (``1e-10`` of the
+    mesh extent) of the other's plane. A test without such a tolerance reads their
+    round-off as crossings at random (see :mod:`offset.jitter`).
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+    chunk : int, optional
+        Candidate pairs generated and tested at once (bounds memory).
+
+    Returns
+    -------
+    (P, 2) int64
+        Face index pairs ``i < j``, sorted.
+    """
+    if len(faces) < 2:
+        return np.zeros((0, 2), dtype=np.int64)
+    tri = vertices[faces]
+    eps = 1e-10 * max(float(np.ptp(vertices, axis=0).max()), 1e-12)
+    hits = []
+    for a, b in _candidate_chunks(tri.min(axis=1) - eps, tri.max(axis=1) + eps, chunk=chunk):
+        apart = ~(faces[a][:, :, None] == faces[b][:, None, :]).any(axis=(1, 2))
+        a, b = a[apart], b[apart]
+        _, _, da, db = _plane_distances(tri[a], tri[b], eps)
+        mask = np.all(db == 0, axis=1) | np.all(da == 0, axis=1)
+        hits.append(a[mask] * len(faces) + b[mask])
+    code = np.sort(np.concatenate(hits)) if hits else np.zeros(0, dtype=np.int64)
+    return np.stack([code // len(faces), code % len(faces)], axis=1)
+
+
+def _plane_distances(
+    a: FloatArray, b: FloatArray, eps: float
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Return the unit normals and the corners' distances to the other's plane.
+
+    For ``(P, 3, 3)`` triangles `a` and `b`: normals ``na, nb`` ``(P, 3)``, and ``da``
+    (`a`'s corners to plane `b`), ``db`` ``(P, 3)`` mm, those within `eps` set to 0.
+    """
     na = np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0])
     nb = np.cross(b[:, 1] - b[:, 0], b[:, 2] - b[:, 0])
     na /= np.maximum(np.linalg.norm(na, axis=1, keepdims=True), 1e-300)
@@ -138,6 +279,12 @@ def _crossing(a: FloatArray, b: FloatArray, eps: float) -> npt.NDArray[np.bool_]
     da = np.einsum("pij,pj->pi", a - b[:, :1], nb)
     db = np.where(np.abs(db) <= eps, 0.0, db)
     da = np.where(np.abs(da) <= eps, 0.0, da)
+    return na, nb, da, db
+
+
+def _crossing(a: FloatArray, b: FloatArray, eps: float) -> npt.NDArray[np.bool_]:
+    """Vectorised triangle-triangle crossing test on ``(P, 3, 3)`` pairs; ``(P,)`` bool."""
+    na, nb, da, db = _plane_distances(a, b, eps)
     separated = (
         np.all(db > 0, axis=1) | np.all(db < 0, axis=1) | np.all(da > 0, axis=1)
         | np.all(da < 0, axis=1)

@@ -11,7 +11,7 @@ import trimesh
 
 from offset._validate import FloatArray, IntArray
 from offset.adjacency import bend_angles, edge_adjacency, face_normals
-from offset.intersections import count_self_intersections
+from offset.intersections import count_self_intersections, intersecting_pairs
 
 #: Barycentric coordinate below which a closest point counts as on an edge / vertex.
 FEATURE_BARY = 1e-6
@@ -215,8 +215,9 @@ def nested_in(
         return False
     both_v = np.concatenate([outer[0], inner[0]])
     both_f = np.concatenate([outer[1], inner[1] + len(outer[0])])
-    crossings = count_self_intersections(both_v, both_f)
-    return crossings == count_self_intersections(*outer) + count_self_intersections(*inner)
+    # One test of both (one tolerance): a pair of one face of each must not cross.
+    pairs = intersecting_pairs(both_v, both_f)
+    return not np.any((pairs[:, 0] < len(outer[1])) & (pairs[:, 1] >= len(outer[1])))
 
 
 def winding_number(

@@ -2,10 +2,14 @@
 
 A shell (:func:`offset.offset_shells`) is exact in float64 but carries clusters of
 vertices and slivers far below a micrometre; written in float32 (trimesh's PLY export)
-they become zero-area faces and coincident vertices. Here every shell is cleaned
-(:func:`offset.clean.clean_offset_shell`), written with ``property double x/y/z``, read
-back with trimesh, and checked on what was read (:func:`offset.quality.mesh_checks`,
-after merging coincident vertices), so what is reported is what the file holds.
+they become zero-area faces and coincident vertices. Its flat regions are also exactly
+coplanar, which a triangle test without a coplanarity tolerance (MeshLab's) reads as
+crossings at random. Here every shell is cleaned (:func:`offset.clean.clean_offset_shell`),
+the vertices of coplanar triangle pairs moved by a tiny random amount
+(:func:`offset.jitter.jitter_vertices`, 1e-8 of the extent), written with
+``property double x/y/z``, read back with trimesh, and checked on what was read
+(:func:`offset.quality.mesh_checks`, after merging coincident vertices), so what is
+reported is what the file holds.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import numpy.typing as npt
 import trimesh
 
 from offset.clean import clean_offset_shell
+from offset.jitter import jitter_vertices
 from offset.quality import mesh_checks
 from offset.shells import Shell
 from pipeline import __version__
@@ -43,7 +48,10 @@ class WrittenShell:
         Where the file is (or will be, once its temporary name is renamed).
     cleaning : dict
         ``tol_mm``, ``collapsed_vertices``, ``flipped_edges``, ``max_move_mm``,
-        ``short_edges_left``, ``thin_faces_left`` (see :class:`offset.clean.CleanedMesh`).
+        ``short_edges_left``, ``thin_faces_left`` (see :class:`offset.clean.CleanedMesh`),
+        then ``jitter_mm``, ``jitter_moved_vertices``, ``jitter_kept_vertices`` and
+        ``coplanar_pairs_left`` (see :class:`offset.jitter.JitteredMesh`); a vertex moved
+        at most ``max_move_mm + jitter_mm`` in all.
     checks : dict
         :func:`offset.quality.mesh_checks` of the mesh read back.
     """
@@ -98,9 +106,10 @@ def write_shell(path: Path, shell: Shell, *, target: Path | None = None) -> Writ
     """
     name = Path(target if target is not None else path)
     cleaned_shell, cleaned = clean_offset_shell(shell)
+    jittered = jitter_vertices(cleaned_shell.vertices, cleaned_shell.faces)
     write_ply(
         path,
-        cleaned_shell.vertices,
+        jittered.vertices,
         cleaned_shell.faces,
         comment=f"shellvox {__version__} offset shell, layer {shell.layer}",
     )
@@ -134,6 +143,10 @@ def write_shell(path: Path, shell: Shell, *, target: Path | None = None) -> Writ
             "max_move_mm": cleaned.max_move_mm,
             "short_edges_left": cleaned.short_edges,
             "thin_faces_left": cleaned.thin_faces,
+            "jitter_mm": jittered.amplitude_mm,
+            "jitter_moved_vertices": jittered.n_moved,
+            "jitter_kept_vertices": jittered.n_kept,
+            "coplanar_pairs_left": jittered.coplanar_pairs,
         },
         checks=checks,
     )

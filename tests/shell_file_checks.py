@@ -30,6 +30,14 @@ def _zero_area(vertices: np.ndarray, faces: np.ndarray) -> int:
     return int(np.count_nonzero(np.linalg.norm(cross, axis=1) == 0.0))
 
 
+def _folded_edges(mesh: trimesh.Trimesh) -> int:
+    """Edges whose two faces lie back to back (normals opposite within 1e-6)."""
+    normals = np.asarray(mesh.face_normals)
+    pairs = np.asarray(mesh.face_adjacency)
+    dot = np.einsum("ij,ij->i", normals[pairs[:, 0]], normals[pairs[:, 1]])
+    return int(np.count_nonzero(dot < -1.0 + 1e-6))
+
+
 def trimesh_checks(path: Path) -> dict[str, Any]:
     """Read with trimesh, merge coincident vertices, and measure."""
     mesh = trimesh.load(path, process=False, force="mesh")
@@ -44,6 +52,7 @@ def trimesh_checks(path: Path) -> dict[str, Any]:
         "oriented": bool(mesh.is_winding_consistent) and float(mesh.volume) > 0,
         "zero_area_faces": _zero_area(v, f),
         "self_intersections": count_self_intersections(v, f),
+        "folded_edges": _folded_edges(mesh),
         "n_faces": len(f),
     }
 
@@ -67,37 +76,3 @@ def meshlab_checks(path: Path) -> dict[str, Any]:
         "self_intersecting_faces": int(ms.current_mesh().selected_face_number()),
         "n_faces": int(mesh.face_number()),
     }
-
-
-def meshlab_flags_are_coplanar_pairs(path: Path) -> bool:
-    """Return whether every face MeshLab flags as self-intersecting has a coplanar neighbour.
-
-    MeshLab's triangle-triangle test (vcg's ``NoDivTriTriIsect``) has no tolerance for
-    coplanar triangles: two triangles of one plane whose boxes overlap are reported when
-    the round-off signs of their plane distances differ. A flagged face is explained when
-    another face sharing at most one vertex lies in its plane (normals within 1e-9 and
-    corners within 1e-9 mm) with an overlapping box.
-    """
-    import pymeshlab
-
-    from offset.intersections import _candidate_pairs
-
-    ms = pymeshlab.MeshSet()
-    ms.load_new_mesh(str(path))
-    ms.compute_selection_by_self_intersections_per_face()
-    flagged = ms.current_mesh().face_selection_array()
-    mesh = trimesh.load(path, process=False, force="mesh")
-    v = np.asarray(mesh.vertices, dtype=np.float64)
-    f = np.asarray(mesh.faces, dtype=np.int64)
-    tri = v[f]
-    a, b = _candidate_pairs(tri.min(axis=1), tri.max(axis=1))
-    keep = (f[a][:, :, None] == f[b][:, None, :]).any(axis=2).sum(axis=1) < 2
-    a, b = a[keep], b[keep]
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    dist = np.abs(np.einsum("pij,pj->pi", tri[b] - tri[a][:, :1], n[a])).max(axis=1)
-    coplanar = (np.abs(np.einsum("ij,ij->i", n[a], n[b])) > 1 - 1e-9) & (dist < 1e-9)
-    partner = np.zeros(len(f), dtype=bool)
-    partner[a[coplanar]] = True
-    partner[b[coplanar]] = True
-    return bool(np.all(partner[flagged]))

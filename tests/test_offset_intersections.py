@@ -86,7 +86,7 @@ def test_intersecting_pairs_match_all_pairs_test():
     v = np.asarray(sphere.vertices) + rng.normal(0.0, 0.2, (len(sphere.vertices), 3))
     f = np.asarray(sphere.faces, dtype=np.int64)
     i, j = np.triu_indices(len(f), k=1)
-    apart = ~(f[i][:, :, None] == f[j][:, None, :]).any(axis=(1, 2))
+    apart = (f[i][:, :, None] == f[j][:, None, :]).sum(axis=(1, 2)) < 2  # no common edge
     i, j = i[apart], j[apart]
     eps = 1e-10 * float(np.ptp(v, axis=0).max())
     hit = _crossing(v[f[i]], v[f[j]], eps)
@@ -94,3 +94,93 @@ def test_intersecting_pairs_match_all_pairs_test():
     assert len(expected) > 10
     for chunk in (3, 200_000):
         np.testing.assert_array_equal(intersecting_pairs(v, f, chunk=chunk), expected)
+
+
+def _fan_and_dust(rng):
+    """A fan of 120 long slivers (10 mm) around a centre among 1500 triangles of ~1 um.
+
+    Mixed sizes as in CAD meshes: the median box is a micrometre, the slivers span ten
+    thousand such cells per axis.
+    """
+    angle = np.sort(rng.uniform(0.0, 2.0 * np.pi, 120))
+    rim = 10.0 * np.stack([np.cos(angle), np.sin(angle), rng.uniform(-0.1, 0.1, 120)], axis=1)
+    fan = np.stack([np.zeros((120, 3)), rim, np.roll(rim, -1, axis=0)], axis=1)
+    centre = np.concatenate([rng.uniform(-10.0, 10.0, (1000, 3)), rng.normal(0.0, 1e-3, (500, 3))])
+    centre[:1000, 2] *= 0.01
+    dust = centre[:, None, :] + rng.normal(0.0, 1e-3, (1500, 3, 3))
+    return np.concatenate([fan, dust])
+
+
+@pytest.mark.parametrize("shift", [0.0, 1e6])
+def test_candidate_pairs_of_long_slivers_among_dust_are_exact(shift):
+    tri = _fan_and_dust(np.random.default_rng(3)) + shift
+    lo, hi = tri.min(axis=1), tri.max(axis=1)
+    ref_i, ref_j = _brute_overlaps(lo, hi)
+    assert len(ref_i) > 5000
+    for chunk in (50, 200_000):
+        first, second = _candidate_pairs(lo, hi, chunk=chunk)
+        np.testing.assert_array_equal(first, ref_i)
+        np.testing.assert_array_equal(second, ref_j)
+
+
+def test_candidate_pairs_of_identical_points():
+    lo = np.ones((5, 3))
+    first, second = _candidate_pairs(lo, lo.copy())
+    ref_i, ref_j = np.triu_indices(5, k=1)
+    np.testing.assert_array_equal(first, ref_i)
+    np.testing.assert_array_equal(second, ref_j)
+
+
+def _brute_crossing(v, f):
+    """The narrow phase on every pair of overlapping boxes, found by testing all pairs."""
+    eps = 1e-10 * float(np.ptp(v, axis=0).max())
+    tri = v[f]
+    i, j = _brute_overlaps(tri.min(axis=1) - eps, tri.max(axis=1) + eps)
+    apart = (f[i][:, :, None] == f[j][:, None, :]).sum(axis=(1, 2)) < 2  # no common edge
+    i, j = i[apart], j[apart]
+    hit = _crossing(tri[i], tri[j], eps)
+    return np.stack([i[hit], j[hit]], axis=1)
+
+
+def test_intersecting_pairs_of_a_fan_crossing_dust_match_brute_force():
+    tri = _fan_and_dust(np.random.default_rng(4))
+    v = tri.reshape(-1, 3)
+    f = np.arange(len(v), dtype=np.int64).reshape(-1, 3)
+    expected = _brute_crossing(v, f)
+    assert len(expected) > 10
+    np.testing.assert_array_equal(intersecting_pairs(v, f, chunk=1000), expected)
+
+
+def test_robust_offset_of_a_cylinder_checks_its_shell_exactly():
+    # The cylinder's caps are fans of long triangles; its robust shell mixes them with
+    # micrometre slivers (a median box of 3 um beside 9 mm ones), where a single grid of
+    # the median cell needed about 4e9 cells (a 30 GiB allocation).
+    from offset import offset_shells
+
+    cylinder = trimesh.creation.cylinder(radius=5.0, height=10.0, sections=64)
+    (shell,) = offset_shells(cylinder.vertices, cylinder.faces, [0.5])
+    v, f = shell.vertices, shell.faces
+    tri = v[f]
+    lo, hi = tri.min(axis=1), tri.max(axis=1)
+    ref_i, ref_j = _brute_overlaps(lo, hi)
+    first, second = _candidate_pairs(lo, hi, chunk=5000)
+    np.testing.assert_array_equal(first, ref_i)
+    np.testing.assert_array_equal(second, ref_j)
+    assert len(intersecting_pairs(v, f)) == len(_brute_crossing(v, f)) == 0
+
+
+@pytest.mark.parametrize(
+    ("apex", "expected"),
+    [
+        ([0.5, 0.5, 1.0], 0),  # a fan around the shared vertex: apart beyond it
+        ([0.5, -0.5, 0.0], 0),  # meets z = 0 beside triangle 0
+        ([1.0, 1.0, -1.0], 1),  # passes through the other triangle beyond the vertex
+    ],
+)
+def test_pairs_sharing_one_vertex(apex, expected):
+    # Triangle 0 in z = 0; triangle 1 shares its vertex 0 (the origin) and runs from
+    # there through (1, 1, 0.5)...: its segment in z = 0 starts at the origin and, for
+    # the last apex, crosses the interior of triangle 0.
+    v = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [1, 1, 1], apex], dtype=np.float64)
+    f = np.array([[0, 1, 2], [0, 3, 4]])
+    assert count_self_intersections(v, f) == expected
