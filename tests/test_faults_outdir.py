@@ -31,11 +31,13 @@ def test_rebuild_with_other_options_replaces_the_old_build(tmp_path, shells):
     assert_succeeded(old, out)
     assert_succeeded(run(["inspect", str(out)], tmp_path / "inspect"), out)
     old_files = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
-    assert {"volume.vdb", "preview/xy_mid.png"} <= old_files
+    assert {"volume.vdb", "materials.tif", "preview/xy_mid.png"} <= old_files
     assert ("shells/shell_3.ply" in old_files) == shells
     (out / "notes.txt").write_text("mine")  # not shellvox's: stays
-    # New: two layers, no VDB, no shell meshes.
-    new = run(build_argv(out, "--thickness", "0.4,0.4", "--no-vdb"), tmp_path / "b")
+    # New: two layers, no VDB, no materials, no shell meshes.
+    new = run(
+        build_argv(out, "--thickness", "0.4,0.4", "--no-vdb", "--no-materials"), tmp_path / "b"
+    )
     assert_succeeded(new, out)
     manifest = verified_files(out, extra=("notes.txt",))  # every file listed, checksums
     assert set(manifest["files"]) == {"layers.tif", "colour.tif"}
@@ -59,7 +61,7 @@ def test_concurrent_builds_into_one_folder(tmp_path):
     # second build and inspect surely meet it. Both are refused at once; the first, let
     # go on, completes intact.
     out = tmp_path / "out"
-    first = Command(build_argv(out), tmp_path / "first")
+    first = Command(build_argv(out, "--thickness", "0.5,0.5"), tmp_path / "first")
     wait_for(lambda: len(first.workers()) == 2, what="the first build's slab workers")
     os.killpg(first.pid, signal.SIGSTOP)
     try:

@@ -20,7 +20,6 @@ from collections.abc import Sequence
 from types import ModuleType
 from typing import NoReturn
 
-from offset.robust import ShellDefectWarning
 from pipeline import __version__
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.faults import DeferredSignals, describe, signals_raise, unblock_signals
@@ -78,7 +77,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             # Our own warnings are shown as one line each; library chatter is not.
             warnings.simplefilter("ignore")
             warnings.simplefilter("always", ShellvoxWarning)
-            warnings.simplefilter("always", ShellDefectWarning)  # offset cannot import pipeline
+            # offset's own warning class (offset cannot import pipeline); imported here, not
+            # at the top: importing this package must stay light (signals are held back
+            # from the first line of `python -m pipeline.cli`, which imports it first)
+            from offset.robust import ShellDefectWarning
+
+            warnings.simplefilter("always", ShellDefectWarning)
             warnings.showwarning = _show_warning
             return _run(argv)
     finally:
