@@ -21,13 +21,18 @@ C B A, ...) on a machine shared with other jobs; each run records the load avera
 the CPU the rest of the machine used meanwhile (``/proc/stat`` minus the child's own
 rusage). The done-when: B adds at most 30 % to A's time (median ratio over rounds).
 ``profile``: A and B once each under ``py-spy record --subprocesses`` (sampling the
-main process, its writer threads and the slab workers); CPU seconds per part of the
-build (the innermost recognised frame of each sample).
+main process, its writer threads and the slab workers); seconds sampled per part of
+the build (the innermost recognised frame of each sample). Samples count running *or
+runnable* threads, so on a busy machine they exceed CPU time: see ``cpu``.
 ``memory``: peak RSS of B summed over the process tree, the model and the model twice
 as tall (``--slab-mb 256`` as ``bench_build.py memory``).
 ``report``: the colour report (default thickness rule) for spot, duck, airplane at 30 mm
 and the default model, and the default model with ``--thickness 0.5,0.5``.
 ``compile``: the numba kernels' first call with an empty cache and with a warm one.
+``cpu``: A and B with one worker (every part in one process), the CPU time
+(``time.thread_time``) of each part of the build, by wrapping its functions in this
+process (compute_slab's own is an undercount: libigl's threads do part of it).
+``reparse``: parse the kept py-spy samples (``results/*_pyspy_*.txt.gz``) again.
 Results go to ``benchmarks/results/bench_materials_build.json`` (one key per part).
 A benchmark, not a test.
 """
@@ -38,6 +43,7 @@ import argparse
 import collections
 import fcntl
 import functools
+import gzip
 import json
 import os
 import re
@@ -434,9 +440,12 @@ def reparse(args: argparse.Namespace) -> dict[str, Any]:
     """Parse the kept py-spy files again (after a change of the categories)."""
     stored = json.loads(RESULTS.read_text())["profile"]
     for variant in ("A", "B"):
-        raw = HERE / "results" / f"bench_materials_build_pyspy_{variant}.txt"
+        kept = HERE / "results" / f"bench_materials_build_pyspy_{variant}.txt.gz"
+        raw = Path(tempfile.mkdtemp()) / "raw.txt"
+        raw.write_bytes(gzip.decompress(kept.read_bytes()))
         run = stored["runs"][variant]
         stored["runs"][variant] = {"build": run["build"], **_parse_raw(raw, stored["rate_hz"])}
+        shutil.rmtree(raw.parent)
     a = stored["runs"]["A"]["sampled_s_by_part"]
     b = stored["runs"]["B"]["sampled_s_by_part"]
     extra = {k: round(b.get(k, 0.0) - a.get(k, 0.0), 1) for k in {*a, *b}}
@@ -464,7 +473,8 @@ def profile(args: argparse.Namespace) -> dict[str, Any]:
         parsed = _parse_raw(raw, rate)
         results["runs"][variant] = {"build": run, **parsed}
         print(variant, _brief(run), json.dumps(parsed["sampled_s_by_part"]), flush=True)
-        shutil.copy(raw, HERE / "results" / f"bench_materials_build_pyspy_{variant}.txt")
+        kept = HERE / "results" / f"bench_materials_build_pyspy_{variant}.txt.gz"
+        kept.write_bytes(gzip.compress(raw.read_bytes()))  # for ``reparse``
     a = results["runs"]["A"]["sampled_s_by_part"]
     b = results["runs"]["B"]["sampled_s_by_part"]
     extra = {k: round(b.get(k, 0.0) - a.get(k, 0.0), 1) for k in {*a, *b}}
