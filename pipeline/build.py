@@ -39,7 +39,7 @@ from pipeline.mesh import ColouredMesh
 from pipeline.outdir import OutputFolder
 from pipeline.printer_profile import PrinterProfile
 from pipeline.shell_files import write_shell
-from pipeline.slab_runner import SlabRunner, resolve_workers
+from pipeline.slab_runner import SlabRunner, material_tally, resolve_workers
 from pipeline.stack_outputs import StackOutputs
 from voxel.agreement import shell_agreement
 from voxel.atomic import atomic_path, write_text_atomic
@@ -143,12 +143,21 @@ def build_stack(
         say(estimate.line())
     plan = None
     if profile is not None and config.material is not None:
+        tick = time.perf_counter()
         plan = build_material_plan(
             profile, config.material, colour_layers=config.colour_layers, n_bands=len(depth)
         )
+        # Compile (or load) the halftone kernel here, once, so the forked workers inherit
+        # it instead of each loading it again.
+        materials_for_slab(np.ones((1, 1, 1), np.uint8), np.zeros((1, 1, 1, 4), np.uint8), 0, plan)
+        extra_seconds = {"material_plan": time.perf_counter() - tick}
+    else:
+        extra_seconds = {}
     job = _Job(mesh, config, grid, thickness, faces, rows, workers, profile, plan, progress)
     with OutputFolder(out_dir) as folder:
-        manifest = job.run(out_dir, folder, started, {"estimate": dataclasses.asdict(estimate)})
+        manifest = job.run(
+            out_dir, folder, started, {"estimate": dataclasses.asdict(estimate)}, extra_seconds
+        )
     return manifest
 
 
@@ -168,11 +177,15 @@ class _Job:
     progress: bool | None
 
     def run(
-        self, out_dir: Path, folder: OutputFolder, started: float, extra: dict[str, Any]
+        self,
+        out_dir: Path,
+        folder: OutputFolder,
+        started: float,
+        extra: dict[str, Any],
+        seconds: dict[str, float],
     ) -> dict[str, Any]:
         """Compute and write every slab, then the shells, the report and the manifest."""
         mesh, config, grid = self.mesh, self.config, self.grid
-        seconds: dict[str, float] = {}
         depth = np.cumsum(self.thickness, axis=0)
         by_distance = config.layer_rule == "distance"
         with contextlib.ExitStack() as stack:
@@ -220,13 +233,14 @@ class _Job:
             tick = time.perf_counter()
             carry = None
             for item in slabs:
-                slab, materials = item.slab, item.materials
+                slab, materials, counts = item
                 if self.plan is not None and materials is None:  # error diffusion, z order
                     diffused = materials_for_slab(
                         slab.layers, slab.rgba, slab.z_start, self.plan, carry=carry
                     )
                     materials, carry = diffused.materials, diffused.carry
-                tally.add(slab, materials)
+                    counts = material_tally(slab.layers, materials, model.n_bands + 2)
+                tally.add(slab, counts)
                 sampler.add(slab.z_start, slab.layers)
                 if report is not None and materials is not None:
                     report.add_slab(slab.z_start, materials)
@@ -298,7 +312,9 @@ class _Job:
                 manifest["materials"] = tally.materials(self.profile)
                 manifest["material_voxels_per_layer"] = tally.per_layer(self.profile)
             if report is not None:
+                tick = time.perf_counter()
                 manifest["colour_report"] = self._report_result(report)
+                seconds["colour_report"] = time.perf_counter() - tick
             manifest.update(extra)
         # Every file is in place (renamed when the stack closed); the manifest comes last.
         manifest["files"] = folder.commit(written)
@@ -359,13 +375,14 @@ class _Tally:
             "block_queries": 0,
         }
 
-    def add(self, slab: SlabResult, materials: NDArray[np.uint8] | None) -> None:
-        layers = slab.layers.ravel()
-        self.counts += np.bincount(layers, minlength=self.n_layers)[: self.n_layers]
-        if materials is not None:
-            pairs = layers.astype(np.int64) * 256 + materials.ravel()
-            found = np.bincount(pairs, minlength=self.n_layers * 256)[: self.n_layers * 256]
-            self.by_material += found.reshape(self.n_layers, 256)
+    def add(self, slab: SlabResult, by_material: NDArray[np.int64] | None) -> None:
+        """Count a slab; `by_material` is its (layers, 256) tally when it has materials."""
+        if by_material is not None:  # counted in the worker
+            self.by_material += by_material
+            self.counts += by_material.sum(axis=1)
+        else:
+            layers = slab.layers.ravel()
+            self.counts += np.bincount(layers, minlength=self.n_layers)[: self.n_layers]
         self.diagnostics["unbalanced_rows"] += slab.n_unbalanced_rows
         self.diagnostics["nesting_violations"] += slab.n_nesting_violations
         self.diagnostics["nearest_queries"] += slab.n_nearest_queries

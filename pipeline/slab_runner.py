@@ -50,10 +50,22 @@ class StackSlab(NamedTuple):
     materials : (Zs, Y, X) uint8 or None
         Material index per voxel (0 void); None without a plan or with error diffusion
         (the caller runs it in z order).
+    tally : (L, 256) int64 or None
+        Voxels per layer (rows, ``L = K + 2``) and material (columns), with `materials`.
     """
 
     slab: SlabResult
     materials: NDArray[np.uint8] | None
+    tally: NDArray[np.int64] | None = None
+
+
+def material_tally(
+    layers: NDArray[np.uint8], materials: NDArray[np.uint8], n_layers: int
+) -> NDArray[np.int64]:
+    """Return voxels per layer and material ``(n_layers, 256) int64`` of a slab."""
+    pairs = layers.reshape(-1).astype(np.uint16) * 256 + materials.reshape(-1)
+    counts = np.bincount(pairs, minlength=n_layers * 256)[: n_layers * 256]
+    return counts.reshape(n_layers, 256).astype(np.int64)
 
 
 def stack_slab(
@@ -63,7 +75,8 @@ def stack_slab(
     slab = compute_slab(model, grid, z_start, z_stop)
     if plan is None or plan.halftone != "blue-noise":
         return StackSlab(slab, None)
-    return StackSlab(slab, materials_for_slab(slab.layers, slab.rgba, z_start, plan).materials)
+    materials = materials_for_slab(slab.layers, slab.rgba, z_start, plan).materials
+    return StackSlab(slab, materials, material_tally(slab.layers, materials, plan.core_layer + 1))
 
 
 def resolve_workers(workers: int) -> int:

@@ -5,10 +5,13 @@ part at a surface point and comes back has seen the materials under it along the
 normal, those at depth ``s`` weighted by ``exp(-s / L)`` (a single-scattering,
 exponentially attenuated contribution; ``L`` the optical depth, mm). The predicted colour
 of the point is the weighted mean, in linear light, of the display colours of the material
-voxels the inward ray passes (void voxels, outside the part, carry no weight), down to
-``4 L`` (98 % of the weight). With that model a thin colour layer lets the white backing
-show through and a deep one does not: exactly the effect the colour-adaptive thickness is
-meant to control.
+voxels the inward rays pass (void voxels, outside the part, carry no weight), down to
+``4 L`` (98 % of the weight). Light also spreads sideways about as far as it goes down,
+so the rays start on a disc of radius ``L`` around the point (a golden-angle spiral of
+`lateral_rays` points in the tangent plane): the halftone's grain is averaged as the
+eye sees it, not read one voxel column at a time. With that model a thin colour layer
+lets the white backing show through and a deep one does not: exactly the effect the
+colour-adaptive thickness is meant to control.
 
 :class:`ColourReport` is fed slab by slab (:meth:`ColourReport.add_slab`), like the
 writers, so it needs only the sample rays in memory, never the volume. The difference to
@@ -115,26 +118,35 @@ class ColourReport:
         display_srgb: NDArray[np.uint8],
         *,
         optical_depth_mm: float = 0.25,
+        lateral_rays: int = 8,
     ) -> None:
-        if not optical_depth_mm > 0:
-            raise ValueError(f"optical_depth_mm must be > 0, got {optical_depth_mm}")
+        if not optical_depth_mm > 0 or lateral_rays < 1:
+            raise ValueError(
+                "optical_depth_mm must be > 0 and lateral_rays >= 1, got "
+                f"{optical_depth_mm} and {lateral_rays}"
+            )
         self.samples = samples
         self.grid = grid
         self.optical_depth_mm = float(optical_depth_mm)
+        self.lateral_rays = int(lateral_rays)
         self._display_linear = srgb_to_linear(np.asarray(display_srgb, np.uint8)).astype(
             np.float64
         )
-        step = 0.5 * min(grid.voxel_mm)
+        step = min(grid.voxel_mm)
         depths = (np.arange(int(np.ceil(4 * optical_depth_mm / step))) + 0.5) * step
         n, k = len(samples.points), len(depths)
-        points = samples.points[:, None, :] - samples.normals[:, None, :] * depths[None, :, None]
-        index = np.rint(grid.world_to_index(points.reshape(-1, 3))).astype(np.int64)
+        starts = samples.points[:, None, :] + _disc(samples.normals, optical_depth_mm, lateral_rays)
+        rays = starts[:, :, None, :] - samples.normals[:, None, None, :] * depths[:, None]
+        index = np.rint(grid.world_to_index(rays.reshape(-1, 3))).astype(np.int64)
+        del rays
         shape = np.asarray(grid.shape_zyx)
         valid = np.all((index >= 0) & (index < shape), axis=1)
-        weight = np.broadcast_to(np.exp(-depths / optical_depth_mm), (n, k)).reshape(-1)
-        sample = np.repeat(np.arange(n), k)
+        weight = np.broadcast_to(
+            np.exp(-depths / optical_depth_mm).astype(np.float32), (n, lateral_rays, k)
+        ).reshape(-1)
+        sample = np.repeat(np.arange(n, dtype=np.int32), lateral_rays * k)
         order = np.argsort(index[valid, 0], kind="stable")
-        self._z = index[valid, 0][order]
+        self._z = index[valid, 0][order].astype(np.int32)
         self._yx = (index[valid, 1] * grid.shape_zyx[2] + index[valid, 2])[order]
         self._weight = weight[valid][order]
         self._sample = sample[valid][order]
@@ -189,6 +201,27 @@ class ColourReport:
             "ciede2000": _stats(delta[seen]),
             "per_region": per_region,
         }
+
+
+def _disc(
+    normals: NDArray[np.float64], radius: float, count: int
+) -> NDArray[np.float64]:
+    """Return offsets ``(N, count, 3)`` on a disc of `radius` in each point's tangent plane.
+
+    A golden-angle spiral (even density); one point is the centre when ``count == 1``.
+    """
+    helper = np.where(np.abs(normals[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    u = np.cross(normals, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(normals, u)
+    i = np.arange(count)
+    r = radius * np.sqrt((i + 0.5) / count) if count > 1 else np.zeros(1)
+    theta = i * np.pi * (3.0 - np.sqrt(5.0))
+    a, b = r * np.cos(theta), r * np.sin(theta)
+    offsets: NDArray[np.float64] = (
+        a[None, :, None] * u[:, None, :] + b[None, :, None] * v[:, None, :]
+    )
+    return offsets
 
 
 def delta_e_2000(srgb_a: NDArray[np.float64], srgb_b: NDArray[np.float64]) -> NDArray[np.float64]:
