@@ -186,3 +186,18 @@ def test_icc_must_be_a_readable_cmyk_profile(tmp_path):
     settings = MaterialSettings(icc=rgb_profile)
     with pytest.raises(InputError, match=r"srgb\.icc: .*CMYK.*give a CMYK output profile"):
         build_material_plan(load_profile("j750"), settings, colour_layers=(1,), n_bands=2)
+
+
+def test_mixing_table_disk_cache_round_trip(tmp_path, monkeypatch):
+    from voxel import separation
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    colours = ((0, 89, 158), (161, 35, 99), (213, 178, 0), (30, 30, 30), (220, 222, 216))
+    separation._mixing_table.cache_clear()
+    first = separation._mixing_table(colours, 51)  # solved, then written
+    assert len(list((tmp_path / "shellvox").glob("mixing-*.npy"))) == 1
+    separation._mixing_table.cache_clear()
+    again = separation._mixing_table(colours, 51)  # read from disk
+    assert np.array_equal(again, separation._solve_mixing_table(colours, 51))
+    assert np.array_equal(first, again)
+    separation._mixing_table.cache_clear()

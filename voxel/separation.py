@@ -57,8 +57,11 @@ halftones", Proc. SPIE 3648 (1999).
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import hashlib
 import itertools
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -66,6 +69,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel.atomic import atomic_path
 from voxel.colour import srgb_to_linear
 from voxel.material_kernels import proportions_kernel
 
@@ -208,9 +212,47 @@ def mixing_separation(
     return Separation(all_roles, step, table, clear_role is not None, "mixing")
 
 
+#: Bump when the mixing model changes: cached tables of another version are not read.
+_TABLE_VERSION = 1
+
+
+def _cache_dir() -> Path:
+    """Where solved tables are kept between runs (``$XDG_CACHE_HOME/shellvox``)."""
+    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(root) / "shellvox"
+
+
 @functools.lru_cache(maxsize=4)
 def _mixing_table(colours: tuple[tuple[int, ...], ...], step: int) -> NDArray[np.float32]:
-    """Return the mixing table ``(G, G, G, P) float32`` (cached: it takes about a second)."""
+    """Return the mixing table ``(G, G, G, P) float32``.
+
+    Solving it takes about two seconds, so it is cached in memory and on disk (keyed by
+    the colours, the step, the model's version and numpy's); an unreadable or unwritable
+    cache only costs the solve.
+    """
+    key = hashlib.sha256(
+        repr((colours, step, _TABLE_VERSION, np.__version__)).encode()
+    ).hexdigest()[:24]
+    path = _cache_dir() / f"mixing-{key}.npy"
+    try:
+        cached: NDArray[np.float32] = np.load(path, allow_pickle=False)
+        if cached.dtype == np.float32 and cached.shape[-1] == len(colours):
+            cached.setflags(write=False)
+            return cached
+    except (OSError, ValueError):
+        pass
+    table = _solve_mixing_table(colours, step)
+    with contextlib.suppress(OSError):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as temporary, open(temporary, "wb") as stream:
+            np.save(stream, table, allow_pickle=False)
+    return table
+
+
+def _solve_mixing_table(
+    colours: tuple[tuple[int, ...], ...], step: int
+) -> NDArray[np.float32]:
+    """Solve the mixing table at every node (see :func:`mix_proportions`)."""
     codes = node_codes(step)
     grid = np.stack(np.meshgrid(codes, codes, codes, indexing="ij"), axis=-1).reshape(-1, 3)
     proportions = mix_proportions(
