@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import hashlib
 import json
 import math
 import time
@@ -36,7 +35,7 @@ from pipeline.face_thickness import FaceThickness, thickness_summary, write_thic
 from pipeline.faults import DeferredSignals
 from pipeline.material_plan import build_material_plan
 from pipeline.mesh import ColouredMesh
-from pipeline.outdir import OutputFolder
+from pipeline.outdir import OutputFolder, sha256
 from pipeline.printer_profile import PrinterProfile
 from pipeline.shell_files import write_shell
 from pipeline.slab_runner import SlabRunner, material_tally, resolve_workers
@@ -551,14 +550,9 @@ def _stats(values: NDArray[np.float64]) -> dict[str, float]:
 
 
 def _sha256(source: str) -> str | None:
+    """SHA-256 of the input file, or None when the mesh came from no file."""
     path = Path(source)
-    if not source or not path.is_file():
-        return None
-    digest = hashlib.sha256()
-    with path.open("rb") as stream:
-        for block in iter(lambda: stream.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
+    return sha256(path) if source and path.is_file() else None
 
 
 def timed_shells(

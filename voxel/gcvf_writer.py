@@ -69,7 +69,6 @@ from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from types import TracebackType
 from typing import Literal
 
 import numpy as np
@@ -77,7 +76,7 @@ from numpy.typing import NDArray
 
 from voxel.grid import GridSpec
 from voxel.png_encode import encode_png
-from voxel.slab_thread import SlabThread
+from voxel.slab_thread import ClosingWriter, SlabThread
 
 MM_PER_INCH = 25.4
 IMAGE_PREFIX = "layer_"
@@ -143,7 +142,7 @@ class GcvfSummary:
     voxel_counts: dict[int, int]
 
 
-class GcvfWriter:
+class GcvfWriter(ClosingWriter):
     """Write a ``.gcvf`` job from ``(Zs, Y, X)`` uint8 material-index slabs (module docstring).
 
     Parameters
@@ -356,20 +355,6 @@ class GcvfWriter:
                 self._zip.close()
             self._zip = None
             self.path.unlink(missing_ok=True)
-
-    def __enter__(self) -> GcvfWriter:
-        return self
-
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        trace: TracebackType | None,
-    ) -> None:
-        if kind is None:
-            self.close()
-        else:
-            self.abort()
 
     def _encode(self, plane: NDArray[np.uint8]) -> bytes:
         """One slice ``(Y, X)`` of indices -> PNG of keys, rows in the chosen order."""

@@ -25,7 +25,6 @@ import tempfile
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from types import TracebackType
 from typing import Any, Literal
 
 import numpy as np
@@ -33,14 +32,14 @@ from numpy.typing import NDArray
 
 from voxel.grid import GridSpec
 from voxel.png_encode import encode_png
-from voxel.slab_thread import SlabThread
+from voxel.slab_thread import ClosingWriter, SlabThread
 
 SIDECAR_NAME = "slices.json"
 MM_PER_METRE = 1000.0
 MM_PER_INCH = 25.4
 
 
-class PngSliceWriter:
+class PngSliceWriter(ClosingWriter):
     """Write ``(Zs, Y, X, 4)`` uint8 RGBA slabs as a folder of PNG slices.
 
     Parameters
@@ -163,20 +162,6 @@ class PngSliceWriter:
         if self._temporary is not None:
             shutil.rmtree(self._temporary, ignore_errors=True)
             self._temporary = None
-
-    def __enter__(self) -> PngSliceWriter:
-        return self
-
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        trace: TracebackType | None,
-    ) -> None:
-        if kind is None:
-            self.close()
-        else:
-            self.abort()
 
     def _encode(self, plane: NDArray[np.uint8]) -> bytes:
         if self.first_row == "max_y":

@@ -12,6 +12,7 @@ from __future__ import annotations
 import queue
 import threading
 from collections.abc import Callable
+from types import TracebackType
 from typing import Generic, TypeVar
 
 Item = TypeVar("Item")
@@ -90,3 +91,35 @@ class SlabThread(Generic[Item]):
                 self._consume(item)  # type: ignore[arg-type]
             except BaseException as error:  # reported to the caller by put()/finish()
                 self._error = error
+
+
+class ClosingWriter:
+    """A streaming writer as a context manager: ``close()`` on success, ``abort()`` on error.
+
+    Subclasses define ``close`` (finish the file) and ``abort`` (stop and remove it).
+    """
+
+    def close(self) -> object:
+        """Finish the output (subclasses)."""
+        raise NotImplementedError
+
+    def abort(self) -> None:
+        """Stop without finishing; leave no output (subclasses)."""
+        raise NotImplementedError
+
+    def __enter__(self: W) -> W:
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        trace: TracebackType | None,
+    ) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
+
+
+W = TypeVar("W", bound=ClosingWriter)

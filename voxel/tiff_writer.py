@@ -14,7 +14,6 @@ import threading
 import warnings
 from collections.abc import Iterator
 from pathlib import Path
-from types import TracebackType
 from typing import Any
 
 import numpy as np
@@ -22,6 +21,7 @@ import tifffile
 from numpy.typing import NDArray
 
 from voxel.grid import GridSpec
+from voxel.slab_thread import ClosingWriter
 
 #: Classic TIFF holds at most 4 GiB; BigTIFF is chosen when the raw data could exceed this.
 CLASSIC_TIFF_LIMIT = 2**32 - 2**26
@@ -29,7 +29,7 @@ CLASSIC_TIFF_LIMIT = 2**32 - 2**26
 _DONE = None
 
 
-class TiffStackWriter:
+class TiffStackWriter(ClosingWriter):
     """Write a ``(Z, Y, X[, S])`` uint8 stack to ``path`` one slab at a time.
 
     Parameters
@@ -108,20 +108,6 @@ class TiffStackWriter:
                 except queue.Full:
                     continue
                 self._thread.join(timeout=0.1)
-
-    def __enter__(self) -> TiffStackWriter:
-        return self
-
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        trace: TracebackType | None,
-    ) -> None:
-        if kind is None:
-            self.close()
-        else:
-            self.abort()
 
     def _put(self, item: NDArray[np.uint8] | None) -> None:
         while True:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import sys
 import time
@@ -23,7 +22,7 @@ from pipeline.config import ShellConfig, as_json
 from pipeline.errors import InputError
 from pipeline.face_thickness import thickness_summary, write_thickness_ply
 from pipeline.loading import load_model
-from pipeline.outdir import SHELL_OUTPUTS, OutputFolder
+from pipeline.outdir import SHELL_OUTPUTS, OutputFolder, sha256
 from pipeline.shell_files import save_shells
 from voxel.atomic import write_text_atomic
 
@@ -104,7 +103,7 @@ def _write(
     _say("measuring the shells" + ("" if args.no_baselines else " and the baselines"))
     report: dict[str, Any] = {
         "tool": f"shellvox {__version__}",
-        "input": {"path": str(args.model), "sha256": _sha256(args.model)},
+        "input": {"path": str(args.model), "sha256": sha256(args.model)},
         "config": as_json(config),
         "seconds": {"offset": offset_seconds},
     }
@@ -142,13 +141,6 @@ def _write(
     print(f"{out / 'report.json'}")
     return 0
 
-
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as stream:
-        for block in iter(lambda: stream.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def _say(message: str) -> None:
