@@ -42,7 +42,6 @@ from pipeline.slab_runner import SlabRunner, material_tally, resolve_workers
 from pipeline.stack_outputs import StackOutputs
 from voxel.agreement import shell_agreement
 from voxel.atomic import atomic_path, write_text_atomic
-from voxel.blocks import COARSE, fine_block_size
 from voxel.colour import srgb_to_linear
 from voxel.colour_report import ColourReport, sample_surface, thickness_effect
 from voxel.grid import GridRangeError, GridSpec
@@ -122,12 +121,7 @@ def build_stack(
     grid = grid_for(mesh, config)
     check_depth(mesh, depth, force=force, source=config.thickness_source)
     workers = resolve_workers(config.workers)
-    # the rows of a coarse block (voxel.slab.aligned_rows): whole ones waste no block queries
-    reach = config.sdf_half_width_mm
-    if config.layer_rule == "distance":
-        reach = max(float(depth.max()), reach)
-    rows_align = fine_block_size(grid, reach)[0] * COARSE if reach > 0 else 1
-    rows = slab_rows_for(grid, config.slab_mb, rows_align)
+    rows = slab_rows_for(grid, config.slab_mb)
     estimate = estimate_build(
         grid.shape_zyx,
         grid.voxel_mm,
@@ -201,10 +195,13 @@ class _Job:
                 ),
                 surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
                 colour_at=mesh.colour_at,
+                surface_colour=mesh.surface_colour(),
                 colour_layers=config.colour_layers,
                 sdf_half_width_mm=config.sdf_half_width_mm,
                 depth_mm=depth if by_distance else None,
             )
+            # the scan's tables, computed once here and inherited by the forked workers
+            _ = model.surface.regions, model.surface.triangles
             n_z = grid.shape_zyx[0]
             # Before any other thread (shell pool, writers, progress bar) starts: the slab
             # workers are forked.
@@ -371,7 +368,7 @@ class _Tally:
             "unbalanced_rows": 0,
             "nesting_violations": 0,
             "nearest_queries": 0,
-            "block_queries": 0,
+            "distance_tests": 0,
         }
 
     def add(self, slab: SlabResult, by_material: NDArray[np.int64] | None) -> None:
@@ -385,7 +382,7 @@ class _Tally:
         self.diagnostics["unbalanced_rows"] += slab.n_unbalanced_rows
         self.diagnostics["nesting_violations"] += slab.n_nesting_violations
         self.diagnostics["nearest_queries"] += slab.n_nearest_queries
-        self.diagnostics["block_queries"] += slab.n_block_queries
+        self.diagnostics["distance_tests"] += slab.n_distance_tests
 
     def materials(self, profile: PrinterProfile) -> list[dict[str, Any]]:
         totals = self.by_material.sum(axis=0)
@@ -567,11 +564,7 @@ def timed_shells(
     return shells, time.perf_counter() - tick
 
 
-def slab_rows_for(grid: GridSpec, slab_mb: float, align: int = 1) -> int:
-    """Return the slab height (rows) whose working arrays fit ``slab_mb`` MiB.
-
-    Rounded down to a multiple of ``align`` rows where the budget holds at least that many.
-    """
+def slab_rows_for(grid: GridSpec, slab_mb: float) -> int:
+    """Return the slab height (rows) whose working arrays fit ``slab_mb`` MiB."""
     per_row = grid.shape_zyx[1] * grid.shape_zyx[2] * BYTES_PER_VOXEL
-    rows = max(1, math.floor(slab_mb * 2**20 / per_row))
-    return rows - rows % align if rows >= align else rows
+    return max(1, math.floor(slab_mb * 2**20 / per_row))

@@ -9,6 +9,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.texture import Material, decode_uint8, encode_uint8
+from voxel.surface_colour import (
+    CONSTANT,
+    FACE,
+    FILTER_CODES,
+    TEXTURE,
+    VERTEX,
+    WRAP_CODES,
+    SurfaceColour,
+)
 
 ColourKind = Literal["texture", "vertex", "face", "none"]
 
@@ -149,3 +158,60 @@ class ColouredMesh:
                 linear[chosen] = self.materials[index].sample(uv[chosen])
             return encode_uint8(linear)
         return np.broadcast_to(self.default_rgba, (len(face_ids), 4)).copy()
+
+    def surface_colour(self) -> SurfaceColour:
+        """Return the colour source as arrays, for the compiled voxel colour kernel.
+
+        :func:`voxel.surface_colour.voxel_colours` gives the same colours as
+        :meth:`colour_at` at the exact nearest points.
+        """
+        n_faces = self.n_faces
+        no_uv = np.zeros((0, 3, 2))
+        no_material = np.zeros(0, dtype=np.int64)
+        pixels = np.zeros(0, dtype=np.uint8)
+        image = np.zeros((0, 3), dtype=np.int64)
+        wrap = np.zeros((0, 2), dtype=np.int64)
+        filters = np.zeros(0, dtype=np.int64)
+        factor = np.zeros((0, 4))
+        if self.colour_kind == "face":
+            assert self.face_rgba is not None
+            rgba = np.repeat(self.face_rgba[:, None, :], 3, axis=1)
+            return SurfaceColour(
+                FACE, rgba, no_uv, no_material, pixels, image, wrap, filters, factor
+            )
+        if self.colour_kind == "vertex":
+            assert self.corner_rgba is not None
+            return SurfaceColour(
+                VERTEX, np.ascontiguousarray(self.corner_rgba, dtype=np.uint8), no_uv,
+                no_material, pixels, image, wrap, filters, factor,
+            )  # fmt: skip
+        if self.colour_kind == "texture":
+            assert self.corner_uv is not None and self.face_material is not None
+            images = [m.image for m in self.materials]
+            sizes = [0 if im is None else im.size for im in images]
+            offsets = np.r_[0, np.cumsum(sizes)[:-1]].astype(np.int64)
+            image = np.array(
+                [
+                    (offset, 0, 0) if im is None else (offset, im.shape[0], im.shape[1])
+                    for offset, im in zip(offsets, images, strict=True)
+                ],
+                dtype=np.int64,
+            ).reshape(-1, 3)
+            parts = [im.reshape(-1) for im in images if im is not None]
+            pixels = np.concatenate(parts).astype(np.uint8) if parts else pixels
+            wrap = np.array(
+                [[WRAP_CODES[m.wrap[0]], WRAP_CODES[m.wrap[1]]] for m in self.materials],
+                dtype=np.int64,
+            ).reshape(-1, 2)
+            filters = np.array([FILTER_CODES[m.filter] for m in self.materials], dtype=np.int64)
+            factor = np.array([m.factor for m in self.materials], dtype=np.float64).reshape(-1, 4)
+            return SurfaceColour(
+                TEXTURE, np.zeros((n_faces, 3, 4), np.uint8)[:0],
+                np.ascontiguousarray(self.corner_uv, dtype=np.float64),
+                np.ascontiguousarray(self.face_material, dtype=np.int64),
+                pixels, image, wrap, filters, factor,
+            )  # fmt: skip
+        rgba = np.asarray(self.default_rgba, dtype=np.uint8).reshape(1, 1, 4).repeat(3, axis=1)
+        return SurfaceColour(
+            CONSTANT, rgba, no_uv, no_material, pixels, image, wrap, filters, factor
+        )

@@ -19,7 +19,6 @@ Modules
 - :mod:`voxel.separation`, :mod:`voxel.materials` colour to one material per voxel.
 - :mod:`voxel.winding` exact inside tests (row-crossing winding numbers, symbolic ties).
 - :mod:`voxel.nearest` exact nearest surface points; :mod:`voxel.colour` their colours.
-- :mod:`voxel.blocks` distance bounds of whole voxel blocks (which voxels need a query).
 - :mod:`voxel.slab` ``compute_slab``: the pure per-slab function (layers, colours, SDF band).
 - :mod:`voxel.tiff_writer`, :mod:`voxel.vdb_writer` (with :mod:`voxel.vdb_format`),
   :mod:`voxel.preview`: serialisation only.

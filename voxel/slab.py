@@ -9,9 +9,9 @@ Two layer realisations:
   band ``k`` when ``D_{k-1}(f) <= d < D_k(f)``, with ``d`` its exact distance to the
   original surface and ``f`` the face of its nearest point; this is the ideal offset
   (rounded at reflex features, collapsing in thin walls) sampled exactly at the voxel
-  centres. Block bounds (:mod:`voxel.blocks`) settle whole blocks that lie in one band
-  or in the core; only voxels in blocks that straddle a band limit, that take colour or
-  that reach into the signed-distance band are queried one by one.
+  centres. Every face is scan-converted into the voxels within the deepest band limit
+  (:mod:`voxel.distance_scan`, compiled), which gives each of them its exact nearest
+  face; deeper inside voxels are core by the inside test alone.
 * **shells** (``depth_mm`` None): a voxel's layer is how many of the nested closed
   surfaces ``surfaces`` contain its centre (exact winding numbers).
 """
@@ -24,10 +24,12 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.blocks import COARSE, block_bounds, fine_block_size
 from voxel.colour import ColourAt, nearest_colour
+from voxel.distance_scan import nearest_in_reach, nearest_within
 from voxel.grid import GridSpec
+from voxel.layer_kernel import assign_layers, colour_voxels
 from voxel.nearest import SurfaceIndex, nearest_faces, on_faces
+from voxel.surface_colour import SurfaceColour, voxel_colours
 from voxel.winding import winding_slab
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
@@ -53,6 +55,9 @@ class StackModel:
     depth_mm : (K, F) float64, mm, optional
         Cumulative depth ``D_k(f)`` of each band per original face (non-decreasing in
         ``k``). Given: layers by distance, and ``surfaces`` needs only the original.
+    surface_colour : SurfaceColour, optional
+        The colour source as arrays: colours by the compiled kernel
+        (:mod:`voxel.surface_colour`), which gives what `colour_at` gives.
     """
 
     surfaces: tuple[Surface, ...]
@@ -61,6 +66,7 @@ class StackModel:
     colour_layers: tuple[int, ...] = (1,)
     sdf_half_width_mm: float = 0.0
     depth_mm: NDArray[np.float64] | None = None
+    surface_colour: SurfaceColour | None = None
 
     def __post_init__(self) -> None:
         if not self.surfaces:
@@ -110,9 +116,9 @@ class SlabResult(NamedTuple):
     n_nesting_violations : int
         Voxels inside a shell but outside the surface around it.
     n_nearest_queries : int
-        Nearest-point queries made (one per queried voxel).
-    n_block_queries : int
-        Distance queries of block centres (:mod:`voxel.blocks`).
+        Voxels given their exact nearest face (by the scan, or by a query beyond it).
+    n_distance_tests : int
+        Point-triangle distance tests of the scan (its work).
     """
 
     z_start: int
@@ -124,28 +130,27 @@ class SlabResult(NamedTuple):
     n_unbalanced_rows: int
     n_nesting_violations: int
     n_nearest_queries: int
-    n_block_queries: int
+    n_distance_tests: int
 
 
-def block_reach_mm(model: StackModel) -> float:
-    """Return the distance (mm) within which voxels may need a query (0: none by distance)."""
+def reach_mm(model: StackModel) -> float:
+    """Return the distance (mm) within which inside voxels need their nearest face.
+
+    Distance layers need it out to the deepest band limit, so anything farther is core;
+    the signed-distance band needs it out to its half width. Shell layers need the
+    nearest face only for colour, which is found by a query where it lies farther.
+    """
     if model.depth_mm is not None:
         return max(float(model.depth_mm.max()), model.sdf_half_width_mm)
     return model.sdf_half_width_mm
 
 
-def aligned_rows(model: StackModel, grid: GridSpec) -> int:
-    """Return the rows of a coarse block: slabs of a multiple of them waste no block queries."""
-    reach = block_reach_mm(model)
-    return fine_block_size(grid, reach)[0] * COARSE if reach > 0 else 1
-
-
 def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -> SlabResult:
     """Return layers, colours and the signed-distance band of rows ``z_start..z_stop``.
 
-    Needs no halo: inside tests run along x rows and distance bounds come from block
-    queries (:mod:`voxel.blocks`), so a slab reads nothing beyond its own rows and any
-    split into slabs gives the same arrays.
+    Needs no halo: inside tests run along x rows and every face within reach of the
+    slab is scan-converted into it (:mod:`voxel.distance_scan`), so a slab reads
+    nothing beyond its own rows and any split into slabs gives the same arrays.
 
     Parameters
     ----------
@@ -159,7 +164,7 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     Returns
     -------
     SlabResult
-        Arrays of shape ``(z_stop - z_start, Y, X)``; memory is a few times the slab's.
+        Arrays of shape ``(z_stop - z_start, Y, X)``; memory is about 24 bytes a voxel.
     """
     n_z = grid.shape_zyx[0]
     if not 0 <= z_start < z_stop <= n_z:
@@ -172,82 +177,87 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     inside = outer.winding > 0
     del outer
     shape = (inside.shape[0], inside.shape[1], inside.shape[2])
-    colour_values = np.asarray(model.colour_layers, dtype=np.uint8)
     half_width = model.sdf_half_width_mm
-    violations = n_block = 0
+    violations = 0
+    by_distance = model.depth_mm is not None
     if model.depth_mm is None:
         layers, unbalanced_shells, violations = _shell_layers(model, grid, inside, z_start)
         unbalanced += unbalanced_shells
-        query = np.isin(layers, colour_values)
-        if half_width > 0:
-            bounds = block_bounds(model.surface, grid, z_start, z_stop, half_width)
-            query |= bounds.expand(bounds.lower_mm < half_width, shape)
-            n_block = bounds.n_queries
+        depth = np.zeros((0, len(faces)))
     else:
-        layers, query, n_block = _distance_plan(model, grid, inside, z_start, z_stop)
-    flat = np.flatnonzero(query)
-    del query
+        layers = np.empty(shape, dtype=np.uint8)
+        depth = np.ascontiguousarray(model.depth_mm, dtype=np.float64)
+    reach = reach_mm(model)
+    if reach > 0:
+        near = nearest_in_reach(
+            model.surface.vertices, model.surface.faces, grid, z_start, z_stop, reach,
+            inside=inside, outside_reach_mm=half_width, regions=model.surface.regions,
+            tri=model.surface.triangles,
+        )  # fmt: skip
+        squared, face, n_tests = near
+    else:
+        squared = np.zeros(shape)
+        face = np.full(shape, -1, dtype=np.int32)
+        n_tests = 0
+    is_colour = np.zeros(256, dtype=bool)
+    is_colour[list(model.colour_layers)] = True
+    sdf = np.empty(shape, dtype=np.float32)
+    sdf_band = np.empty(shape, dtype=bool)
+    n_colour, n_unreached = assign_layers(
+        inside, squared, face, depth, by_distance, half_width, is_colour, layers, sdf, sdf_band
+    )
+    del squared
+    flat = colour_voxels(layers, is_colour, n_colour)
+    face_ids = face.reshape(-1)[flat].astype(np.int64)
+    n_reached = int(np.count_nonzero(face >= 0))
+    del face
     index = np.stack(np.unravel_index(flat, shape), axis=1)
     index[:, 0] += z_start
     points = grid.index_to_world(index)
     del index
-    face_ids, distance_mm = nearest_faces(model.surface, points)
-    queried_inside = inside.ravel()[flat]
-    if model.depth_mm is not None:
-        # band k where D_{k-1}(f) <= d < D_k(f), f the nearest face
-        depth = model.depth_mm[:, face_ids[queried_inside]]
-        deeper = (distance_mm[queried_inside][None, :] >= depth).sum(axis=0)
-        layers.reshape(-1)[flat[queried_inside]] = (1 + deeper).astype(np.uint8)
-
-    # barycentric coordinates only where a colour is needed
-    in_colour = np.isin(layers.ravel()[flat], colour_values)
+    if n_unreached:
+        face_ids = _beyond_reach(model.surface, grid, z_start, shape, flat, points, face_ids)
     rgba = np.zeros((*shape, 4), dtype=np.uint8)
-    nearest = on_faces(model.surface, points[in_colour], face_ids[in_colour])
+    if model.surface_colour is not None:
+        rgba.reshape(-1, 4)[flat] = voxel_colours(
+            points, face_ids, model.surface.vertices, model.surface.faces, model.surface_colour
+        )
+    else:
+        nearest = on_faces(model.surface, points, face_ids)
+        rgba.reshape(-1, 4)[flat] = nearest_colour(nearest, model.colour_at)
     del points
-    rgba.reshape(-1, 4)[flat[in_colour]] = nearest_colour(nearest, model.colour_at)
-    half = np.float32(half_width)
-    sdf = np.where(inside, -half, half).astype(np.float32)
-    sdf_band = np.zeros(shape, dtype=bool)
-    close = distance_mm < half_width
-    band_flat = flat[close]
-    distance = distance_mm[close]
-    signed = np.where(queried_inside[close], -distance, distance)
-    sdf.reshape(-1)[band_flat] = signed.astype(np.float32)
-    sdf_band.reshape(-1)[band_flat] = True
     return SlabResult(
-        z_start, z_stop, layers, rgba, sdf, sdf_band, unbalanced, violations, len(flat), n_block
-    )
+        z_start, z_stop, layers, rgba, sdf, sdf_band, unbalanced, violations,
+        n_reached + n_unreached, n_tests,
+    )  # fmt: skip
 
 
-def _distance_plan(
-    model: StackModel, grid: GridSpec, inside: NDArray[np.bool_], z_start: int, z_stop: int
-) -> tuple[NDArray[np.uint8], NDArray[np.bool_], int]:
-    """Layers known from block bounds, and the voxels that need their own query.
+def _beyond_reach(
+    surface: SurfaceIndex,
+    grid: GridSpec,
+    z_start: int,
+    shape: tuple[int, int, int],
+    flat: NDArray[np.int64],
+    points: NDArray[np.float64],
+    face_ids: NDArray[np.int64],
+) -> NDArray[np.int64]:
+    """Fill in the nearest faces (-1 in ``face_ids``) of colour voxels beyond the reach.
 
-    A block whose distance bounds ``[lo, hi]`` fit between two band limits for every face
-    (``lo >= max_f D_{b-1}(f)`` and ``hi < min_f D_b(f)``) lies wholly in band ``b``; its
-    inside voxels need no query unless ``b`` takes colour or the block reaches into the
-    signed-distance band. Returns layers ``(Zs, Y, X) uint8`` (0 outside, the block's
-    band inside where known, 0 where queried), the query mask and the block queries made.
+    Shell layers, or a coloured core, can lie deeper than the scan's reach. The tree
+    gives each such voxel its distance; a second scan out to just that distance then
+    picks its face by the same rule as the first (lowest index among ties), so a voxel's
+    colour does not depend on how far it lies.
     """
-    assert model.depth_mm is not None
-    shape = (inside.shape[0], inside.shape[1], inside.shape[2])
-    half_width = model.sdf_half_width_mm
-    deepest = model.depth_mm.max(axis=1)
-    shallowest = model.depth_mm.min(axis=1)
-    bounds = block_bounds(model.surface, grid, z_start, z_stop, block_reach_mm(model))
-    lo, hi = bounds.lower_mm, bounds.upper_mm
-    band_lo = 1 + (lo[..., None] >= deepest).sum(axis=-1)
-    band_hi = 1 + (hi[..., None] >= shallowest).sum(axis=-1)
-    code = np.where(band_lo == band_hi, band_lo, 0).astype(np.uint8)
-    code[np.isin(code, np.asarray(model.colour_layers, dtype=np.uint8))] = 0
-    code[lo < half_width] = 0  # the sdf band (none when the half width is 0: lo >= 0)
-    known = bounds.expand(code, shape)
-    layers = np.where(inside, known, np.uint8(0))
-    query = inside & (known == 0)
-    if half_width > 0:
-        query |= ~inside & bounds.expand(lo < half_width, shape)
-    return layers, query, bounds.n_queries
+    far = np.flatnonzero(face_ids < 0)
+    distance = nearest_faces(surface, points[far])[1]
+    wanted = np.zeros(shape)
+    wanted.reshape(-1)[flat[far]] = (distance * (1 + 1e-9) + 1e-12) ** 2
+    again = nearest_within(
+        surface.vertices, surface.faces, grid, z_start, wanted, surface.regions, surface.triangles
+    )
+    face_ids = face_ids.copy()
+    face_ids[far] = again.face.reshape(-1)[flat[far]]
+    return face_ids
 
 
 def _shell_layers(

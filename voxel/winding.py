@@ -23,15 +23,14 @@ References
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from voxel.grid import GridSpec
-
-#: Row-triangle candidates processed at once (bounds temporary memory).
-CANDIDATES_PER_CHUNK = 2_000_000
 
 
 class WindingSlab(NamedTuple):
@@ -97,26 +96,10 @@ def winding_slab(
     index = (vertices - np.asarray(grid.origin_mm)) / np.asarray(grid.voxel_mm)
     counts = np.zeros((z_stop - z_start, n_y, n_x + 1), dtype=np.int16)
     chosen, j_lo, j_hi, k_lo, k_hi = _covered_rows(index, faces, n_y, z_start, z_stop)
-    n_rows = (j_hi - j_lo + 1) * (k_hi - k_lo + 1)
-    bounds = np.searchsorted(
-        np.cumsum(n_rows),
-        np.arange(1, 1 + n_rows.sum() // CANDIDATES_PER_CHUNK) * CANDIDATES_PER_CHUNK,
-    )
-    for part in np.split(np.arange(len(chosen)), np.unique(bounds)):
-        if len(part):
-            _scatter_crossings(
-                index,
-                faces[chosen[part]],
-                j_lo[part],
-                k_lo[part],
-                j_hi[part] - j_lo[part] + 1,
-                n_rows[part],
-                counts,
-                z_start,
-            )
-    totals = counts.sum(axis=2, dtype=np.int64)
-    winding = np.cumsum(counts[:, :, :n_x], axis=2, dtype=np.int16)
-    return WindingSlab(winding, int(np.count_nonzero(totals)))
+    _scatter_crossings(index, faces, chosen, j_lo, j_hi, k_lo, k_hi, counts, z_start)
+    winding = np.empty((z_stop - z_start, n_y, n_x), dtype=np.int16)
+    unbalanced = _prefix_sums(counts, winding)
+    return WindingSlab(winding, int(unbalanced))
 
 
 def _covered_rows(
@@ -134,54 +117,90 @@ def _covered_rows(
     return chosen, j_lo[chosen], j_hi[chosen], k_lo[chosen], k_hi[chosen]
 
 
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _edge_sign(
+    index: NDArray[np.float64], v_a: int, v_b: int, row_u: float, row_w: float
+) -> tuple[float, float]:
+    """Edge function of row ``(u, w)`` for edge ``a -> b`` and its symbolic sign.
+
+    Evaluated with the smaller vertex index first, so both faces of an edge see the same
+    numbers; a zero value takes the sign of the perturbed row ``(u + e, w + e**2)``.
+    """
+    flip = v_a > v_b
+    low, high = (v_b, v_a) if flip else (v_a, v_b)
+    du = index[high, 1] - index[low, 1]
+    dw = index[high, 2] - index[low, 2]
+    value = du * (row_w - index[low, 2]) - dw * (row_u - index[low, 1])
+    if value != 0.0:
+        sign = 1.0 if value > 0.0 else -1.0
+    elif dw != 0.0:
+        sign = -1.0 if dw > 0.0 else 1.0
+    else:
+        sign = 1.0 if du > 0.0 else (-1.0 if du < 0.0 else 0.0)
+    if flip:
+        return -sign, -value
+    return sign, value
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _scatter_crossings(
     index: NDArray[np.float64],
     faces: NDArray[np.int64],
+    chosen: NDArray[np.int64],
     j_lo: NDArray[np.int64],
+    j_hi: NDArray[np.int64],
     k_lo: NDArray[np.int64],
-    n_j: NDArray[np.int64],
-    n_rows: NDArray[np.int64],
+    k_hi: NDArray[np.int64],
     counts: NDArray[np.int16],
     z_start: int,
 ) -> None:
-    """Add each face's signed crossings with its candidate rows into ``counts`` (in place)."""
-    owner = np.repeat(np.arange(len(faces)), n_rows)
-    local = np.arange(len(owner)) - np.repeat(np.cumsum(n_rows) - n_rows, n_rows)
-    row_u = (j_lo[owner] + local % n_j[owner]).astype(np.float64)
-    row_w = (k_lo[owner] + local // n_j[owner]).astype(np.float64)
-    face_vertices = faces[owner]
-    # Edge i is opposite corner i: (1, 2), (2, 0), (0, 1).
-    edge_sign = []
-    edge_value = []
-    for start, stop in ((1, 2), (2, 0), (0, 1)):
-        v_a, v_b = face_vertices[:, start], face_vertices[:, stop]
-        flip = v_a > v_b
-        low, high = np.where(flip, v_b, v_a), np.where(flip, v_a, v_b)
-        du = index[high, 1] - index[low, 1]
-        dw = index[high, 2] - index[low, 2]
-        value = du * (row_w - index[low, 2]) - dw * (row_u - index[low, 1])
-        tie = np.where(dw != 0, -np.sign(dw), np.sign(du))
-        sign = np.where(value != 0, np.sign(value), tie)
-        edge_sign.append(np.where(flip, -sign, sign))
-        edge_value.append(np.where(flip, -value, value))
-    corners = index[faces]
-    area2: NDArray[np.float64] = (corners[:, 1, 1] - corners[:, 0, 1]) * (
-        corners[:, 2, 2] - corners[:, 0, 2]
-    ) - (corners[:, 1, 2] - corners[:, 0, 2]) * (corners[:, 2, 1] - corners[:, 0, 1])
-    orientation = np.sign(area2)[owner]
-    inside = (
-        (orientation != 0)
-        & (edge_sign[0] == orientation)
-        & (edge_sign[1] == orientation)
-        & (edge_sign[2] == orientation)
-    )
-    hit = np.flatnonzero(inside)
-    weights = np.stack([edge_value[0][hit], edge_value[1][hit], edge_value[2][hit]], axis=1)
-    weights /= weights.sum(axis=1, keepdims=True)
-    crossing_x = np.einsum("nc,nc->n", weights, index[face_vertices[hit], 0])
+    """Add each chosen face's signed crossings with its candidate rows into ``counts``."""
     n_x = counts.shape[2] - 1
-    column = np.clip(np.ceil(crossing_x), 0, n_x).astype(np.int64)
-    row_y = row_u[hit].astype(np.int64)
-    row_z = row_w[hit].astype(np.int64) - z_start
-    contribution = (-orientation[hit]).astype(np.int16)
-    np.add.at(counts, (row_z, row_y, column), contribution)
+    for n in range(len(chosen)):
+        f = chosen[n]
+        v0, v1, v2 = faces[f, 0], faces[f, 1], faces[f, 2]
+        area2 = (index[v1, 1] - index[v0, 1]) * (index[v2, 2] - index[v0, 2]) - (
+            index[v1, 2] - index[v0, 2]
+        ) * (index[v2, 1] - index[v0, 1])
+        if area2 == 0.0:
+            continue
+        orientation = 1.0 if area2 > 0.0 else -1.0
+        contribution = np.int16(-1 if area2 > 0.0 else 1)
+        for k in range(k_lo[n], k_hi[n] + 1):
+            row_w = float(k)
+            for j in range(j_lo[n], j_hi[n] + 1):
+                row_u = float(j)
+                # Edge i is opposite corner i: (1, 2), (2, 0), (0, 1).
+                s0, e0 = _edge_sign(index, v1, v2, row_u, row_w)
+                if s0 != orientation:
+                    continue
+                s1, e1 = _edge_sign(index, v2, v0, row_u, row_w)
+                if s1 != orientation:
+                    continue
+                s2, e2 = _edge_sign(index, v0, v1, row_u, row_w)
+                if s2 != orientation:
+                    continue
+                total = e0 + e1 + e2
+                crossing_x = (
+                    e0 / total * index[v0, 0] + e1 / total * index[v1, 0]
+                ) + e2 / total * index[v2, 0]
+                column = min(max(math.ceil(crossing_x), 0), n_x)
+                counts[k - z_start, j, column] += contribution
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _prefix_sums(counts: NDArray[np.int16], winding: NDArray[np.int16]) -> int:
+    """Fill ``winding`` with the running sums of ``counts`` along x; return unbalanced rows."""
+    n_z, n_y, n_x = winding.shape
+    unbalanced = 0
+    for k in range(n_z):
+        for j in range(n_y):
+            running = np.int16(0)
+            row = counts[k, j]
+            out = winding[k, j]
+            for i in range(n_x):
+                running += row[i]
+                out[i] = running
+            if running + row[n_x] != 0:
+                unbalanced += 1
+    return unbalanced
