@@ -377,8 +377,7 @@ class _Tally:
             self.by_material += by_material
             self.counts += by_material.sum(axis=1)
         else:
-            layers = slab.layers.ravel()
-            self.counts += np.bincount(layers, minlength=self.n_layers)[: self.n_layers]
+            self.counts += slab.layer_counts
         self.diagnostics["unbalanced_rows"] += slab.n_unbalanced_rows
         self.diagnostics["nesting_violations"] += slab.n_nesting_violations
         self.diagnostics["nearest_queries"] += slab.n_nearest_queries
@@ -564,7 +563,12 @@ def timed_shells(
     return shells, time.perf_counter() - tick
 
 
-def slab_rows_for(grid: GridSpec, slab_mb: float) -> int:
-    """Return the slab height (rows) whose working arrays fit ``slab_mb`` MiB."""
+def slab_rows_for(grid: GridSpec, slab_mb: float, align: int = 8) -> int:
+    """Return the slab height (rows) whose working arrays fit ``slab_mb`` MiB.
+
+    A multiple of ``align`` rows (the VDB leaf height: slabs then need no regrouping)
+    where the budget holds at least that many.
+    """
     per_row = grid.shape_zyx[1] * grid.shape_zyx[2] * BYTES_PER_VOXEL
-    return max(1, math.floor(slab_mb * 2**20 / per_row))
+    rows = max(1, math.floor(slab_mb * 2**20 / per_row))
+    return rows - rows % align if rows >= align else rows

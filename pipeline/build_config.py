@@ -51,8 +51,9 @@ class BuildConfig:
         Processes computing slabs at once (0: one per core; 1: in the calling process).
     alpha : bool
         Write ``colour.tif`` as RGBA instead of RGB.
-    compression_level : int
-        zlib level of the TIFFs (1 fast .. 9 small).
+    compression_level : int, optional
+        zlib level of the TIFFs (1 fast .. 9 small); None (default): a compiled run
+        encoder, several times faster, files up to twice the size (:mod:`voxel.deflate`).
     formats : tuple of {"tiff", "vdb", "gcvf", "png"}
         Files to write: ``tiff`` = ``layers.tif``, ``colour.tif`` and ``materials.tif``;
         ``vdb`` = ``volume.vdb``; ``gcvf`` = ``job.gcvf`` (GrabCAD Voxel Print);
@@ -79,7 +80,7 @@ class BuildConfig:
     slab_mb: float = 512.0
     workers: int = 0
     alpha: bool = False
-    compression_level: int = 6
+    compression_level: int | None = None
     formats: tuple[str, ...] = ("tiff", "vdb")
     material: MaterialSettings | None = field(default_factory=MaterialSettings)
     report_samples: int = 20_000
@@ -102,8 +103,10 @@ class BuildConfig:
             raise ValueError(f"layer_rule must be 'distance' or 'shells', got {self.layer_rule!r}")
         if self.workers < 0:
             raise ValueError(f"workers must be >= 0 (0: one per core), got {self.workers}")
-        if not 1 <= self.compression_level <= 9:
-            raise ValueError(f"compression_level must be 1..9, got {self.compression_level}")
+        if self.compression_level is not None and not 1 <= self.compression_level <= 9:
+            raise ValueError(
+                f"compression_level must be 1..9 or None, got {self.compression_level}"
+            )
         unknown = set(self.formats) - set(FORMATS)
         if unknown:
             raise ValueError(f"formats must be among {FORMATS}, got {sorted(unknown)}")

@@ -33,11 +33,13 @@ from numpy.typing import NDArray
 from pipeline.children import ChildPool
 from pipeline.errors import SlabWorkerDied
 from pipeline.faults import raise_if_interrupted
+from pipeline.slab_slots import SlabInSlot, SlabSlots
 from voxel.grid import GridSpec
+from voxel.layer_kernel import layer_material_counts
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.slab import SlabResult, StackModel, compute_slab
 
-_WORKER: tuple[StackModel, GridSpec, MaterialPlan | None] | None = None
+_WORKER: tuple[StackModel, GridSpec, MaterialPlan | None, SlabSlots] | None = None
 
 
 class StackSlab(NamedTuple):
@@ -63,9 +65,8 @@ def material_tally(
     layers: NDArray[np.uint8], materials: NDArray[np.uint8], n_layers: int
 ) -> NDArray[np.int64]:
     """Return voxels per layer and material ``(n_layers, 256) int64`` of a slab."""
-    pairs = layers.reshape(-1).astype(np.uint16) * 256 + materials.reshape(-1)
-    counts = np.bincount(pairs, minlength=n_layers * 256)[: n_layers * 256]
-    return counts.reshape(n_layers, 256).astype(np.int64)
+    counts: NDArray[np.int64] = layer_material_counts(layers, materials, n_layers)
+    return counts
 
 
 def stack_slab(
@@ -124,10 +125,12 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         self._ranges = iter([(z, min(n_z, z + rows)) for z in range(0, n_z, rows)])
         self.workers = max(1, min(workers, -(-n_z // rows)))
         self._pool: ChildPool | None = None
-        self._pending: collections.deque[Future[StackSlab]] = collections.deque()
+        self._pending: collections.deque[Future[SlabInSlot]] = collections.deque()
         if self.workers > 1:
             global _WORKER
-            _WORKER = (model, grid, plan)  # inherited by the forked workers
+            # workers, plus slabs the writers may still hold (queues of 2 per thread)
+            self._slots = SlabSlots(self.workers + 6, (min(rows, n_z), *grid.shape_zyx[1:]))
+            _WORKER = (model, grid, plan, self._slots)  # inherited by the forked workers
             self._pool = ChildPool(self.workers)
             try:
                 for _ in range(self.workers):  # the first submit forks every worker
@@ -139,7 +142,8 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
     def _submit(self) -> None:
         job = next(self._ranges, None)
         if job is not None and self._pool is not None:
-            self._pending.append(self._pool.submit(_worker_slab, *job))
+            slot = self._slots.take()
+            self._pending.append(self._pool.submit(_worker_slab, *job, slot))
 
     def __exit__(
         self,
@@ -161,7 +165,9 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         while self._pending:
             raise_if_interrupted()  # a signal whose exception a library swallowed
             try:
-                result = self._pending.popleft().result()
+                item = self._pending.popleft().result()
+                slab, materials = self._slots.load(item)
+                result = StackSlab(slab, materials, item.tally)
                 self._submit()
             except BrokenProcessPool:  # from result() or from submit()
                 raise SlabWorkerDied(
@@ -171,7 +177,8 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
             yield result
 
 
-def _worker_slab(z_start: int, z_stop: int) -> StackSlab:
+def _worker_slab(z_start: int, z_stop: int, slot: int) -> SlabInSlot:
     assert _WORKER is not None, "slab workers must be forked by SlabRunner"
-    model, grid, plan = _WORKER
-    return stack_slab(model, grid, plan, z_start, z_stop)
+    model, grid, plan, slots = _WORKER
+    done = stack_slab(model, grid, plan, z_start, z_stop)
+    return slots.store(slot, done.slab, done.materials, done.tally)

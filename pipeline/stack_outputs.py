@@ -104,7 +104,7 @@ class StackOutputs:
                 )
 
     def _tiff(
-        self, stack: contextlib.ExitStack, name: str, samples: int, level: int
+        self, stack: contextlib.ExitStack, name: str, samples: int, level: int | None
     ) -> TiffStackWriter:
         path = stack.enter_context(atomic_path(self.out_dir / name))
         self.written.append(self.out_dir / name)

@@ -28,7 +28,8 @@ def assign_layers(
     layers: NDArray[np.uint8],
     sdf: NDArray[np.float32],
     sdf_band: NDArray[np.bool_],
-) -> tuple[int, int]:
+    counts: NDArray[np.int64],
+) -> tuple[int, int, int]:
     """Fill ``layers`` (by distance), ``sdf`` and ``sdf_band`` of a slab in place.
 
     Parameters
@@ -54,6 +55,8 @@ def assign_layers(
         Output: signed distance in the band, ``-+half_width`` inside / outside elsewhere.
     sdf_band : (Zs, Y, X) bool
         Output: ``|sdf| < half_width``.
+    counts : (256,) int64
+        Output: voxels per layer (added to).
 
     Returns
     -------
@@ -61,6 +64,8 @@ def assign_layers(
         Voxels in a colour layer.
     n_unreached : int
         Of those, voxels without a nearest face (beyond the reach).
+    n_reached : int
+        Voxels with a nearest face.
     """
     n_z, n_y, n_x = inside.shape
     n_bands = depth.shape[0]
@@ -69,6 +74,7 @@ def assign_layers(
     minus = np.float32(-half_width)
     n_colour = 0
     n_unreached = 0
+    n_reached = 0
     for k in range(n_z):
         for j in range(n_y):
             row_inside = inside[k, j]
@@ -83,7 +89,10 @@ def assign_layers(
                 layer = row_layers[i]
                 value = minus if is_in else plus
                 band = False
-                distance = math.sqrt(row_squared[i]) if f >= 0 else math.inf
+                distance = math.inf
+                if f >= 0:
+                    distance = math.sqrt(row_squared[i])
+                    n_reached += 1
                 if by_distance:
                     if not is_in:
                         layer = np.uint8(0)
@@ -101,11 +110,12 @@ def assign_layers(
                     row_layers[i] = layer
                 row_sdf[i] = value
                 row_band[i] = band
+                counts[layer] += 1
                 if is_colour[layer]:
                     n_colour += 1
                     if f < 0:
                         n_unreached += 1
-    return n_colour, n_unreached
+    return n_colour, n_unreached, n_reached
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -121,3 +131,16 @@ def colour_voxels(
             out[n] = index
             n += 1
     return out[:n]
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def layer_material_counts(
+    layers: NDArray[np.uint8], materials: NDArray[np.uint8], n_layers: int
+) -> NDArray[np.int64]:
+    """Return voxels per layer and material ``(n_layers, 256) int64`` (one pass)."""
+    counts = np.zeros((n_layers, 256), dtype=np.int64)
+    flat_layers = layers.reshape(-1)
+    flat_materials = materials.reshape(-1)
+    for index in range(flat_layers.size):
+        counts[flat_layers[index], flat_materials[index]] += 1
+    return counts

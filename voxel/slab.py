@@ -30,7 +30,7 @@ from voxel.grid import GridSpec
 from voxel.layer_kernel import assign_layers, colour_voxels
 from voxel.nearest import SurfaceIndex, nearest_faces, on_faces
 from voxel.surface_colour import SurfaceColour, voxel_colours
-from voxel.winding import winding_slab
+from voxel.winding import inside_slab
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
 
@@ -119,6 +119,8 @@ class SlabResult(NamedTuple):
         Voxels given their exact nearest face (by the scan, or by a query beyond it).
     n_distance_tests : int
         Point-triangle distance tests of the scan (its work).
+    layer_counts : (K + 2,) int64
+        Voxels per layer (0 outside .. K + 1 core).
     """
 
     z_start: int
@@ -131,6 +133,7 @@ class SlabResult(NamedTuple):
     n_nesting_violations: int
     n_nearest_queries: int
     n_distance_tests: int
+    layer_counts: NDArray[np.int64]
 
 
 def reach_mm(model: StackModel) -> float:
@@ -172,10 +175,7 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
             f"slab rows must satisfy 0 <= z_start < z_stop <= {n_z}, got {z_start}, {z_stop}"
         )
     vertices, faces = model.surfaces[0]
-    outer = winding_slab(vertices, faces, grid, z_start, z_stop)
-    unbalanced = outer.n_unbalanced_rows
-    inside = outer.winding > 0
-    del outer
+    inside, unbalanced = inside_slab(vertices, faces, grid, z_start, z_stop)
     shape = (inside.shape[0], inside.shape[1], inside.shape[2])
     half_width = model.sdf_half_width_mm
     violations = 0
@@ -203,13 +203,14 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     is_colour[list(model.colour_layers)] = True
     sdf = np.empty(shape, dtype=np.float32)
     sdf_band = np.empty(shape, dtype=bool)
-    n_colour, n_unreached = assign_layers(
-        inside, squared, face, depth, by_distance, half_width, is_colour, layers, sdf, sdf_band
-    )
+    layer_counts = np.zeros(256, dtype=np.int64)
+    n_colour, n_unreached, n_reached = assign_layers(
+        inside, squared, face, depth, by_distance, half_width, is_colour, layers, sdf, sdf_band,
+        layer_counts,
+    )  # fmt: skip
     del squared
     flat = colour_voxels(layers, is_colour, n_colour)
     face_ids = face.reshape(-1)[flat].astype(np.int64)
-    n_reached = int(np.count_nonzero(face >= 0))
     del face
     index = np.stack(np.unravel_index(flat, shape), axis=1)
     index[:, 0] += z_start
@@ -228,7 +229,7 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     del points
     return SlabResult(
         z_start, z_stop, layers, rgba, sdf, sdf_band, unbalanced, violations,
-        n_reached + n_unreached, n_tests,
+        n_reached + n_unreached, n_tests, layer_counts[: model.n_bands + 2],
     )  # fmt: skip
 
 
@@ -276,9 +277,10 @@ def _shell_layers(
         if len(shell_faces) == 0:
             previous = np.zeros_like(inside)
             continue
-        shell = winding_slab(shell_vertices, shell_faces, grid, z_start, z_stop)
-        unbalanced += shell.n_unbalanced_rows
-        contained = shell.winding > 0
+        contained, shell_unbalanced = inside_slab(
+            shell_vertices, shell_faces, grid, z_start, z_stop
+        )
+        unbalanced += shell_unbalanced
         violations += int(np.count_nonzero(contained & ~previous))
         layers += contained
         previous = contained

@@ -235,7 +235,7 @@ def _encode(linear: float, threshold: NDArray[np.float64], start: NDArray[np.int
     code = start[int(x * ENCODE_BINS)]
     while threshold[code + 1] <= x:
         code += 1
-    return code
+    return int(code)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -300,16 +300,6 @@ def _colour_kernel(
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _texel(
-    pixels: NDArray[np.uint8], offset: int, width: int, row: int, col: int, ch: int,
-    decode: NDArray[np.float64],
-) -> float:  # fmt: skip
-    """Linear value of channel ``ch`` of a texel."""
-    code = pixels[offset + (row * width + col) * 4 + ch]
-    return decode[code] if ch < 3 else code / 255.0
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _sample(
     u: float, t: float, m: int,
     pixels: NDArray[np.uint8], image: NDArray[np.int64], wrap: NDArray[np.int64],
@@ -327,8 +317,11 @@ def _sample(
     if filter_mode[m] == NEAREST:
         col = _wrap(math.floor(x + 0.5), width, wrap[m, 0])
         row = _wrap(math.floor(y + 0.5), height, wrap[m, 1])
+        base = offset + (row * width + col) * 4
         for ch in range(4):
-            linear[ch] = _texel(pixels, offset, width, row, col, ch, decode) * factor[m, ch]
+            code = pixels[base + ch]
+            texel = decode[code] if ch < 3 else code / 255.0
+            linear[ch] = texel * factor[m, ch]
         return
     x0 = math.floor(x)
     y0 = math.floor(y)

@@ -5,6 +5,11 @@ Each file is written by its own thread from a bounded queue, so the caller pushe
 ``queue_slabs`` slabs wait in memory. Pages are ``(Y, X)`` (or ``(Y, X, S)`` RGB) planes,
 one per z, deflate (zlib) compressed, with ImageJ metadata ``spacing`` (z), ``unit='mm'``
 and TIFF resolution tags (pixels per mm in x and y) so Fiji shows true size.
+
+Each page is one strip, compressed in the writer thread before tifffile writes it as
+is: by default with the run encoder of :mod:`voxel.deflate` (compiled, GIL released,
+2.5 to 5 times zlib's speed on voxel slices, files up to twice zlib's size), or with
+zlib at a given level (smaller files, slower). Both are TIFF compression 8 (deflate).
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ from __future__ import annotations
 import queue
 import threading
 import warnings
+import zlib
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -20,6 +26,7 @@ import numpy as np
 import tifffile
 from numpy.typing import NDArray
 
+from voxel.deflate import pixel_bytes, zlib_compress
 from voxel.grid import GridSpec
 from voxel.slab_thread import ClosingWriter
 
@@ -40,8 +47,8 @@ class TiffStackWriter(ClosingWriter):
         Gives the number of pages, page shape and physical voxel size.
     samples : int
         0 for a grey stack ``(Z, Y, X)``; 3 (RGB) or 4 (RGBA) for colour ``(Z, Y, X, S)``.
-    compression_level : int
-        zlib level 1..9.
+    compression_level : int, optional
+        zlib level 1..9; None (default): the run encoder (:mod:`voxel.deflate`).
     queue_slabs : int
         Slabs that may wait for the writer thread.
 
@@ -57,13 +64,13 @@ class TiffStackWriter(ClosingWriter):
         grid: GridSpec,
         *,
         samples: int = 0,
-        compression_level: int = 6,
+        compression_level: int | None = None,
         queue_slabs: int = 2,
     ) -> None:
         if samples not in (0, 3, 4):
             raise ValueError(f"samples must be 0, 3 or 4, got {samples}")
-        if not 1 <= compression_level <= 9:
-            raise ValueError(f"compression_level must be 1..9, got {compression_level}")
+        if compression_level is not None and not 1 <= compression_level <= 9:
+            raise ValueError(f"compression_level must be 1..9 or None, got {compression_level}")
         self.path = Path(path)
         self.grid = grid
         self.samples = samples
@@ -87,7 +94,7 @@ class TiffStackWriter(ClosingWriter):
         if self._pages_sent + len(slab) > self.grid.shape_zyx[0]:
             raise ValueError(f"more than Z={self.grid.shape_zyx[0]} pages written")
         self._raise_if_failed()
-        self._put(np.ascontiguousarray(slab))
+        self._put(slab)
         self._pages_sent += len(slab)
 
     def close(self) -> None:
@@ -123,14 +130,21 @@ class TiffStackWriter(ClosingWriter):
         if self._error is not None:
             raise RuntimeError(f"writing {self.path} failed: {self._error}") from self._error
 
-    def _pages(self) -> Iterator[NDArray[np.uint8]]:
+    def _pages(self) -> Iterator[bytes]:
+        """Compressed pages (one strip each), in order, from the queued slabs."""
+        period = max(1, self.samples)
         while True:
             slab = self._queue.get()
             if slab is None:
                 return
             if self._error is not None:
                 continue
-            yield from slab
+            for page in slab:
+                raw = pixel_bytes(page)
+                if self._level is None:
+                    yield zlib_compress(raw, period)
+                else:
+                    yield zlib.compress(raw.tobytes(), self._level)
 
     def _run(self) -> None:
         vx, vy, vz = self.grid.voxel_mm
@@ -139,7 +153,7 @@ class TiffStackWriter(ClosingWriter):
             "shape": (n_z, *self.page_shape),
             "dtype": np.uint8,
             "compression": "zlib",
-            "compressionargs": {"level": self._level},
+            "rowsperstrip": self.page_shape[0],
             "resolution": (1.0 / vx, 1.0 / vy),
             "metadata": {"spacing": vz, "unit": "mm", "axes": "ZYXS" if self.samples else "ZYX"},
         }

@@ -82,6 +82,40 @@ def winding_slab(
     >>> slab.winding[0].tolist()
     [[0, 0, 0, 0], [0, 1, 1, 0], [0, 1, 1, 0], [0, 0, 0, 0]]
     """
+    counts, z_start = _crossing_counts(vertices, faces, grid, z_start, z_stop)
+    n_zs, n_y, n_x1 = counts.shape
+    winding = np.empty((n_zs, n_y, n_x1 - 1), dtype=np.int16)
+    unbalanced = _prefix_sums(counts, winding)
+    return WindingSlab(winding, int(unbalanced))
+
+
+def inside_slab(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    grid: GridSpec,
+    z_start: int,
+    z_stop: int,
+) -> tuple[NDArray[np.bool_], int]:
+    """Return which voxel centres of a slab a closed mesh holds, and the unbalanced rows.
+
+    :func:`winding_slab` ``> 0`` without the winding numbers' array: ``(Zs, Y, X) bool``
+    (winding number ``> 0``) and the count of rows whose crossings do not cancel.
+    """
+    counts, z_start = _crossing_counts(vertices, faces, grid, z_start, z_stop)
+    n_zs, n_y, n_x1 = counts.shape
+    inside = np.empty((n_zs, n_y, n_x1 - 1), dtype=np.bool_)
+    unbalanced = _prefix_positive(counts, inside)
+    return inside, int(unbalanced)
+
+
+def _crossing_counts(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    grid: GridSpec,
+    z_start: int,
+    z_stop: int,
+) -> tuple[NDArray[np.int16], int]:
+    """Signed crossings ``(Zs, Y, X + 1) int16`` of a slab's rows, and the slab's first row."""
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     if vertices.ndim != 2 or vertices.shape[1] != 3:
@@ -97,9 +131,7 @@ def winding_slab(
     counts = np.zeros((z_stop - z_start, n_y, n_x + 1), dtype=np.int16)
     chosen, j_lo, j_hi, k_lo, k_hi = _covered_rows(index, faces, n_y, z_start, z_stop)
     _scatter_crossings(index, faces, chosen, j_lo, j_hi, k_lo, k_hi, counts, z_start)
-    winding = np.empty((z_stop - z_start, n_y, n_x), dtype=np.int16)
-    unbalanced = _prefix_sums(counts, winding)
-    return WindingSlab(winding, int(unbalanced))
+    return counts, z_start
 
 
 def _covered_rows(
@@ -201,6 +233,24 @@ def _prefix_sums(counts: NDArray[np.int16], winding: NDArray[np.int16]) -> int:
             for i in range(n_x):
                 running += row[i]
                 out[i] = running
+            if running + row[n_x] != 0:
+                unbalanced += 1
+    return unbalanced
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _prefix_positive(counts: NDArray[np.int16], inside: NDArray[np.bool_]) -> int:
+    """Fill ``inside`` with running sums of ``counts`` along x ``> 0``; return unbalanced rows."""
+    n_z, n_y, n_x = inside.shape
+    unbalanced = 0
+    for k in range(n_z):
+        for j in range(n_y):
+            running = np.int16(0)
+            row = counts[k, j]
+            out = inside[k, j]
+            for i in range(n_x):
+                running += row[i]
+                out[i] = running > 0
             if running + row[n_x] != 0:
                 unbalanced += 1
     return unbalanced

@@ -115,8 +115,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--slab-mb", type=float, default=512.0, help="working memory per slab (default 512)"
     )
     parser.add_argument(
-        "--compression-level", type=int, default=6,
-        help="zlib level of the TIFFs, 1..9 (default 6)",
+        "--compression-level", type=int, default=None,
+        help="zlib level of the TIFFs, 1..9 (smaller files, slower); default: a fast "
+        "run-length deflate",
     )
     parser.add_argument(
         "--workers", type=int, default=0,
@@ -164,7 +165,7 @@ def config_from_args(
             "pass e.g. --colour-layers 1",
         )
     if (
-        not 1 <= args.compression_level <= 9
+        not (args.compression_level is None or 1 <= args.compression_level <= 9)
         or not (math.isfinite(args.slab_mb) and args.slab_mb > 0)
         or args.workers < 0
     ):
