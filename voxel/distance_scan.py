@@ -331,7 +331,9 @@ def _scan_regions(
     """Scan the regions ``chosen`` into ``squared`` and ``face`` in place; return tests.
 
     Each voxel of a region within ``reach`` of its feature is tested against the
-    region's faces. A voxel takes a face of strictly smaller distance, or of equal
+    region's faces; over a face (its prism) the distance is that to the face's plane,
+    which is the point-triangle distance there (within the prism's loosening, 1e-9 of
+    the model's size). A voxel takes a face of strictly smaller distance, or of equal
     distance and lower index, so the result does not depend on the order of regions.
     """
     n_zs, n_y, n_x = squared.shape
@@ -379,8 +381,8 @@ def _scan_regions(
             pz = oz + k * vz
             for j in range(j_lo, j_hi + 1):
                 py = oy + j * vy
-                x_lo = ox + i_lo * vx
-                x_hi = ox + i_hi * vx
+                x_lo = -math.inf  # the box's columns limit i0, i1 below
+                x_hi = math.inf
                 if feature == 0:
                     rest = ny * py + nz * pz - plane
                     if nx != 0.0:
@@ -410,10 +412,24 @@ def _scan_regions(
                         x_hi = -math.inf
                 if not x_lo <= x_hi:
                     continue
-                i0 = max(i_lo, math.floor((x_lo - ox) / vx))
-                i1 = min(i_hi, math.ceil((x_hi - ox) / vx))
+                if feature == 0:  # only centres in the prism: the plane distance is exact
+                    i0 = max(i_lo, math.ceil((x_lo - ox) / vx))
+                    i1 = min(i_hi, math.floor((x_hi - ox) / vx))
+                else:  # a voxel more is harmless: its faces are tested exactly
+                    i0 = max(i_lo, math.floor((x_lo - ox) / vx))
+                    i1 = min(i_hi, math.ceil((x_hi - ox) / vx))
                 row = squared[k - z_start, j]
                 row_face = face[k - z_start, j]
+                if feature == 0:  # over the face: the distance is that to its plane
+                    for i in range(i0, i1 + 1):
+                        s = nx * (ox + i * vx) + rest
+                        d2 = s * s
+                        best = row[i]
+                        n_tests += 1
+                        if d2 < best or (d2 == best and a < row_face[i]):
+                            row[i] = d2
+                            row_face[i] = a
+                    continue
                 for i in range(i0, i1 + 1):
                     px = ox + i * vx
                     for t in range(t_first, t_last):
