@@ -410,7 +410,10 @@ def _scan_regions(
                         x_lo = max(x_lo, limit / gx)
                     elif limit < 0.0:
                         x_hi = -math.inf
-                if not x_lo <= x_hi:
+                # finite before the conversions to int (the box's columns bound them anyway)
+                x_lo = max(x_lo, ox + (i_lo - 1) * vx)
+                x_hi = min(x_hi, ox + (i_hi + 1) * vx)
+                if not x_lo <= x_hi:  # also false for NaN
                     continue
                 if feature == 0:  # only centres in the prism: the plane distance is exact
                     i0 = max(i_lo, math.ceil((x_lo - ox) / vx))
