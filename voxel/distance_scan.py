@@ -122,8 +122,9 @@ def nearest_in_reach(
                 f"inside must be {shape} and 0 <= outside_reach_mm <= reach_mm, got "
                 f"{inside.shape} and {outside_reach_mm}"
             )
-        squared = np.where(inside, reach_mm * reach_mm, outside_reach_mm * outside_reach_mm)
-    return nearest_within(vertices, faces, grid, z_start, squared, regions, tri)
+        squared = np.empty(shape)
+        _fill_reach(inside, reach_mm * reach_mm, outside_reach_mm * outside_reach_mm, squared)
+    return nearest_within(vertices, faces, grid, z_start, squared, regions, tri, reach_mm)
 
 
 def nearest_within(
@@ -134,6 +135,7 @@ def nearest_within(
     squared_mm2: NDArray[np.float64],
     regions: VoronoiRegions | None = None,
     tri: NDArray[np.float64] | None = None,
+    reach_mm: float | None = None,
 ) -> NearestInReach:
     """Return the exact nearest face of each voxel centre within its own reach.
 
@@ -152,6 +154,8 @@ def nearest_within(
     regions, tri : optional
         :func:`voxel.voronoi.voronoi_regions` and :func:`triangle_table` of the mesh,
         when the caller keeps them (computed here otherwise).
+    reach_mm : float, optional
+        The largest reach (``sqrt(squared_mm2.max())``, computed when not given).
 
     Returns
     -------
@@ -164,8 +168,10 @@ def nearest_within(
     n_zs, n_y, n_x = squared.shape
     if z_start < 0 or z_start + n_zs > grid.shape_zyx[0] or (n_y, n_x) != grid.shape_zyx[1:]:
         raise ValueError(f"slab {squared.shape} at row {z_start} does not fit {grid.shape_zyx}")
-    reach_mm = math.sqrt(float(squared.max())) if squared.size else 0.0
-    face = np.full(squared.shape, -1, dtype=np.int32)
+    if reach_mm is None:
+        reach_mm = math.sqrt(float(squared.max())) if squared.size else 0.0
+    face = np.empty(squared.shape, dtype=np.int32)
+    face.reshape(-1)[:] = -1
     if not reach_mm > 0:
         return NearestInReach(squared, face, 0)
     origin = np.asarray(grid.origin_mm, dtype=np.float64)
@@ -193,6 +199,17 @@ def nearest_within(
         reach_mm, squared, face,
     )  # fmt: skip
     return NearestInReach(squared, face, int(n_tests))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _fill_reach(
+    inside: NDArray[np.bool_], inner: float, outer: float, squared: NDArray[np.float64]
+) -> None:
+    """``squared = where(inside, inner, outer)`` in one pass."""
+    flat_inside = inside.reshape(-1)
+    flat = squared.reshape(-1)
+    for index in range(flat.size):
+        flat[index] = inner if flat_inside[index] else outer
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
