@@ -42,6 +42,7 @@ from pipeline.config import LoadOptions  # noqa: E402
 from pipeline.loading import load_model  # noqa: E402
 from pipeline.mesh import ColouredMesh  # noqa: E402
 from pipeline.printer_profile import load_profile  # noqa: E402
+from pipeline.slab_runner import resolve_workers  # noqa: E402
 from voxel.openvdb_module import load_openvdb  # noqa: E402
 
 MESHES = ROOT.parent / "shared" / "meshes"
@@ -279,21 +280,50 @@ def memory(args: argparse.Namespace) -> dict[str, object]:
     return {"model": args.model, "vdb": not args.no_vdb, "runs": runs, "rss_ratio_2x_tall": ratio}
 
 
-def speed(args: argparse.Namespace) -> dict[str, object]:
-    mesh = scaled_model(args.model, args.size_mm)
-    vx, vy, vz = load_profile("j750").voxel_mm
+def _level_set_seconds(mesh: ColouredMesh, voxel: tuple[float, float, float], half_width: float):
+    """Time OpenVDB's mesh-to-level-set of `mesh` on the anisotropic grid; (s, active)."""
     vdb = load_openvdb()
     transform = vdb.createLinearTransform()
-    transform.scale((vx, vy, vz))
+    transform.scale(voxel)
     started = time.perf_counter()
     level_set = vdb.FloatGrid.createLevelSetFromPolygons(
         mesh.vertices.astype(np.float32),
         triangles=mesh.faces.astype(np.int32),
         transform=transform,
-        halfWidth=3.0,
+        halfWidth=half_width,
     )
-    vdb_seconds = time.perf_counter() - started
+    seconds = time.perf_counter() - started
+    active = int(level_set.activeVoxelCount())
+    del level_set
+    return seconds, active
+
+
+def _copy_bandwidth_gb_s() -> float:
+    """Memory bandwidth of a large copy (read + write bytes per second), GB/s."""
+    source = np.ones(2**28, dtype=np.uint8)
+    target = np.empty_like(source)
+    np.copyto(target, source)
+    started = time.perf_counter()
+    for _ in range(5):
+        np.copyto(target, source)
+    return 2 * 5 * source.nbytes / (time.perf_counter() - started) / 1e9
+
+
+#: Bytes a slab writes per voxel, whatever the method: the inside test (1), its row
+#: crossings (2), the nearest-face scan's distance and face (8 + 4), layers (1), colour
+#: (4), signed distance and its band (4 + 1), materials (1): the floor of the kernel.
+BYTES_WRITTEN_PER_VOXEL = 26
+
+
+def speed(args: argparse.Namespace) -> dict[str, object]:
+    mesh = scaled_model(args.model, args.size_mm)
+    voxel = load_profile("j750").voxel_mm
     config = _config(args)
+    deepest = float(np.sum(config.thickness_mm))
+    deep_half_width = deepest / min(voxel) + 2
+    vdb_seconds, vdb_active = _level_set_seconds(mesh, voxel, 3.0)
+    deep_seconds, deep_active = _level_set_seconds(mesh, voxel, deep_half_width)
+    bandwidth = _copy_bandwidth_gb_s()
     with tempfile.TemporaryDirectory() as out, _TreeRss() as tree:
         started = time.perf_counter()
         manifest = build_stack(mesh, config, Path(out), progress=args.progress)
@@ -301,26 +331,42 @@ def speed(args: argparse.Namespace) -> dict[str, object]:
         sizes = {
             str(p.relative_to(out)): p.stat().st_size for p in Path(out).rglob("*") if p.is_file()
         }
+    voxels = int(np.prod(manifest["grid"]["shape_zyx"]))
+    counts = manifest["voxel_counts"]
+    colour_voxels = sum(v for k, v in counts.items() if k.startswith("colour"))
+    workers = resolve_workers(config.workers)
+    floor_seconds = voxels * BYTES_WRITTEN_PER_VOXEL / (bandwidth * 1e9 / 2)
     return {
         "model": args.model,
         "size_mm": args.size_mm,
         "layer_rule": config.layer_rule,
         "shell_meshes": config.shell_meshes,
         "grid_zyx": manifest["grid"]["shape_zyx"],
-        "voxels": int(np.prod(manifest["grid"]["shape_zyx"])),
+        "voxels": voxels,
         "build_seconds": round(build_seconds, 1),
         "build_breakdown": manifest["seconds"],
         "nearest_queries": manifest["diagnostics"]["nearest_queries"],
-        "shell_agreement": manifest.get("shell_agreement"),
-        "voxel_counts": manifest["voxel_counts"],
+        "distance_tests": manifest["diagnostics"].get("distance_tests"),
+        "voxel_counts": counts,
         "file_bytes": sizes,
-        "workers": config.workers,
+        "workers": workers,
         "peak_rss_mb": round(
             max(tree.peak_kb, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) / 1024, 1
         ),
         "openvdb_mesh_to_level_set_seconds": round(vdb_seconds, 2),
-        "openvdb_active_voxels": int(level_set.activeVoxelCount()),
+        "openvdb_active_voxels": vdb_active,
+        "openvdb_deep_half_width_voxels": round(deep_half_width, 2),
+        "openvdb_deep_seconds": round(deep_seconds, 2),
+        "openvdb_deep_active_voxels": deep_active,
         "ratio": round(build_seconds / vdb_seconds, 2),
+        "ratio_to_deep_band": round(build_seconds / deep_seconds, 2),
+        "voxels_per_second": round(voxels / build_seconds),
+        "colour_voxels_per_second_per_core": round(colour_voxels / build_seconds / workers),
+        "copy_bandwidth_gb_s": round(bandwidth, 2),
+        "bytes_written_per_voxel": BYTES_WRITTEN_PER_VOXEL,
+        "memory_floor_seconds_one_core": round(floor_seconds, 2),
+        "ratio_to_memory_floor_per_core": round(build_seconds * workers / floor_seconds, 1),
+        "load_average_1min": round(os.getloadavg()[0], 2),
     }
 
 
