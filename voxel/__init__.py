@@ -18,8 +18,15 @@ Modules
 - :mod:`voxel.grid` ``GridSpec`` (index space vs world space).
 - :mod:`voxel.separation`, :mod:`voxel.materials` colour to one material per voxel.
 - :mod:`voxel.winding` exact inside tests (row-crossing winding numbers, symbolic ties).
-- :mod:`voxel.nearest` exact nearest surface points; :mod:`voxel.colour` their colours.
+- :mod:`voxel.distance_scan` exact nearest faces of the voxels within reach, by scanning
+  the Voronoi regions (:mod:`voxel.voronoi`) of faces, edges and vertices (compiled);
+  :mod:`voxel.triangle_table` the per-face constants.
+- :mod:`voxel.layer_kernel` the per-voxel pass: layers, SDF band, colour voxels, tallies.
+- :mod:`voxel.surface_colour` compiled colour of the nearest points (face, vertex,
+  texture), with the numpy path's arithmetic; :mod:`voxel.nearest` exact nearest points
+  by libigl's tree (queries beyond the reach); :mod:`voxel.colour` colour helpers.
 - :mod:`voxel.slab` ``compute_slab``: the pure per-slab function (layers, colours, SDF band).
+- :mod:`voxel.deflate` a compiled run-length deflate (zlib) encoder for slices.
 - :mod:`voxel.tiff_writer`, :mod:`voxel.vdb_writer` (with :mod:`voxel.vdb_format`),
   :mod:`voxel.preview`: serialisation only.
 - Printer slices, serialisation only: :mod:`voxel.gcvf_writer` (GrabCAD Voxel Print
