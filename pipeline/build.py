@@ -49,6 +49,7 @@ from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
 from voxel.slab import SlabResult, StackModel
+from voxel.vdb_writer import VdbEncoder
 
 
 def build_stack(
@@ -206,8 +207,17 @@ class _Job:
             # Before any other thread (shell pool, writers, progress bar) starts: the slab
             # workers are forked.
             setup = stack.enter_context(DeferredSignals())  # no signal until all is registered
+            vdb = None  # slabs of whole leaf rows can be encoded where they are computed
+            whole_leaves = self.rows % 8 == 0 or self.rows >= grid.shape_zyx[0]
+            halftone_here = self.plan is None or self.plan.halftone == "blue-noise"
+            if config.write_vdb and whole_leaves and halftone_here:
+                vdb = VdbEncoder.for_grid(  # the same grids as StackOutputs' writer
+                    grid,
+                    sdf_half_width_mm=config.sdf_half_width_mm,
+                    material_grid=self.profile is not None and self.plan is not None,
+                )
             slabs = stack.enter_context(
-                SlabRunner(model, grid, self.rows, self.workers, self.plan)
+                SlabRunner(model, grid, self.rows, self.workers, self.plan, vdb)
             )
             if by_distance and config.shell_meshes:  # beside the voxels, in another process
                 pending = stack.enter_context(  # a process that dies fails the call, not hangs
@@ -229,7 +239,7 @@ class _Job:
             tick = time.perf_counter()
             carry = None
             for item in slabs:
-                slab, materials, counts = item
+                slab, materials, counts, encoded = item
                 if self.plan is not None and materials is None:  # error diffusion, z order
                     diffused = materials_for_slab(
                         slab.layers, slab.rgba, slab.z_start, self.plan, carry=carry
@@ -240,7 +250,7 @@ class _Job:
                 sampler.add(slab.z_start, slab.layers)
                 if report is not None and materials is not None:
                     report.add_slab(slab.z_start, materials)
-                outputs.write(slab, materials)
+                outputs.write(slab, materials, encoded)
                 bar.update(slab.z_stop - slab.z_start)
             bar.close()
             seconds["slabs"] = time.perf_counter() - tick

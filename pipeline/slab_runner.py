@@ -38,8 +38,12 @@ from voxel.grid import GridSpec
 from voxel.layer_kernel import layer_material_counts
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.slab import SlabResult, StackModel, compute_slab
+from voxel.vdb_format import GridSpool
+from voxel.vdb_writer import VdbEncoder
 
-_WORKER: tuple[StackModel, GridSpec, MaterialPlan | None, SlabSlots] | None = None
+_WORKER: (
+    tuple[StackModel, GridSpec, MaterialPlan | None, VdbEncoder | None, SlabSlots] | None
+) = None
 
 
 class StackSlab(NamedTuple):
@@ -54,11 +58,14 @@ class StackSlab(NamedTuple):
         (the caller runs it in z order).
     tally : (L, 256) int64 or None
         Voxels per layer (rows, ``L = K + 2``) and material (columns), with `materials`.
+    vdb : list of GridSpool or None
+        The slab's VDB leaves and tiles, when the runner was given an encoder.
     """
 
     slab: SlabResult
     materials: NDArray[np.uint8] | None
     tally: NDArray[np.int64] | None = None
+    vdb: list[GridSpool] | None = None
 
 
 def material_tally(
@@ -70,14 +77,33 @@ def material_tally(
 
 
 def stack_slab(
-    model: StackModel, grid: GridSpec, plan: MaterialPlan | None, z_start: int, z_stop: int
+    model: StackModel,
+    grid: GridSpec,
+    plan: MaterialPlan | None,
+    z_start: int,
+    z_stop: int,
+    vdb: VdbEncoder | None = None,
 ) -> StackSlab:
-    """Return the slab of rows ``z_start..z_stop`` with its materials (a pure function)."""
+    """Return the slab of rows ``z_start..z_stop`` with its materials (a pure function).
+
+    With `vdb`, also its VDB leaves and tiles (only when the materials, if any, are made
+    here: with error diffusion they are not, and the caller encodes the slab).
+    """
     slab = compute_slab(model, grid, z_start, z_stop)
-    if plan is None or plan.halftone != "blue-noise":
-        return StackSlab(slab, None)
-    materials = materials_for_slab(slab.layers, slab.rgba, z_start, plan).materials
-    return StackSlab(slab, materials, material_tally(slab.layers, materials, plan.core_layer + 1))
+    materials = tally = None
+    if plan is not None:
+        if plan.halftone != "blue-noise":
+            return StackSlab(slab, None)
+        materials = materials_for_slab(slab.layers, slab.rgba, z_start, plan).materials
+        tally = material_tally(slab.layers, materials, plan.core_layer + 1)
+    encoded = None
+    if vdb is not None:
+        is_colour = np.zeros(256, dtype=bool)
+        is_colour[list(model.colour_layers)] = True
+        encoded = vdb.encode(
+            z_start, slab.layers, slab.rgba[..., :3], is_colour[slab.layers], slab.sdf, materials
+        )
+    return StackSlab(slab, materials, tally, encoded)
 
 
 def resolve_workers(workers: int) -> int:
@@ -110,6 +136,8 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         Processes computing slabs (1: in this process).
     plan : MaterialPlan, optional
         Materials of the voxels (see :func:`stack_slab`).
+    vdb : VdbEncoder, optional
+        Encode each slab's VDB leaves where it is computed (see :func:`stack_slab`).
     """
 
     def __init__(
@@ -119,8 +147,9 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         rows: int,
         workers: int,
         plan: MaterialPlan | None = None,
+        vdb: VdbEncoder | None = None,
     ) -> None:
-        self.model, self.grid, self.rows, self.plan = model, grid, rows, plan
+        self.model, self.grid, self.rows, self.plan, self.vdb = model, grid, rows, plan, vdb
         n_z = grid.shape_zyx[0]
         self._ranges = iter([(z, min(n_z, z + rows)) for z in range(0, n_z, rows)])
         self.workers = max(1, min(workers, -(-n_z // rows)))
@@ -130,7 +159,7 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
             global _WORKER
             # workers, plus slabs the writers may still hold (queues of 2 per thread)
             self._slots = SlabSlots(self.workers + 6, (min(rows, n_z), *grid.shape_zyx[1:]))
-            _WORKER = (model, grid, plan, self._slots)  # inherited by the forked workers
+            _WORKER = (model, grid, plan, vdb, self._slots)  # inherited by the forked workers
             self._pool = ChildPool(self.workers)
             try:
                 for _ in range(self.workers):  # the first submit forks every worker
@@ -160,14 +189,14 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         if self._pool is None:
             for z_start, z_stop in self._ranges:
                 raise_if_interrupted()
-                yield stack_slab(self.model, self.grid, self.plan, z_start, z_stop)
+                yield stack_slab(self.model, self.grid, self.plan, z_start, z_stop, self.vdb)
             return
         while self._pending:
             raise_if_interrupted()  # a signal whose exception a library swallowed
             try:
                 item = self._pending.popleft().result()
                 slab, materials = self._slots.load(item)
-                result = StackSlab(slab, materials, item.tally)
+                result = StackSlab(slab, materials, item.tally, item.vdb)
                 self._submit()
             except BrokenProcessPool:  # from result() or from submit()
                 raise SlabWorkerDied(
@@ -179,6 +208,6 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
 
 def _worker_slab(z_start: int, z_stop: int, slot: int) -> SlabInSlot:
     assert _WORKER is not None, "slab workers must be forked by SlabRunner"
-    model, grid, plan, slots = _WORKER
-    done = stack_slab(model, grid, plan, z_start, z_stop)
-    return slots.store(slot, done.slab, done.materials, done.tally)
+    model, grid, plan, vdb, slots = _WORKER
+    done = stack_slab(model, grid, plan, z_start, z_stop, vdb)
+    return slots.store(slot, done.slab, done.materials, done.tally, done.vdb)

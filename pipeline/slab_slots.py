@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from voxel.slab import SlabResult
+from voxel.vdb_format import GridSpool
 
 #: Byte alignment of each array in a slot.
 _ALIGN = 64
@@ -37,6 +38,7 @@ class SlabInSlot(NamedTuple):
     result: SlabResult  # with empty arrays in place of the big ones
     has_materials: bool
     tally: NDArray[np.int64] | None
+    vdb: list[GridSpool] | None
 
 
 def _layout(shape: tuple[int, int, int]) -> list[tuple[str, int, tuple[int, ...], str]]:
@@ -83,7 +85,8 @@ class SlabSlots:
         self._state = [_FREE] * n
 
     def store(self, slot: int, result: SlabResult, materials: NDArray[np.uint8] | None,
-              tally: NDArray[np.int64] | None) -> SlabInSlot:  # fmt: skip
+              tally: NDArray[np.int64] | None,
+              vdb: list[GridSpool] | None = None) -> SlabInSlot:  # fmt: skip
         """Copy a slab into ``slot`` (worker side); return what to send back."""
         shape = (result.layers.shape[0], result.layers.shape[1], result.layers.shape[2])
         views = self._views(slot, shape)
@@ -101,7 +104,7 @@ class SlabSlots:
             sdf=np.zeros((0, 0, 0), np.float32),
             sdf_band=np.zeros((0, 0, 0), bool),
         )
-        return SlabInSlot(slot, shape, small, materials is not None, tally)
+        return SlabInSlot(slot, shape, small, materials is not None, tally, vdb)
 
     def load(self, item: SlabInSlot) -> tuple[SlabResult, NDArray[np.uint8] | None]:
         """Return the slab and its materials as views of the slot (parent side)."""

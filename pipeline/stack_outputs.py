@@ -27,6 +27,7 @@ from voxel.materials import MaterialPlan
 from voxel.png_slices import PngSliceWriter
 from voxel.slab import SlabResult
 from voxel.tiff_writer import TiffStackWriter
+from voxel.vdb_format import GridSpool
 from voxel.vdb_writer import VdbStackWriter
 
 
@@ -139,14 +140,24 @@ class StackOutputs:
         self.written.append(self.out_dir / "job.gcvf")
         return stack.enter_context(writer)
 
-    def write(self, slab: SlabResult, materials: NDArray[np.uint8] | None) -> None:
-        """Write one slab (in z order) to every open writer."""
+    def write(
+        self,
+        slab: SlabResult,
+        materials: NDArray[np.uint8] | None,
+        vdb: list[GridSpool] | None = None,
+    ) -> None:
+        """Write one slab (in z order) to every open writer.
+
+        `vdb`: the slab's VDB leaves already encoded (:class:`voxel.vdb_writer.VdbEncoder`).
+        """
         if self.layers_tif is not None and self.colour_tif is not None:
             self.layers_tif.write_slab(slab.layers)
             self.colour_tif.write_slab(slab.rgba[..., : self.samples])
         if self.materials_tif is not None and materials is not None:
             self.materials_tif.write_slab(materials)
-        if self.vdb is not None:
+        if self.vdb is not None and vdb is not None:
+            self.vdb.write_encoded(slab.z_start, slab.z_stop - slab.z_start, vdb)
+        elif self.vdb is not None:
             coloured = self._is_colour[slab.layers]
             self.vdb.write_slab(
                 slab.z_start, slab.layers, slab.rgba[..., :3], coloured, slab.sdf, materials

@@ -149,6 +149,33 @@ def test_worker_processes_give_the_same_stack(tmp_path):
     assert serial[2:] == parallel[2:]
 
 
+def test_vdb_encoded_in_workers_equals_vdb_encoded_here(tmp_path):
+    """Slabs of whole leaf rows are VDB-encoded in the workers: the grids OpenVDB reads
+    back are those of a build whose slabs the parent regroups and encodes."""
+    grids = {}
+    for workers, slab_mb in ((3, 2.0), (1, 0.7)):
+        config = BuildConfig(
+            voxel_mm=(0.1, 0.15, 0.08), thickness_mm=(0.4, 0.6), slab_mb=slab_mb,
+            shell_meshes=False, workers=workers,
+        )
+        out = tmp_path / str(workers)
+        manifest = build_stack(_ball(), config, out, progress=False)
+        rows = manifest["slab_rows"]
+        assert (rows % 8 == 0) == (workers == 3) and rows < manifest["grid"]["shape_zyx"][0]
+        read, _ = load_openvdb().readAll(str(out / "volume.vdb"))
+        grids[workers] = {grid.name: grid for grid in read}
+    shape = tuple(manifest["grid"]["shape_zyx"][::-1])
+    for name, grid in grids[1].items():
+        other = grids[3][name]
+        assert grid.activeVoxelCount() == other.activeVoxelCount()
+        channels = (3,) if name == "color" else ()
+        mine = np.zeros((*shape, *channels), np.float32)
+        theirs = np.zeros_like(mine)
+        grid.copyToArray(mine, ijk=(0, 0, 0))
+        other.copyToArray(theirs, ijk=(0, 0, 0))
+        np.testing.assert_array_equal(mine, theirs)
+
+
 def test_distance_layers_agree_with_the_shells(built):
     _, config, manifest = built
     assert config.layer_rule == "distance"

@@ -16,6 +16,7 @@ read by OpenVDB 10 and later; the tests read them back with OpenVDB's own reader
 
 from __future__ import annotations
 
+import io
 import itertools
 import struct
 import uuid
@@ -72,6 +73,24 @@ class GridSpool:
         if len(low):
             self.bbox_min = np.minimum(self.bbox_min, low.min(axis=0))
             self.bbox_max = np.maximum(self.bbox_max, high.max(axis=0))
+
+    def absorb(self, other: GridSpool) -> None:
+        """Append the leaves and tiles of `other` (an in-memory spool of later rows)."""
+        data = other.stream.getvalue() if isinstance(other.stream, io.BytesIO) else b""
+        if len(data) != other.size:
+            raise ValueError(f"{other.name}: spool of {other.size} bytes holds {len(data)}")
+        self.stream.write(data)
+        shift = self.size
+        self.size += other.size
+        self.leaf_origin += other.leaf_origin
+        self.leaf_offset += [offset + shift for offset in other.leaf_offset]
+        self.leaf_length += other.leaf_length
+        self.tile_origin += other.tile_origin
+        self.tile_value += other.tile_value
+        self.tile_active += other.tile_active
+        self.active_voxels += other.active_voxels
+        self.bbox_min = np.minimum(self.bbox_min, other.bbox_min)
+        self.bbox_max = np.maximum(self.bbox_max, other.bbox_max)
 
     @property
     def channels(self) -> int:

@@ -34,6 +34,7 @@ OpenVDB builds in memory from the same arrays.
 
 from __future__ import annotations
 
+import io
 import os
 import tempfile
 from pathlib import Path
@@ -89,24 +90,35 @@ class VdbStackWriter:
         self._level = int(compression_level)
         self._half_width = np.float32(sdf_half_width_mm)
         self._dir = tempfile.TemporaryDirectory(prefix=".vdb-spool.", dir=spool_dir)
-        kinds = [
-            ("float", "fog volume", 0.0),
-            ("float", "unknown", 0.0),
-            ("vec3s", "unknown", 0.0),
-            ("float", "level set", float(self._half_width)),
-        ]
-        names = list(GRID_NAMES)
-        if material_grid:
-            names.append(MATERIAL_GRID)
-            kinds.append(("float", "unknown", 0.0))
         self.material_grid = material_grid
+        self._kinds = grid_kinds(float(self._half_width), material_grid)
         self._spools = [
             GridSpool(name, value_type, grid_class, background,
                        open(os.path.join(self._dir.name, name), "w+b"))  # noqa: SIM115
-            for name, (value_type, grid_class, background) in zip(names, kinds, strict=True)
+            for name, (value_type, grid_class, background) in self._kinds
         ]
         self._pending: list[tuple[NDArray[Any], ...]] = []  # rows of an unfinished leaf row
         self._next_z = 0
+
+    def encoder(self) -> VdbEncoder:
+        """Return the pure encoder of this writer's grids (picklable, for worker processes)."""
+        return VdbEncoder(self.grid, self._kinds, float(self._half_width), self._level)
+
+    def write_encoded(self, z_start: int, n_rows: int, spools: list[GridSpool]) -> None:
+        """Append rows ``z_start .. z_start + n_rows`` encoded by :meth:`VdbEncoder.encode`.
+
+        The rows must start where the last ones stopped, at a multiple of 8 (a leaf row),
+        and end at a multiple of 8 or at the top of the grid.
+        """
+        if z_start != self._next_z or self._pending:
+            raise ValueError(f"slabs must arrive in order: expected row {self._next_z}, "
+                             f"got {z_start}")
+        stop = z_start + n_rows
+        if z_start % LEAF or (stop % LEAF and stop != self.grid.shape_zyx[0]):
+            raise ValueError(f"encoded rows {z_start}..{stop} are not whole leaf rows")
+        for mine, theirs in zip(self._spools, spools, strict=True):
+            mine.absorb(theirs)
+        self._next_z = stop
 
     def write_slab(
         self,
@@ -162,91 +174,12 @@ class VdbStackWriter:
             list(self._pending[0]) if len(self._pending) == 1
             else [np.concatenate(arrays) for arrays in zip(*self._pending, strict=True)]
         )
+        encoder = self.encoder()
         for z0 in range(0, ready, LEAF):
             rows = slice(z0, min(ready, z0 + LEAF))
-            self._leaf_row(first + z0, *(part[rows] for part in parts))
+            encoder.leaf_row(self._spools, first + z0, *(part[rows] for part in parts))
         # A copy: a view of the leftover rows would keep the whole slab alive.
         self._pending = [tuple(part[ready:].copy() for part in parts)] if ready < held else []
-
-    def _leaf_row(
-        self,
-        z0: int,
-        layers: NDArray[np.uint8],
-        rgb: NDArray[np.uint8],
-        coloured: NDArray[np.bool_],
-        sdf: NDArray[np.float32],
-        materials: NDArray[np.uint8] | None = None,
-    ) -> None:
-        """Cut rows ``z0 .. z0 + 8`` (fewer at the top) into leaves and tiles of every grid.
-
-        Blocks are classified from reductions over the rows and then over 8 x 8 columns;
-        only the blocks that become leaves are gathered, reordered and converted.
-        """
-        hw = self._half_width
-        inside = layers > 0
-        in_band = np.abs(sdf) < hw
-        # Only the columns holding non-background voxels, from a multiple of 8 on.
-        content = (inside | in_band).any(axis=0)
-        if materials is not None:  # void is outside; any other material counts as content
-            content |= (materials > 0).any(axis=0)
-        ys = np.flatnonzero(content.any(axis=1))
-        if len(ys) == 0:
-            return
-        xs = np.flatnonzero(content.any(axis=0))
-        n_y, n_x = content.shape
-        y0, x0 = int(ys[0]) // LEAF * LEAF, int(xs[0]) // LEAF * LEAF
-        y1 = min(n_y, -(-(int(ys[-1]) + 1) // LEAF) * LEAF)
-        x1 = min(n_x, -(-(int(xs[-1]) + 1) // LEAF) * LEAF)
-        box = (slice(None), slice(y0, y1), slice(x0, x1))
-        blocks = _Blocks((x0, y0, z0))
-        layers = blocks.pad(layers[box], 0)
-        rgb = blocks.pad(rgb[box], 0)
-        coloured = blocks.pad(coloured[box], False)
-        sdf = blocks.pad(sdf[box], hw)
-        inside, in_band = blocks.pad(inside[box], False), blocks.pad(in_band[box], False)
-        any_in, all_in = blocks.any(inside), blocks.all(inside)
-        any_band = blocks.any(in_band)
-        low, high = blocks.reduce(layers, np.min), blocks.reduce(layers, np.max)
-        density, layer, color, level = self._spools[:4]
-        # density and layer: the core's constant blocks are active tiles.
-        density.add_tiles(blocks.origins(all_in), np.ones(int(all_in.sum()), np.float32), True)
-        self._leaves(density, blocks, any_in & ~all_in, inside, inside)
-        tile = all_in & (low == high)
-        layer.add_tiles(blocks.origins(tile), low[tile].astype(np.float32), True)
-        self._leaves(layer, blocks, any_in & ~tile, layers, inside)
-        # color: leaves wherever a colour voxel is; black ones stay active (background 0).
-        leaf = blocks.any(coloured)
-        linear = srgb_to_linear(blocks.gather(rgb, leaf))
-        on = blocks.gather(coloured, leaf)
-        linear[on] = np.maximum(linear[on], np.float32(1e-7))
-        color.add_leaves(blocks.origins(leaf), linear, on, None, self._level)
-        # sdf: inactive values are -hw inside, +hw (the background) outside.
-        tile = all_in & ~any_band
-        level.add_tiles(blocks.origins(tile), np.full(int(tile.sum()), -hw), False)
-        leaf = any_band | (any_in & ~all_in)
-        band, solid = blocks.gather(in_band, leaf), blocks.gather(inside, leaf)
-        values = np.where(band, blocks.gather(sdf, leaf), np.where(solid, -hw, hw))
-        # Level-set values hardly compress (about 0.92): stored raw.
-        level.add_leaves(blocks.origins(leaf), values.astype(np.float32), band, solid, 0)
-        if materials is not None:
-            # material: like layer, constant wholly non-void blocks are active tiles.
-            materials = blocks.pad(materials[box], 0)
-            solid = materials > 0
-            any_on, all_on = blocks.any(solid), blocks.all(solid)
-            low, high = blocks.reduce(materials, np.min), blocks.reduce(materials, np.max)
-            tile = all_on & (low == high)
-            self._spools[4].add_tiles(blocks.origins(tile), low[tile].astype(np.float32), True)
-            self._leaves(self._spools[4], blocks, any_on & ~tile, materials, solid)
-
-    def _leaves(
-        self, spool: GridSpool, blocks: _Blocks, which: NDArray[np.bool_],
-        values: NDArray[Any], active: NDArray[np.bool_],
-    ) -> None:
-        """Spool the blocks `which` of a grid whose inactive values are its background."""
-        spool.add_leaves(
-            blocks.origins(which), blocks.gather(values, which).astype(np.float32),
-            blocks.gather(active, which), None, self._level,
-        )
 
     def write(self, path: Path, metadata: dict[str, str] | None = None) -> dict[str, Any]:
         """Write all grids to `path`; return their summary and remove the spools.
@@ -294,6 +227,159 @@ def describe_grids(grids: Any) -> dict[str, Any]:
         }
         for volume in grids
     }
+
+
+
+def grid_kinds(
+    half_width: float, material_grid: bool
+) -> list[tuple[str, tuple[str, str, float]]]:
+    """Names and ``(value type, class, background)`` of the grids written."""
+    kinds = [
+        ("float", "fog volume", 0.0),
+        ("float", "unknown", 0.0),
+        ("vec3s", "unknown", 0.0),
+        ("float", "level set", float(np.float32(half_width))),
+    ]
+    names = list(GRID_NAMES)
+    if material_grid:
+        names.append(MATERIAL_GRID)
+        kinds.append(("float", "unknown", 0.0))
+    return list(zip(names, kinds, strict=True))
+
+
+class VdbEncoder:
+    """Cuts groups of 8 rows into the leaves and tiles of every grid (no files).
+
+    A pure function of the rows, so worker processes can encode their slabs
+    (:meth:`encode`) and the writer only appends the results
+    (:meth:`VdbStackWriter.write_encoded`). Made by :meth:`VdbStackWriter.encoder`.
+    """
+
+    def __init__(
+        self,
+        grid: GridSpec,
+        kinds: list[tuple[str, tuple[str, str, float]]],
+        half_width: float,
+        level: int,
+    ) -> None:
+        self.grid = grid
+        self._kinds = kinds
+        self._half_width = np.float32(half_width)
+        self._level = level
+
+    @classmethod
+    def for_grid(
+        cls, grid: GridSpec, *, sdf_half_width_mm: float, material_grid: bool,
+        compression_level: int = 1,
+    ) -> VdbEncoder:  # fmt: skip
+        """Return the encoder of a :class:`VdbStackWriter` made with the same arguments."""
+        kinds = grid_kinds(float(np.float32(sdf_half_width_mm)), material_grid)
+        return cls(grid, kinds, sdf_half_width_mm, compression_level)
+
+    def encode(
+        self,
+        z_start: int,
+        layers: NDArray[np.uint8],
+        rgb: NDArray[np.uint8],
+        coloured: NDArray[np.bool_],
+        sdf: NDArray[np.float32],
+        materials: NDArray[np.uint8] | None = None,
+    ) -> list[GridSpool]:
+        """Return in-memory spools of rows ``z_start ..`` (whole leaf rows, see writer)."""
+        spools = [
+            GridSpool(name, value_type, grid_class, background, io.BytesIO())
+            for name, (value_type, grid_class, background) in self._kinds
+        ]
+        if (materials is None) != (len(spools) == 4):
+            raise ValueError("materials must be given exactly when there is a material grid")
+        for z0 in range(0, len(layers), LEAF):
+            rows = slice(z0, z0 + LEAF)
+            self.leaf_row(
+                spools, z_start + z0, layers[rows], rgb[rows], coloured[rows], sdf[rows],
+                None if materials is None else materials[rows],
+            )  # fmt: skip
+        return spools
+
+    def leaf_row(
+        self,
+        spools: list[GridSpool],
+        z0: int,
+        layers: NDArray[np.uint8],
+        rgb: NDArray[np.uint8],
+        coloured: NDArray[np.bool_],
+        sdf: NDArray[np.float32],
+        materials: NDArray[np.uint8] | None = None,
+    ) -> None:
+        """Cut rows ``z0 .. z0 + 8`` (fewer at the top) into leaves and tiles of every grid.
+
+        Blocks are classified from reductions over the rows and then over 8 x 8 columns;
+        only the blocks that become leaves are gathered, reordered and converted.
+        """
+        hw = self._half_width
+        inside = layers > 0
+        in_band = np.abs(sdf) < hw
+        # Only the columns holding non-background voxels, from a multiple of 8 on.
+        content = (inside | in_band).any(axis=0)
+        if materials is not None:  # void is outside; any other material counts as content
+            content |= (materials > 0).any(axis=0)
+        ys = np.flatnonzero(content.any(axis=1))
+        if len(ys) == 0:
+            return
+        xs = np.flatnonzero(content.any(axis=0))
+        n_y, n_x = content.shape
+        y0, x0 = int(ys[0]) // LEAF * LEAF, int(xs[0]) // LEAF * LEAF
+        y1 = min(n_y, -(-(int(ys[-1]) + 1) // LEAF) * LEAF)
+        x1 = min(n_x, -(-(int(xs[-1]) + 1) // LEAF) * LEAF)
+        box = (slice(None), slice(y0, y1), slice(x0, x1))
+        blocks = _Blocks((x0, y0, z0))
+        layers = blocks.pad(layers[box], 0)
+        rgb = blocks.pad(rgb[box], 0)
+        coloured = blocks.pad(coloured[box], False)
+        sdf = blocks.pad(sdf[box], hw)
+        inside, in_band = blocks.pad(inside[box], False), blocks.pad(in_band[box], False)
+        any_in, all_in = blocks.any(inside), blocks.all(inside)
+        any_band = blocks.any(in_band)
+        low, high = blocks.reduce(layers, np.min), blocks.reduce(layers, np.max)
+        density, layer, color, level = spools[:4]
+        # density and layer: the core's constant blocks are active tiles.
+        density.add_tiles(blocks.origins(all_in), np.ones(int(all_in.sum()), np.float32), True)
+        self._leaves(density, blocks, any_in & ~all_in, inside, inside)
+        tile = all_in & (low == high)
+        layer.add_tiles(blocks.origins(tile), low[tile].astype(np.float32), True)
+        self._leaves(layer, blocks, any_in & ~tile, layers, inside)
+        # color: leaves wherever a colour voxel is; black ones stay active (background 0).
+        leaf = blocks.any(coloured)
+        linear = srgb_to_linear(blocks.gather(rgb, leaf))
+        on = blocks.gather(coloured, leaf)
+        linear[on] = np.maximum(linear[on], np.float32(1e-7))
+        color.add_leaves(blocks.origins(leaf), linear, on, None, self._level)
+        # sdf: inactive values are -hw inside, +hw (the background) outside.
+        tile = all_in & ~any_band
+        level.add_tiles(blocks.origins(tile), np.full(int(tile.sum()), -hw), False)
+        leaf = any_band | (any_in & ~all_in)
+        band, solid = blocks.gather(in_band, leaf), blocks.gather(inside, leaf)
+        values = np.where(band, blocks.gather(sdf, leaf), np.where(solid, -hw, hw))
+        # Level-set values hardly compress (about 0.92): stored raw.
+        level.add_leaves(blocks.origins(leaf), values.astype(np.float32), band, solid, 0)
+        if materials is not None:
+            # material: like layer, constant wholly non-void blocks are active tiles.
+            materials = blocks.pad(materials[box], 0)
+            solid = materials > 0
+            any_on, all_on = blocks.any(solid), blocks.all(solid)
+            low, high = blocks.reduce(materials, np.min), blocks.reduce(materials, np.max)
+            tile = all_on & (low == high)
+            spools[4].add_tiles(blocks.origins(tile), low[tile].astype(np.float32), True)
+            self._leaves(spools[4], blocks, any_on & ~tile, materials, solid)
+
+    def _leaves(
+        self, spool: GridSpool, blocks: _Blocks, which: NDArray[np.bool_],
+        values: NDArray[Any], active: NDArray[np.bool_],
+    ) -> None:
+        """Spool the blocks `which` of a grid whose inactive values are its background."""
+        spool.add_leaves(
+            blocks.origins(which), blocks.gather(values, which).astype(np.float32),
+            blocks.gather(active, which), None, self._level,
+        )
 
 
 class _Blocks:
@@ -345,5 +431,3 @@ class _Blocks:
         x0, y0, z0 = self.corner
         origin = np.stack([x0 + b_x * LEAF, y0 + b_y * LEAF, np.full(len(b_y), z0)], axis=1)
         return np.asarray(origin, dtype=np.int32)
-
-
