@@ -251,3 +251,53 @@ def _copy_pixels(page: NDArray[np.uint8], out: NDArray[np.uint8]) -> None:
         for i in range(n_x):
             for c in range(n_c):
                 out[j, i, c] = page[j, i, c]
+
+
+def compress_segments(
+    raw: NDArray[np.uint8], bounds: NDArray[np.int64], period: int = 1
+) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
+    """Compress each segment ``raw[bounds[i]:bounds[i + 1]]`` as its own zlib stream.
+
+    One compiled call for many small buffers (e.g. the 512-voxel leaves of a VDB grid),
+    where a Python loop over them would cost microseconds each.
+
+    Returns
+    -------
+    packed : (P,) uint8
+        The streams back to back.
+    lengths : (n,) int64
+        Length of each stream.
+    """
+    raw = np.ascontiguousarray(raw).reshape(-1).view(np.uint8)
+    bounds = np.asarray(bounds, dtype=np.int64)
+    sizes = np.diff(bounds)
+    worst = 2 + _HEADER_COUNT // 8 + 1 + (10 * sizes + 7) // 8 + 2 + 4 + 8
+    out = np.empty(int(worst.sum()), dtype=np.uint8)
+    lengths = np.zeros(len(sizes), dtype=np.int64)
+    used = _encode_segments(
+        raw, bounds, np.concatenate([[0], np.cumsum(worst)]).astype(np.int64), period,
+        _CODES, _CODE_LENGTHS, _LENGTHS, _DISTANCE_CODES, _DISTANCE_CODE_LENGTHS,
+        _HEADER_BITS, _HEADER_COUNT, out, lengths,
+    )  # fmt: skip
+    return out[:used], lengths
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _encode_segments(
+    raw: NDArray[np.uint8], bounds: NDArray[np.int64], room: NDArray[np.int64], period: int,
+    codes: NDArray[np.uint32], code_lengths: NDArray[np.uint8], lengths: NDArray[np.int64],
+    distance_codes: NDArray[np.uint32], distance_lengths: NDArray[np.uint8],
+    header: NDArray[np.uint8], header_bits: int, out: NDArray[np.uint8],
+    packed_lengths: NDArray[np.int64],
+) -> int:  # fmt: skip
+    """Encode each segment into ``out`` back to back; return the bytes used."""
+    pos = 0
+    for n in range(len(bounds) - 1):
+        segment = raw[bounds[n] : bounds[n + 1]]
+        size = _encode(
+            segment, period, codes, code_lengths, lengths, distance_codes, distance_lengths,
+            header, header_bits, out[pos : pos + room[n + 1] - room[n]],
+        )  # fmt: skip
+        packed_lengths[n] = size
+        pos += size
+    return pos

@@ -25,9 +25,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any, BinaryIO
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel.deflate import compress_segments
 from voxel.grid import GridSpec
 
 _MAGIC = 0x56444220
@@ -140,13 +142,19 @@ class GridSpool:
             head[1][:] = _MASK_AND_NO_INACTIVE_VALS
             head.append(np.packbits(~inside, axis=1, bitorder="little"))
         head_bytes = np.concatenate(head, axis=1)
-        raw = np.ascontiguousarray(values[active], dtype="<f4").tobytes()
         bounds = np.concatenate([[0], np.cumsum(counts.astype(np.int64) * 4 * self.channels)])
-        # io::zipToStream per leaf: leaves are 512 voxels, so this loop is over blocks
-        # (surface-sized: thousands per group of rows), not voxels.
-        bodies = [_zipped(raw[a:b], level) for a, b in itertools.pairwise(bounds)]
-        body_lengths = np.fromiter((len(b) for b in bodies), np.int64, len(bodies))
-        record = _interleave(head_bytes, np.frombuffer(b"".join(bodies), np.uint8), body_lengths)
+        if self.channels == 1 and level:
+            # Scalar grids (density, layer, material) are runs of equal float32 values:
+            # the compiled run encoder packs them as well as zlib, in one call.
+            raw = np.ascontiguousarray(values[active], dtype="<f4").reshape(-1).view(np.uint8)
+            body, body_lengths = _zipped_all(raw, bounds, level)
+        else:
+            # io::zipToStream per leaf with zlib: colours need its long-distance matches.
+            packed = np.ascontiguousarray(values[active], dtype="<f4").tobytes()
+            bodies = [_zipped(packed[a:b], level) for a, b in itertools.pairwise(bounds)]
+            body_lengths = np.fromiter((len(b) for b in bodies), np.int64, len(bodies))
+            body = np.frombuffer(b"".join(bodies), np.uint8)
+        record = _interleave(head_bytes, body, body_lengths)
         lengths = head_bytes.shape[1] + body_lengths
         offsets = self.size + np.concatenate([[0], np.cumsum(lengths)[:-1]])
         self.stream.write(record.tobytes())
@@ -251,6 +259,51 @@ def _zipped(raw: bytes, level: int) -> bytes:
         if len(packed) < len(raw):
             return struct.pack("<q", len(packed)) + packed
     return struct.pack("<q", -len(raw)) + raw
+
+
+def _zipped_all(
+    raw: NDArray[np.uint8], bounds: NDArray[np.int64], level: int
+) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
+    """Each leaf's values as io::zipToStream writes them, back to back, and their lengths.
+
+    int64 size, then zlib data (:func:`voxel.deflate.compress_segments`, runs of equal
+    float32 values found 4 bytes back); a negative (or zero) size marks raw bytes, used
+    when compression does not make them smaller and for ``level`` 0.
+    """
+    sizes = np.diff(bounds)
+    if level:
+        packed, packed_lengths = compress_segments(raw, bounds, period=4)
+    else:
+        packed, packed_lengths = np.zeros(0, np.uint8), np.zeros(len(sizes), np.int64)
+    use = (packed_lengths < sizes) & (sizes > 0) & bool(level)
+    lengths = 8 + np.where(use, packed_lengths, sizes)
+    prefix = np.where(use, packed_lengths, -sizes).astype("<i8").view(np.uint8).reshape(-1, 8)
+    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
+    packed_starts = np.concatenate([[0], np.cumsum(packed_lengths)[:-1]]).astype(np.int64)
+    body = np.empty(int(lengths.sum()), dtype=np.uint8)
+    _assemble(raw, bounds, packed, packed_starts, packed_lengths, use, prefix, starts, body)
+    return body, lengths
+
+
+@numba.njit(cache=True, nogil=True)
+def _assemble(
+    raw: NDArray[np.uint8], bounds: NDArray[np.int64], packed: NDArray[np.uint8],
+    packed_starts: NDArray[np.int64], packed_lengths: NDArray[np.int64],
+    use: NDArray[np.bool_], prefix: NDArray[np.uint8], starts: NDArray[np.int64],
+    body: NDArray[np.uint8],
+) -> None:  # fmt: skip
+    """Copy each leaf's size prefix and its packed or raw bytes to ``body``."""
+    for n in range(len(starts)):
+        at = starts[n]
+        for k in range(8):
+            body[at + k] = prefix[n, k]
+        at += 8
+        if use[n]:
+            first, count, source = packed_starts[n], packed_lengths[n], packed
+        else:
+            first, count, source = bounds[n], bounds[n + 1] - bounds[n], raw
+        for k in range(count):
+            body[at + k] = source[first + k]
 
 
 def _string(out: IO[bytes], text: str) -> None:
