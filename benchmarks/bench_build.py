@@ -389,7 +389,7 @@ def main() -> None:
     parser.add_argument("--size-mm", type=float, default=30.0)
     parser.add_argument("--stretch-z", type=float, default=1.0)
     parser.add_argument("--samples", type=int, default=20000, help="voxels sampled per layer")
-    parser.add_argument("--slab-mb", type=float, default=512.0)
+    parser.add_argument("--slab-mb", type=float, default=1024.0)
     parser.add_argument("--no-vdb", action="store_true")
     parser.add_argument("--workers", type=int, default=0, help="slab processes (0: per core)")
     parser.add_argument("--layers", choices=("distance", "shells"), default="distance")

@@ -77,7 +77,7 @@ class BuildConfig:
     shell_method: Literal["robust", "paper"] = "robust"
     margin_mm: float = 0.5
     sdf_half_width_voxels: float = 3.0
-    slab_mb: float = 512.0
+    slab_mb: float = 1024.0
     workers: int = 0
     alpha: bool = False
     compression_level: int | None = None

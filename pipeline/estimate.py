@@ -18,8 +18,15 @@ from pathlib import Path
 
 from pipeline.errors import ResourceError
 
-#: Working bytes per voxel of a slab (arrays of compute_slab, colour conversion, writers).
-BYTES_PER_VOXEL = 64
+#: Working bytes per voxel of a slab in its worker: the inside test and its crossings (3),
+#: the scan's distance and face (12), layers, colour, signed distance, band and
+#: materials (11), the copy into the shared slot (11), VDB and TIFF encoding temporaries.
+BYTES_PER_VOXEL = 48
+
+#: Shared bytes per voxel of a slab slot (:mod:`pipeline.slab_slots`), and the slots
+#: beyond one per worker (slabs the writers still hold).
+SLOT_BYTES_PER_VOXEL = 11
+EXTRA_SLOTS = 4
 
 #: Largest grid side: OpenVDB and TIFF index voxels with signed 32-bit integers.
 MAX_SIDE = 2**31 - 1
@@ -120,8 +127,12 @@ def estimate_build(
     voxels = z * y * x
     volume = voxel_mm[0] * voxel_mm[1] * voxel_mm[2]
     band = min(voxels, int(area_mm2 * reach_mm / volume))
-    slab = min(slab_rows, z) * y * x * BYTES_PER_VOXEL
-    memory = slab * (workers + 1) + n_faces * BYTES_PER_FACE * (workers + 2)
+    slab_voxels = min(slab_rows, z) * y * x
+    slots = workers + EXTRA_SLOTS if workers > 1 else 0
+    memory = (
+        slab_voxels * (BYTES_PER_VOXEL * (workers + 1) + SLOT_BYTES_PER_VOXEL * slots)
+        + n_faces * BYTES_PER_FACE * (workers + 2)
+    )
     disk = int(voxels * DISK_PER_VOXEL + band * DISK_PER_BAND_VOXEL)
     seconds = (voxels * SECONDS_PER_VOXEL + band * SECONDS_PER_BAND_VOXEL) / max(1, workers)
     return BuildEstimate((z, y, x), voxels, band, slab_rows, workers, memory, disk, seconds)

@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from pipeline.children import ChildPool
 from pipeline.errors import SlabWorkerDied
+from pipeline.estimate import EXTRA_SLOTS
 from pipeline.faults import raise_if_interrupted
 from pipeline.slab_slots import SlabInSlot, SlabSlots
 from voxel.grid import GridSpec
@@ -157,8 +158,10 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         self._pending: collections.deque[Future[SlabInSlot]] = collections.deque()
         if self.workers > 1:
             global _WORKER
-            # workers, plus slabs the writers may still hold (queues of 2 per thread)
-            self._slots = SlabSlots(self.workers + 6, (min(rows, n_z), *grid.shape_zyx[1:]))
+            # workers, plus slabs the writers may still hold (a queue of 2 per thread)
+            self._slots = SlabSlots(
+                self.workers + EXTRA_SLOTS, (min(rows, n_z), *grid.shape_zyx[1:])
+            )
             _WORKER = (model, grid, plan, vdb, self._slots)  # inherited by the forked workers
             self._pool = ChildPool(self.workers)
             try:

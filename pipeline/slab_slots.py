@@ -118,7 +118,7 @@ class SlabSlots:
         )
         return result, views["materials"] if item.has_materials else None
 
-    def take(self, timeout_s: float = 600.0) -> int:
+    def take(self, timeout_s: float = 3600.0) -> int:
         """Return a free slot, waiting (polling) while writers still hold them all."""
         deadline = time.monotonic() + timeout_s
         while True:

@@ -112,7 +112,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--alpha", action="store_true", help="write colour.tif as RGBA")
     parser.add_argument("--no-vdb", action="store_true", help="skip volume.vdb (see --format)")
     parser.add_argument(
-        "--slab-mb", type=float, default=512.0, help="working memory per slab (default 512)"
+        "--slab-mb", type=float, default=1024.0,
+        help="working memory per slab and worker (default 1024)",
     )
     parser.add_argument(
         "--compression-level", type=int, default=None,
