@@ -133,13 +133,14 @@ crossing_pairs = _jit(_crossing_pairs_py)
 
 
 def _cell_pair_hits_py(  # type: ignore[no-untyped-def]
-    a0, a1, later, key_sorted, owner_sorted, i0, boxes, lo, hi, span, faces, tri, eps
+    a0, a1, later, key_sorted, owner_sorted, i0, boxes, lo, hi, span, faces, tri, eps, active
 ):
     """Crossing pairs among the entries ``a0 .. a1 - 1`` of a sorted hash grid.
 
     Entry ``a`` pairs with the ``later[a]`` entries after it (same cell). A pair is tested
     only in the cell of the low corner of the boxes' intersection (so once), when the
-    boxes overlap (closed) and the triangles share fewer than two vertices.
+    boxes overlap (closed), the triangles share fewer than two vertices and at least
+    one of them is ``active``.
 
     Parameters
     ----------
@@ -157,6 +158,7 @@ def _cell_pair_hits_py(  # type: ignore[no-untyped-def]
     faces : (F, 3) int64
     tri : (F, 3, 3) float64, mm
     eps : float, mm
+    active : (F,) bool
 
     Returns
     -------
@@ -173,6 +175,8 @@ def _cell_pair_hits_py(  # type: ignore[no-untyped-def]
         for b in range(a + 1, a + 1 + later[a]):
             lb = owner_sorted[b]
             fb = boxes[lb]
+            if not (active[fa] or active[fb]):
+                continue
             if (
                 lo[fa, 0] > hi[fb, 0] or lo[fb, 0] > hi[fa, 0]
                 or lo[fa, 1] > hi[fb, 1] or lo[fb, 1] > hi[fa, 1]

@@ -16,7 +16,10 @@ from offset.crossing_kernels import cell_pair_hits, crossing_pairs
 FINE_CELLS = 27
 
 
-def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000) -> IntArray:
+def intersecting_pairs(
+    vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000,
+    only: npt.NDArray[np.bool_] | None = None,
+) -> IntArray:
     """Return the pairs of triangles that cross each other.
 
     Pairs sharing an edge are skipped (they touch by construction), and coplanar
@@ -34,6 +37,10 @@ def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 20
     chunk : int, optional
         Candidate pairs walked by one call of the compiled narrow phase
         (:func:`offset.crossing_kernels.cell_pair_hits`; they are never materialised).
+    only : (F,) bool, optional
+        Test only the pairs with at least one face in `only` (all pairs by default): the
+        pairs of a mesh that changed in a few places, among faces changed or crossing
+        before (the tolerance follows the extent of `vertices` as always).
 
     Returns
     -------
@@ -53,6 +60,9 @@ def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 20
     eps = 1e-10 * scale
     lo = tri.min(axis=1) - eps
     hi = tri.max(axis=1) + eps
+    active = np.ones(len(faces), dtype=np.bool_) if only is None else np.asarray(only, np.bool_)
+    if not np.any(active):
+        return np.zeros((0, 2), dtype=np.int64)
     hits = []
     for grid in _grids(lo, hi):
         # Leaders in sorted order, a bounded number of pairs at a time; the pairs are
@@ -61,7 +71,7 @@ def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 20
             hits.append(
                 cell_pair_hits(
                     a0, a1, grid.later, grid.key, grid.owner, grid.low_cell, grid.boxes,
-                    lo, hi, grid.span, faces, tri, eps,
+                    lo, hi, grid.span, faces, tri, eps, active,
                 )
             )
     pairs = np.concatenate(hits) if hits else np.zeros((0, 2), dtype=np.int64)

@@ -237,3 +237,18 @@ def test_compiled_narrow_phase_matches_numpy_reference():
     expected = _numpy_crossing(a, b, eps)
     assert 100 < expected.sum() < n - 100
     np.testing.assert_array_equal(_crossing(a, b, eps), expected)
+
+
+def test_intersecting_pairs_only_tests_pairs_with_a_chosen_face():
+    # The crumpled sphere: with `only`, exactly the full result's pairs that have at
+    # least one chosen face.
+    rng = np.random.default_rng(2)
+    sphere = trimesh.creation.icosphere(2, 1.0)
+    v = np.asarray(sphere.vertices) + rng.normal(0.0, 0.2, (len(sphere.vertices), 3))
+    f = np.asarray(sphere.faces, dtype=np.int64)
+    full = intersecting_pairs(v, f)
+    only = rng.random(len(f)) < 0.2
+    expected = full[only[full[:, 0]] | only[full[:, 1]]]
+    assert 0 < len(expected) < len(full)
+    np.testing.assert_array_equal(intersecting_pairs(v, f, only=only), expected)
+    assert len(intersecting_pairs(v, f, only=np.zeros(len(f), dtype=bool))) == 0
