@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import sys
 import time
@@ -143,6 +144,7 @@ def speed(size_mm: float, voxel_mm: float, depths: list[float], subdivisions: in
     print(f"{'depth_mm':>9} {'robust_s':>9} {'openvdb_s':>10} {'ratio':>7} {'shell_faces':>12}")
     runs = []
     for depth in depths:
+        load_before = os.getloadavg()
         start = time.perf_counter()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -168,7 +170,9 @@ def speed(size_mm: float, voxel_mm: float, depths: list[float], subdivisions: in
               flush=True)
         runs.append({"depth_mm": depth, "robust_s": robust_s, "openvdb_s": vdb_s,
                      "ratio": robust_s / vdb_s, "shell_faces": len(shell.faces),
-                     "openvdb_active_voxels": int(grid.activeVoxelCount()), **valid})
+                     "openvdb_active_voxels": int(grid.activeVoxelCount()),
+                     "load_avg_1_5_15_before": list(load_before),
+                     "load_avg_1_5_15_after": list(os.getloadavg()), **valid})
     return {"mesh": f"spot, Loop x{subdivisions}", "n_faces": len(faces),
             "size_mm": size_mm, "voxel_mm": voxel_mm, "runs": runs}
 

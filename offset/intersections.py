@@ -1,20 +1,25 @@
-"""Count self-intersecting triangle pairs of a mesh (hierarchical hash grid, vectorised test)."""
+"""Count self-intersecting triangle pairs of a mesh (hierarchical hash grid, compiled test)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterator
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from offset._validate import FloatArray, IntArray
+from offset.crossing_kernels import cell_pair_hits, crossing_pairs
 
 #: Boxes spanning at most this many cells of the fine grid (3 per axis) are binned there;
 #: larger ones in coarser grids (see :func:`_candidate_chunks`).
 FINE_CELLS = 27
 
 
-def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000) -> IntArray:
+def intersecting_pairs(
+    vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000,
+    only: npt.NDArray[np.bool_] | None = None,
+) -> IntArray:
     """Return the pairs of triangles that cross each other.
 
     Pairs sharing an edge are skipped (they touch by construction), and coplanar
@@ -30,7 +35,12 @@ def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 20
     vertices : (V, 3) float64, mm
     faces : (F, 3) int64
     chunk : int, optional
-        Candidate pairs generated and tested at once (bounds memory).
+        Candidate pairs walked by one call of the compiled narrow phase
+        (:func:`offset.crossing_kernels.cell_pair_hits`; they are never materialised).
+    only : (F,) bool, optional
+        Test only the pairs with at least one face in `only` (all pairs by default): the
+        pairs of a mesh that changed in a few places, among faces changed or crossing
+        before (the tolerance follows the extent of `vertices` as always).
 
     Returns
     -------
@@ -44,18 +54,28 @@ def intersecting_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 20
     """
     if len(faces) < 2:
         return np.zeros((0, 2), dtype=np.int64)
-    tri = vertices[faces]
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    tri = np.ascontiguousarray(vertices[faces], dtype=np.float64)
     scale = max(float(np.ptp(vertices, axis=0).max()), 1e-12)
     eps = 1e-10 * scale
     lo = tri.min(axis=1) - eps
     hi = tri.max(axis=1) + eps
+    active = np.ones(len(faces), dtype=np.bool_) if only is None else np.asarray(only, np.bool_)
+    if not np.any(active):
+        return np.zeros((0, 2), dtype=np.int64)
     hits = []
-    for a, b in _candidate_chunks(lo, hi, chunk=chunk):
-        shared = (faces[a][:, :, None] == faces[b][:, None, :]).sum(axis=(1, 2))
-        a, b = a[shared < 2], b[shared < 2]
-        mask = _crossing(tri[a], tri[b], eps)
-        hits.append(a[mask] * len(faces) + b[mask])
-    code = np.sort(np.concatenate(hits)) if hits else np.zeros(0, dtype=np.int64)
+    for grid in _grids(lo, hi):
+        # Leaders in sorted order, a bounded number of pairs at a time; the pairs are
+        # walked and tested in one compiled loop (offset.crossing_kernels).
+        for a0, a1 in grid.spans(chunk):
+            hits.append(
+                cell_pair_hits(
+                    a0, a1, grid.later, grid.key, grid.owner, grid.low_cell, grid.boxes,
+                    lo, hi, grid.span, faces, tri, eps, active,
+                )
+            )
+    pairs = np.concatenate(hits) if hits else np.zeros((0, 2), dtype=np.int64)
+    code = np.sort(pairs[:, 0] * len(faces) + pairs[:, 1])
     return np.stack([code // len(faces), code % len(faces)], axis=1)
 
 
@@ -88,18 +108,7 @@ def _candidate_chunks(
 ) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield the pairs ``i < j`` of overlapping boxes (closed), each exactly once.
 
-    A hierarchical hash grid [1]_. The fine grid's cell is the median box size ``s``;
-    a box spanning at most :data:`FINE_CELLS` of its cells is binned there, a larger one
-    at the level ``m >= 1`` whose cell ``S_m = s 2^(m + 1)`` is the first at least its
-    size, where it spans at most 2 cells per axis. Pairs of two fine boxes are found in
-    the fine grid; a pair whose larger level is ``m`` is found in level ``m``'s grid,
-    where the boxes of lower levels are binned too (at most 8 cells each), but only in
-    cells that a box of level ``m`` occupies, and paired only with those. A pair is kept
-    only in the cell holding the low corner of the two boxes' intersection
-    (``max(lo_i, lo_j)``), where both boxes are binned, so it is found once. Entries per
-    box are thus bounded (27 in the fine grid, 8 per coarser level) whatever the sizes:
-    long sliver triangles among tiny ones (CAD fans) no longer span billions of cells.
-    The pairs of a cell are generated a bounded number at a time, so memory is
+    The pairs of every grid of :func:`_grids`, a bounded number at a time, so memory is
     ``O(F + chunk)`` however many boxes crowd into one cell (fans of sliver triangles
     put over a thousand there).
 
@@ -114,6 +123,87 @@ def _candidate_chunks(
     ------
     first, second : (p,) int64
         Overlapping pairs, ``first < second``, in no particular order.
+    """
+    for grid in _grids(lo, hi):
+        for a0, a1 in grid.spans(chunk):
+            cnt = grid.later[a0:a1]
+            a = np.repeat(np.arange(a0, a1), cnt)
+            b = a + 1 + (np.arange(a.size) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+            la, lb = grid.owner[a], grid.owner[b]
+            here = grid.key[a]
+            del a, b
+            low = np.maximum(grid.low_cell[la], grid.low_cell[lb])  # floor is monotone
+            fa, fb = grid.boxes[la], grid.boxes[lb]
+            span = grid.span
+            # Overlap, and this cell is the one of the intersection's low corner.
+            keep = np.all((lo[fa] <= hi[fb]) & (lo[fb] <= hi[fa]), axis=1) & (
+                (low[:, 0] * span[1] + low[:, 1]) * span[2] + low[:, 2] == here
+            )
+            fa, fb = fa[keep], fb[keep]
+            yield np.minimum(fa, fb), np.maximum(fa, fb)
+
+
+@dataclass(frozen=True)
+class _Grid:
+    """The entries of one grid of :func:`_grids`, sorted by cell, leaders first.
+
+    Attributes
+    ----------
+    key, owner : (E,) int64
+        Cell key and binned box (an index into ``boxes``) of every entry.
+    later : (E,) int64
+        Entries after this one in its cell that it pairs with (0 for followers).
+    ends : (E,) int64
+        Cumulative sum of ``later``.
+    boxes : (B,) int64
+        Box (face) index of every binned box.
+    low_cell : (B, 3) int64
+        Cell of every binned box's low corner.
+    span : (3,) int64
+        Cells per axis; ``key = (i * span[1] + j) * span[2] + k``.
+    """
+
+    key: IntArray
+    owner: IntArray
+    later: IntArray
+    ends: IntArray
+    boxes: IntArray
+    low_cell: IntArray
+    span: IntArray
+
+    def spans(self, chunk: int) -> Iterator[tuple[int, int]]:
+        """Yield entry ranges ``a0, a1`` giving at most `chunk` pairs (at least one entry)."""
+        total = int(self.ends[-1]) if self.ends.size else 0
+        a0 = base = 0
+        while base < total:
+            a1 = max(int(np.searchsorted(self.ends, base + chunk, side="right")), a0 + 1)
+            yield a0, a1
+            a0, base = a1, int(self.ends[a1 - 1])
+
+
+def _grids(lo: FloatArray, hi: FloatArray) -> Iterator[_Grid]:
+    """Yield the grids of a hierarchical hash grid [1]_ over the boxes ``lo, hi``.
+
+    The fine grid's cell is the median box size ``s``; a box spanning at most
+    :data:`FINE_CELLS` of its cells is binned there, a larger one at the level
+    ``m >= 1`` whose cell ``S_m = s 2^(m + 1)`` is the first at least its size, where it
+    spans at most 2 cells per axis. Pairs of two fine boxes are found in the fine grid;
+    a pair whose larger level is ``m`` is found in level ``m``'s grid, where the boxes of
+    lower levels are binned too (at most 8 cells each), but only in cells that a box of
+    level ``m`` occupies, and paired only with those. A pair is kept only in the cell
+    holding the low corner of the two boxes' intersection (``max(lo_i, lo_j)``), where
+    both boxes are binned, so it is found once. Entries per box are thus bounded (27 in
+    the fine grid, 8 per coarser level) whatever the sizes: long sliver triangles among
+    tiny ones (CAD fans) no longer span billions of cells.
+
+    Parameters
+    ----------
+    lo, hi : (F, 3) float64, mm
+        Box corners.
+
+    Yields
+    ------
+    _Grid
 
     References
     ----------
@@ -144,40 +234,40 @@ def _candidate_chunks(
             break
         level[short] += 1
     fine = np.flatnonzero(~coarse)
-    corners = (lo, hi, lo_c, hi_c)
-    yield from _cell_pairs(corners, fine, np.ones(fine.size, dtype=bool), size, chunk)
+    grid = _grid(lo_c, hi_c, fine, np.ones(fine.size, dtype=bool), size)
+    if grid is not None:
+        yield grid
     for m in np.unique(level[coarse]):
         boxes = np.flatnonzero(level <= m)
-        yield from _cell_pairs(corners, boxes, level[boxes] == m, size * 2.0 ** (m + 1), chunk)
+        grid = _grid(lo_c, hi_c, boxes, level[boxes] == m, size * 2.0 ** (m + 1))
+        if grid is not None:
+            yield grid
 
 
-def _cell_pairs(
-    corners: tuple[FloatArray, FloatArray, FloatArray, FloatArray], boxes: IntArray,
-    lead: npt.NDArray[np.bool_], size: float, chunk: int,
-) -> Iterator[tuple[IntArray, IntArray]]:
-    """Yield the overlapping pairs of `boxes` with at least one leader, binned at `size`.
+def _grid(
+    lo_c: FloatArray, hi_c: FloatArray, boxes: IntArray, lead: npt.NDArray[np.bool_],
+    size: float,
+) -> _Grid | None:
+    """Bin `boxes` in cells of `size`; a pair needs at least one leader.
 
     Parameters
     ----------
-    corners : tuple of four (F, 3) float64, mm
-        Box corners ``lo, hi`` (tested for overlap) and the same shifted to be at least
-        0 (binned).
+    lo_c, hi_c : (F, 3) float64, mm
+        Box corners shifted to be at least 0.
     boxes : (B,) int64
         Indices of the boxes binned.
     lead : (B,) bool
-        Leaders: a pair is yielded when at least one of its boxes leads.
+        Leaders: a pair is made when at least one of its boxes leads.
     size : float, mm
         Cell size.
-    chunk : int
 
-    Yields
-    ------
-    first, second : (p,) int64
-        Pairs of indices into `lo`, ``first < second``.
+    Returns
+    -------
+    _Grid or None
+        None when no pair can be made.
     """
     if boxes.size < 2 or not np.any(lead):
-        return
-    lo, hi, lo_c, hi_c = corners
+        return None
     i0 = np.floor(lo_c[boxes] / size).astype(np.int64)
     n = np.floor(hi_c[boxes] / size).astype(np.int64) - i0 + 1
     per = n.prod(axis=1)
@@ -204,28 +294,11 @@ def _cell_pairs(
     size_g = np.diff(np.r_[start, key_sorted.size])
     after = np.repeat(size_g, size_g) - (np.arange(key_sorted.size) - np.repeat(start, size_g)) - 1
     later = np.where(led_sorted, after, 0)
-    del start, size_g, after, led_sorted
-    ends = np.cumsum(later)
-    total = int(ends[-1])
-    a0 = base = 0
-    while base < total:
-        # Entries a0 .. a1 - 1 give at most `chunk` pairs (at least one entry's worth).
-        a1 = max(int(np.searchsorted(ends, base + chunk, side="right")), a0 + 1)
-        cnt = later[a0:a1]
-        a = np.repeat(np.arange(a0, a1), cnt)
-        b = a + 1 + (np.arange(a.size) - np.repeat(np.cumsum(cnt) - cnt, cnt))
-        la, lb = owner_sorted[a], owner_sorted[b]
-        here = key_sorted[a]
-        del a, b
-        low = np.maximum(i0[la], i0[lb])  # floor is monotone: the exact cell
-        fa, fb = boxes[la], boxes[lb]
-        # Overlap, and this cell is the one of the intersection's low corner.
-        keep = np.all((lo[fa] <= hi[fb]) & (lo[fb] <= hi[fa]), axis=1) & (
-            (low[:, 0] * span[1] + low[:, 1]) * span[2] + low[:, 2] == here
-        )
-        fa, fb = fa[keep], fb[keep]
-        yield np.minimum(fa, fb), np.maximum(fa, fb)
-        a0, base = a1, int(ends[a1 - 1])
+    return _Grid(
+        key=np.ascontiguousarray(key_sorted), owner=np.ascontiguousarray(owner_sorted),
+        later=np.ascontiguousarray(later), ends=np.cumsum(later), boxes=boxes,
+        low_cell=np.ascontiguousarray(i0), span=np.asarray(span, dtype=np.int64),
+    )
 
 
 def coplanar_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000) -> IntArray:
@@ -283,38 +356,17 @@ def _plane_distances(
 
 
 def _crossing(a: FloatArray, b: FloatArray, eps: float) -> npt.NDArray[np.bool_]:
-    """Vectorised triangle-triangle crossing test on ``(P, 3, 3)`` pairs; ``(P,)`` bool."""
-    na, nb, da, db = _plane_distances(a, b, eps)
-    separated = (
-        np.all(db > 0, axis=1) | np.all(db < 0, axis=1) | np.all(da > 0, axis=1)
-        | np.all(da < 0, axis=1)
-    )
-    coplanar = np.all(db == 0, axis=1) | np.all(da == 0, axis=1)
-    line = np.cross(na, nb)
-    lo_a, hi_a = _interval(a, da, line)
-    lo_b, hi_b = _interval(b, db, line)
-    overlap = np.minimum(hi_a, hi_b) - np.maximum(lo_a, lo_b)
-    straddle = (np.any(db > 0, axis=1) & np.any(db < 0, axis=1)) | (
-        np.any(da > 0, axis=1) & np.any(da < 0, axis=1)
-    )
-    return np.asarray(~separated & ~coplanar & straddle & (overlap > eps), dtype=bool)
+    """Triangle-triangle crossing test on ``(P, 3, 3)`` pairs; ``(P,)`` bool.
 
-
-def _interval(t: FloatArray, d: FloatArray, line: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Return the parameter interval along ``line`` where triangles meet the other plane."""
-    p = np.einsum("pij,pj->pi", t, line)
-    i = np.array([0, 1, 2])
-    j = np.array([1, 2, 0])
-    di, dj = d[:, i], d[:, j]
-    cross = di * dj < 0
-    denom = np.where(cross, di - dj, 1.0)
-    s = p[:, i] + (p[:, j] - p[:, i]) * np.where(cross, di / denom, 0.0)
-    on = d == 0
-    cand = np.concatenate([np.where(cross, s, np.nan), np.where(on, p, np.nan)], axis=1)
-    valid = ~np.isnan(cand)
-    lo = np.where(valid, cand, np.inf).min(axis=1)
-    hi = np.where(valid, cand, -np.inf).max(axis=1)
-    return lo, hi
+    The narrow phase of :func:`intersecting_pairs`
+    (:func:`offset.crossing_kernels.crossing_kernel`), pair by pair.
+    """
+    out = np.zeros(len(a), dtype=np.bool_)
+    crossing_pairs(
+        np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64),
+        float(eps), out,
+    )
+    return out
 
 
 def count_self_intersections(vertices: FloatArray, faces: IntArray) -> int:

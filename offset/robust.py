@@ -40,26 +40,28 @@ are dropped; where part of the previous boundary survived (a mis-classified regi
 nearby pieces are subtracted once more; and the shell is checked for crossing triangles
 (:func:`offset.intersections.intersecting_pairs`) and for triangles whose centroid lies
 deeper than any piece reaches. manifold3d guarantees a manifold result, but not a
-geometrically embedded or exact one: near-coplanar overlaps of pieces (nearly flat reflex
-edges) occasionally give sub-micrometre crossing triangles, a folded triangle, or a thin
-crack cut into the core, and which ones depends on the order of the Booleans. A crossing
-shell is first simplified to ``SIMPLIFY_FRACTION * D`` (manifold3d edge collapse). Where
-triangles still cross, or lie deeper than asked, the core is recomputed locally
-(:func:`_patch`): in
-boxes around them, from the previous core and only the pieces that reach into the boxes,
-united in another order, and put back in place of the old core there; the boxes grow
-each round (:data:`PATCH_ROUNDS`). On the 100 mm airplane at 0.5 mm every union order
-left such a defect over nearly flat, slightly reflex input edges (bends of -0.1 to -3
-degrees), with every vertex at ``D`` (within 4e-5 ``D``) but the triangles between them
-too deep: a quad of about 0.9 mm^2 split along the wrong diagonal, 2.2 % ``D`` (11 um)
-deep at the centroids, 5e-3 mm^3 of core removed; or a fold, a 0.3 mm^2 triangle upside
-down between two others, 0.38 % ``D`` deep (the folded layers only touch, so the
-crossing check does not see it). On a 94k-face spot, 2 to 18 sub-micrometre crossing
-pairs survived the simplification in every union order; recomputing all of the union
-for each order took 40 minutes per layer, a patch takes seconds. A shell still crossing
-or too deep after the patches is recomputed with another leaf size of the union tree
-(:data:`LEAF_SIZES`), the best attempt is kept, and a :class:`ShellDefectWarning` is
-raised if defects remain after every order.
+geometrically embedded or exact one: near-coplanar overlaps of pieces (nearly flat
+reflex edges) occasionally give sub-micrometre crossing triangles, a folded triangle, or
+a thin crack cut into the core, and which ones depends on the order of the Booleans. A
+crossing shell is first simplified to ``SIMPLIFY_FRACTION * D`` (manifold3d edge
+collapse). Where triangles still cross, or lie deeper than asked, the core is recomputed
+locally (:func:`_patch`): in boxes around them, from the previous core and only the
+pieces that reach into the boxes, united in another order, and put back in place of the
+old core there; the boxes grow each round (:data:`PATCH_ROUNDS`). After a simplification
+or a patch, only the pairs with a new triangle or one that crossed before are tested
+again: the others come out of manifold3d with the same coordinates
+(:mod:`offset.mesh_diff`). On the 100 mm airplane at 0.5 mm every union order left such
+a defect over nearly flat, slightly reflex input edges (bends of -0.1 to -3 degrees),
+with every vertex at ``D`` (within 4e-5 ``D``) but the triangles between them too deep:
+a quad of about 0.9 mm^2 split along the wrong diagonal, 2.2 % ``D`` (11 um) deep at the
+centroids, 5e-3 mm^3 of core removed; or a fold, a 0.3 mm^2 triangle upside down between
+two others, 0.38 % ``D`` deep (the folded layers only touch, so the crossing check does
+not see it). On a 94k-face spot, 2 to 18 sub-micrometre crossing pairs survived the
+simplification in every union order; recomputing all of the union for each order took 40
+minutes per layer, a patch takes seconds. A shell still crossing or too deep after the
+patches is recomputed with another leaf size of the union tree (:data:`LEAF_SIZES`), the
+best attempt is kept, and a :class:`ShellDefectWarning` is raised if defects remain
+after every order.
 
 The input must be a closed, consistently oriented surface without self-intersections; a
 self-intersecting input (e.g. the Khronos duck's bill) bounds no well-defined solid and
@@ -92,6 +94,7 @@ from offset._validate import FloatArray, IntArray
 from offset.band import features, layer_pieces
 from offset.guards import Surface, too_deep
 from offset.intersections import intersecting_pairs
+from offset.mesh_diff import face_origin
 from offset.union import LEAF, to_manifold, union_pieces
 
 #: Extra subtraction rounds where a Boolean left part of the previous boundary behind.
@@ -169,7 +172,9 @@ def robust_offset(
                     base, pieces, vert, tri, bad, d_min,
                     (rnd + 1) * PATCH_PAD * d_max, LEAF_SIZES[rnd % len(LEAF_SIZES)],
                 )
-                p_vert, p_tri, p_cross, p_crossing = _uncross(p_vert, p_tri, d_min)
+                p_vert, p_tri, p_cross, p_crossing = _uncross(
+                    p_vert, p_tri, d_min, (vert, tri, cross_tri)
+                )
                 p_deep = too_deep(surface, d, p_vert, p_tri)
                 if (p_crossing, np.count_nonzero(p_deep)) <= (
                     crossing, np.count_nonzero(deep_tri)
@@ -235,13 +240,24 @@ def _cut(
 
 
 def _uncross(
-    vert: FloatArray, tri: IntArray, d_min: float
+    vert: FloatArray, tri: IntArray, d_min: float,
+    previous: tuple[FloatArray, IntArray, npt.NDArray[np.bool_]] | None = None,
 ) -> tuple[FloatArray, IntArray, npt.NDArray[np.bool_], int]:
     """Return the shell, simplified if it crosses itself, and what still crosses.
 
     Crossings are mostly of sub-micrometre triangles: manifold3d collapses them when the
     shell is simplified to ``SIMPLIFY_FRACTION * d_min``. Those that survive are repaired
     by :func:`_patch`.
+
+    Parameters
+    ----------
+    vert : (n, 3) float64, mm
+    tri : (m, 3) int64
+    d_min : float, mm
+    previous : (vertices, faces, crossing_faces), optional
+        A shell this one was made from by a local change (a patch), and which of its
+        faces crossed: only the pairs with a face that is new or crossed before are
+        tested (:func:`_crossing_pairs`). Every other pair was tested before.
 
     Returns
     -------
@@ -252,16 +268,49 @@ def _uncross(
     n_pairs : int
         Number of crossing pairs.
     """
-    pairs = intersecting_pairs(vert, tri)
+    pairs = _crossing_pairs(vert, tri, previous)
     if len(pairs):
-        vert, tri, _ = _mesh_arrays(
+        crossing = np.zeros(len(tri), dtype=bool)
+        crossing[pairs.reshape(-1)] = True
+        s_vert, s_tri, _ = _mesh_arrays(
             to_manifold(vert, tri).simplify(SIMPLIFY_FRACTION * d_min), -1,
             SLIVER_FRACTION * d_min,
         )
-        pairs = intersecting_pairs(vert, tri)
+        pairs = _crossing_pairs(s_vert, s_tri, (vert, tri, crossing))
+        vert, tri = s_vert, s_tri
     mask = np.zeros(len(tri), dtype=bool)
     mask[pairs.reshape(-1)] = True
     return vert, tri, mask, len(pairs)
+
+
+def _crossing_pairs(
+    vert: FloatArray, tri: IntArray,
+    previous: tuple[FloatArray, IntArray, npt.NDArray[np.bool_]] | None,
+) -> IntArray:
+    """Return the crossing pairs of a shell, testing only what changed since `previous`.
+
+    Faces with the same corners as a face of the previous shell
+    (:func:`offset.mesh_diff.face_origin`) that did not cross there cannot cross each
+    other here; every pair with a new face or a formerly crossing one is tested.
+
+    Parameters
+    ----------
+    vert : (n, 3) float64, mm
+    tri : (m, 3) int64
+    previous : (vertices, faces, crossing_faces) or None
+        None: test every pair.
+
+    Returns
+    -------
+    (P, 2) int64
+    """
+    if previous is None:
+        return intersecting_pairs(vert, tri)
+    p_vert, p_tri, p_crossing = previous
+    origin = face_origin(p_vert, p_tri, vert, tri)
+    check = origin < 0
+    check[origin >= 0] = p_crossing[origin[origin >= 0]]
+    return intersecting_pairs(vert, tri, only=check)
 
 
 def _patch(

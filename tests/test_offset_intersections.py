@@ -184,3 +184,71 @@ def test_pairs_sharing_one_vertex(apex, expected):
     v = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [1, 1, 1], apex], dtype=np.float64)
     f = np.array([[0, 1, 2], [0, 3, 4]])
     assert count_self_intersections(v, f) == expected
+
+
+def _numpy_crossing(a, b, eps):
+    """Moeller's interval test as whole-array numpy on (P, 3, 3) pairs (a reference)."""
+    na = np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0])
+    nb = np.cross(b[:, 1] - b[:, 0], b[:, 2] - b[:, 0])
+    na /= np.maximum(np.linalg.norm(na, axis=1, keepdims=True), 1e-300)
+    nb /= np.maximum(np.linalg.norm(nb, axis=1, keepdims=True), 1e-300)
+    db = np.einsum("pij,pj->pi", b - a[:, :1], na)
+    da = np.einsum("pij,pj->pi", a - b[:, :1], nb)
+    db = np.where(np.abs(db) <= eps, 0.0, db)
+    da = np.where(np.abs(da) <= eps, 0.0, da)
+    line = np.cross(na, nb)
+
+    def interval(t, d):
+        p = np.einsum("pij,pj->pi", t, line)
+        di, dj = d, np.roll(d, -1, axis=1)
+        pi, pj = p, np.roll(p, -1, axis=1)
+        cross = di * dj < 0
+        s = pi + (pj - pi) * np.where(cross, di / np.where(cross, di - dj, 1.0), 0.0)
+        cand = np.concatenate([np.where(cross, s, np.nan), np.where(d == 0, p, np.nan)], axis=1)
+        return np.nanmin(np.where(np.isnan(cand), np.inf, cand), axis=1), np.nanmax(
+            np.where(np.isnan(cand), -np.inf, cand), axis=1
+        )
+
+    lo_a, hi_a = interval(a, da)
+    lo_b, hi_b = interval(b, db)
+    separated = np.any(
+        [np.all(db > 0, 1), np.all(db < 0, 1), np.all(da > 0, 1), np.all(da < 0, 1)], axis=0
+    )
+    coplanar = np.all(db == 0, axis=1) | np.all(da == 0, axis=1)
+    straddle = (np.any(db > 0, 1) & np.any(db < 0, 1)) | (np.any(da > 0, 1) & np.any(da < 0, 1))
+    overlap = np.minimum(hi_a, hi_b) - np.maximum(lo_a, lo_b)
+    return ~separated & ~coplanar & straddle & (overlap > eps)
+
+
+def test_compiled_narrow_phase_matches_numpy_reference():
+    # Random pairs, pairs sharing a corner, touching at a corner, coplanar and nearly
+    # coplanar (within the tolerance): the compiled test decides every one as the
+    # whole-array numpy formulation of the same interval test does.
+    rng = np.random.default_rng(5)
+    n = 20_000
+    a = rng.uniform(-1.0, 1.0, (n, 3, 3))
+    b = rng.uniform(-1.0, 1.0, (n, 3, 3))
+    b[: n // 4, 0] = a[: n // 4, 0]  # a shared corner
+    b[n // 4 : n // 2, 1] = a[n // 4 : n // 2, 2]  # touching at a corner
+    flat = slice(n // 2, 3 * n // 4)
+    a[flat, :, 2] = 0.0
+    b[flat, :, 2] = rng.choice([0.0, 1e-12, 1e-3], size=(n // 4, 3))  # (nearly) coplanar
+    eps = 1e-10
+    expected = _numpy_crossing(a, b, eps)
+    assert 100 < expected.sum() < n - 100
+    np.testing.assert_array_equal(_crossing(a, b, eps), expected)
+
+
+def test_intersecting_pairs_only_tests_pairs_with_a_chosen_face():
+    # The crumpled sphere: with `only`, exactly the full result's pairs that have at
+    # least one chosen face.
+    rng = np.random.default_rng(2)
+    sphere = trimesh.creation.icosphere(2, 1.0)
+    v = np.asarray(sphere.vertices) + rng.normal(0.0, 0.2, (len(sphere.vertices), 3))
+    f = np.asarray(sphere.faces, dtype=np.int64)
+    full = intersecting_pairs(v, f)
+    only = rng.random(len(f)) < 0.2
+    expected = full[only[full[:, 0]] | only[full[:, 1]]]
+    assert 0 < len(expected) < len(full)
+    np.testing.assert_array_equal(intersecting_pairs(v, f, only=only), expected)
+    assert len(intersecting_pairs(v, f, only=np.zeros(len(f), dtype=bool))) == 0
