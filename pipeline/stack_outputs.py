@@ -73,7 +73,9 @@ class StackOutputs:
             self.layers_tif = self._tiff(stack, "layers.tif", 0, level)
             self.colour_tif = self._tiff(stack, "colour.tif", self.samples, level)
             if with_materials:
-                self.materials_tif = self._tiff(stack, "materials.tif", 0, level)
+                # halftoned materials are no runs: zlib (level 1 unless asked) packs them
+                # 6 times smaller than the run encoder
+                self.materials_tif = self._tiff(stack, "materials.tif", 0, level or 1)
         self.vdb: VdbStackWriter | None = None
         self._vdb_path: Path | None = None
         if "vdb" in formats:

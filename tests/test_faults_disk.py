@@ -73,7 +73,7 @@ def test_out_of_space_refused_up_front(tmp_path, tmpfs):
 def test_out_of_space_while_replacing_an_old_build(tmp_path, tmpfs):
     # A rebuild that cannot fit fails cleanly: the folder then holds no build (the old
     # one went when the new one started), never a mix.
-    disk = tmpfs("disk", "12m")
+    disk = tmpfs("disk", "16m")  # the first build (~7.5 MB) and its VDB spool must fit
     out = disk / "out"
     assert_succeeded(run(build_argv(out), tmp_path / "first"), out)
     verified_files(out)
@@ -84,7 +84,7 @@ def test_out_of_space_while_replacing_an_old_build(tmp_path, tmpfs):
 
 
 def test_read_only_folder_with_an_old_build(tmp_path, tmpfs):
-    disk = tmpfs("disk", "16m")
+    disk = tmpfs("disk", "24m")
     out = disk / "out"
     assert_succeeded(run(build_argv(out), tmp_path / "first"), out)
     before = verified_files(out)

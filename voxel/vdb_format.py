@@ -119,6 +119,7 @@ class GridSpool:
         active: NDArray[np.bool_],
         inside: NDArray[np.bool_] | None,
         level: int,
+        runs: bool = False,
     ) -> None:
         """Encode leaves as LeafNode::writeBuffers does and append them to the spool.
 
@@ -131,6 +132,9 @@ class GridSpool:
             Level sets: where inactive values are -background.
         level : int
             zlib level of the values (0: stored raw).
+        runs : bool
+            Values are runs of equal numbers (density, layer): the compiled run encoder
+            packs them as well as zlib in one call; otherwise zlib per leaf.
         """
         if len(origin) == 0:
             return
@@ -143,13 +147,12 @@ class GridSpool:
             head.append(np.packbits(~inside, axis=1, bitorder="little"))
         head_bytes = np.concatenate(head, axis=1)
         bounds = np.concatenate([[0], np.cumsum(counts.astype(np.int64) * 4 * self.channels)])
-        if self.channels == 1 and level:
-            # Scalar grids (density, layer, material) are runs of equal float32 values:
-            # the compiled run encoder packs them as well as zlib, in one call.
+        if runs and level:
             raw = np.ascontiguousarray(values[active], dtype="<f4").reshape(-1).view(np.uint8)
             body, body_lengths = _zipped_all(raw, bounds, level)
         else:
-            # io::zipToStream per leaf with zlib: colours need its long-distance matches.
+            # io::zipToStream per leaf with zlib: colours and halftoned materials need its
+            # matches at any distance.
             packed = np.ascontiguousarray(values[active], dtype="<f4").tobytes()
             bodies = [_zipped(packed[a:b], level) for a, b in itertools.pairwise(bounds)]
             body_lengths = np.fromiter((len(b) for b in bodies), np.int64, len(bodies))

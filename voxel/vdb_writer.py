@@ -48,6 +48,8 @@ from voxel.grid import GridSpec
 from voxel.vdb_format import LEAF, GridSpool, write_file
 
 GRID_NAMES = ("density", "layer", "color", "sdf")
+#: Grids whose leaves are runs of equal values (compressed by :mod:`voxel.deflate`).
+RUN_GRIDS = ("density", "layer")
 #: The optional grid of material indices (after GRID_NAMES in the file).
 MATERIAL_GRID = "material"
 
@@ -379,6 +381,7 @@ class VdbEncoder:
         spool.add_leaves(
             blocks.origins(which), blocks.gather(values, which).astype(np.float32),
             blocks.gather(active, which), None, self._level,
+            spool.name in RUN_GRIDS,
         )
 
 
