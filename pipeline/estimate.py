@@ -37,10 +37,11 @@ GRID_RANGE_FIX = "use a larger --voxel-size or a smaller --scale"
 #: Model bytes per face held by every process (vertices, faces, AABB tree, colours).
 BYTES_PER_FACE = 600
 
-#: Time per voxel of the grid (inside tests, writers) and per voxel of the surface band
-#: (exact nearest-point queries, colour), seconds on one core; measured (README, bench_build).
-SECONDS_PER_VOXEL = 1.6e-7
-SECONDS_PER_BAND_VOXEL = 3.0e-6
+#: Time per voxel of the grid (inside test, layer pass, encoders) and per voxel of the
+#: surface band (nearest-face scan, colour), seconds on one core; fitted to the compiled
+#: kernels' builds of spot at 100 mm (539 core-seconds) and 30 mm (bench_build.json).
+SECONDS_PER_VOXEL = 6e-8
+SECONDS_PER_BAND_VOXEL = 7e-7
 
 #: Bytes on disk per voxel of the whole grid (compressed TIFF pages, VDB topology) and per
 #: voxel of the surface band (colour, level-set values), measured on the demo and spot.
