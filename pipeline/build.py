@@ -201,8 +201,8 @@ class _Job:
                 sdf_half_width_mm=config.sdf_half_width_mm,
                 depth_mm=depth if by_distance else None,
             )
-            # the scan's tables, computed once here and inherited by the forked workers
-            _ = model.surface.regions, model.surface.triangles
+            # the scan's regions, computed once here and inherited by the forked workers
+            _ = model.surface.regions
             n_z = grid.shape_zyx[0]
             # Before any other thread (shell pool, writers, progress bar) starts: the slab
             # workers are forked.

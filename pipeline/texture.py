@@ -34,13 +34,14 @@ def linear_to_srgb(linear: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
     return np.where(linear <= 0.0031308, linear * 12.92, 1.055 * linear ** (1.0 / 2.4) - 0.055)
 
 
-_DECODE_LUT = srgb_to_linear(np.arange(256) / 255.0)
+#: Linear value of each 8-bit sRGB code (also handed to the compiled colour kernel).
+DECODE_LUT = srgb_to_linear(np.arange(256) / 255.0)
 
 
 def decode_uint8(rgba: NDArray[np.uint8]) -> NDArray[np.float64]:
     """Convert ``(..., 4) uint8`` sRGB + alpha to ``(..., 4) float64`` linear RGB + alpha."""
     out = np.empty(rgba.shape, dtype=np.float64)
-    out[..., :3] = _DECODE_LUT[rgba[..., :3]]
+    out[..., :3] = DECODE_LUT[rgba[..., :3]]
     out[..., 3] = rgba[..., 3] / 255.0
     return out
 

@@ -20,7 +20,7 @@ Modules
 - :mod:`voxel.winding` exact inside tests (row-crossing winding numbers, symbolic ties).
 - :mod:`voxel.distance_scan` exact nearest faces of the voxels within reach, by scanning
   the Voronoi regions (:mod:`voxel.voronoi`) of faces, edges and vertices (compiled);
-  :mod:`voxel.triangle_table` the per-face constants.
+  :mod:`voxel.closest_point` the compiled point-triangle test it shares with the colour.
 - :mod:`voxel.layer_kernel` the per-voxel pass: layers, SDF band, colour voxels, tallies.
 - :mod:`voxel.surface_colour` compiled colour of the nearest points (face, vertex,
   texture), with the numpy path's arithmetic; :mod:`voxel.nearest` exact nearest points

@@ -38,8 +38,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel.closest_point import triangle_d2
 from voxel.grid import GridSpec
-from voxel.triangle_table import triangle_table
 from voxel.voronoi import FACE, VoronoiRegions, voronoi_regions
 
 
@@ -72,7 +72,6 @@ def nearest_in_reach(
     inside: NDArray[np.bool_] | None = None,
     outside_reach_mm: float | None = None,
     regions: VoronoiRegions | None = None,
-    tri: NDArray[np.float64] | None = None,
 ) -> NearestInReach:
     """Return the exact nearest face of every voxel centre of a slab within ``reach_mm``.
 
@@ -124,7 +123,7 @@ def nearest_in_reach(
             )
         squared = np.empty(shape)
         _fill_reach(inside, reach_mm * reach_mm, outside_reach_mm * outside_reach_mm, squared)
-    return nearest_within(vertices, faces, grid, z_start, squared, regions, tri, reach_mm)
+    return nearest_within(vertices, faces, grid, z_start, squared, regions, reach_mm)
 
 
 def nearest_within(
@@ -134,7 +133,6 @@ def nearest_within(
     z_start: int,
     squared_mm2: NDArray[np.float64],
     regions: VoronoiRegions | None = None,
-    tri: NDArray[np.float64] | None = None,
     reach_mm: float | None = None,
 ) -> NearestInReach:
     """Return the exact nearest face of each voxel centre within its own reach.
@@ -151,9 +149,9 @@ def nearest_within(
         First row of the slab.
     squared_mm2 : (Zs, Y, X) float64, mm^2
         Each voxel's reach, squared (0: not wanted); overwritten with the result.
-    regions, tri : optional
-        :func:`voxel.voronoi.voronoi_regions` and :func:`triangle_table` of the mesh,
-        when the caller keeps them (computed here otherwise).
+    regions : VoronoiRegions, optional
+        :func:`voxel.voronoi.voronoi_regions` of the mesh, when the caller keeps them
+        (computed here otherwise).
     reach_mm : float, optional
         The largest reach (``sqrt(squared_mm2.max())``, computed when not given).
 
@@ -180,8 +178,6 @@ def nearest_within(
     z_high = origin[2] + (z_start + n_zs - 1) * voxel[2] + reach_mm
     if regions is None:
         regions = voronoi_regions(vertices, faces)
-    if tri is None:
-        tri = triangle_table(vertices, faces)
     ends = regions.anchor.copy()
     ends[regions.kind == FACE] = faces[regions.anchor[regions.kind == FACE, 0], :2]
     feature_z = vertices[ends, 2]
@@ -193,7 +189,7 @@ def nearest_within(
     z_max[is_face] = face_z.max(axis=1)
     chosen = np.flatnonzero((z_max >= z_low) & (z_min <= z_high))
     n_tests = _scan_regions(
-        vertices, tri, regions.kind, regions.anchor, regions.bounds_ptr, regions.bounds,
+        vertices, faces, regions.kind, regions.anchor, regions.bounds_ptr, regions.bounds,
         regions.tests_ptr, regions.tests, regions.normals, regions.spread, chosen, origin,
         voxel, z_start,
         reach_mm, squared, face,
@@ -213,107 +209,6 @@ def _fill_reach(
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _segment_d2(
-    px: float, py: float, pz: float,
-    ax: float, ay: float, az: float,
-    bx: float, by: float, bz: float,
-) -> float:  # fmt: skip
-    """Squared distance from a point to the segment ``a b`` (a point if ``a == b``)."""
-    ux, uy, uz = bx - ax, by - ay, bz - az
-    length2 = ux * ux + uy * uy + uz * uz
-    t = 0.0
-    if length2 > 0.0:
-        t = ((px - ax) * ux + (py - ay) * uy + (pz - az) * uz) / length2
-        t = min(1.0, max(0.0, t))
-    dx, dy, dz = px - (ax + t * ux), py - (ay + t * uy), pz - (az + t * uz)
-    return dx * dx + dy * dy + dz * dz
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def point_triangle_d2(p: NDArray[np.float64], tri: NDArray[np.float64]) -> float:
-    """Exact squared distance from ``p (3,)`` to the triangle ``tri (3, 3)`` (Ericson)."""
-    ax, ay, az = tri[0, 0], tri[0, 1], tri[0, 2]
-    abx, aby, abz = tri[1, 0] - ax, tri[1, 1] - ay, tri[1, 2] - az
-    acx, acy, acz = tri[2, 0] - ax, tri[2, 1] - ay, tri[2, 2] - az
-    return _triangle_d2(
-        p[0], p[1], p[2], ax, ay, az, abx, aby, abz, acx, acy, acz,
-        abx * abx + aby * aby + abz * abz,
-        abx * acx + aby * acy + abz * acz,
-        acx * acx + acy * acy + acz * acz,
-    )  # fmt: skip
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _triangle_d2(
-    px: float, py: float, pz: float,
-    ax: float, ay: float, az: float,
-    abx: float, aby: float, abz: float,
-    acx: float, acy: float, acz: float,
-    ab_ab: float, ab_ac: float, ac_ac: float,
-) -> float:  # fmt: skip
-    """Squared distance from ``p`` to the triangle ``a, a + ab, a + ac`` (Ericson 5.1.5)."""
-    apx, apy, apz = px - ax, py - ay, pz - az
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
-    v = 0.0
-    w = 0.0
-    if d1 <= 0.0 and d2 <= 0.0:
-        pass  # vertex a
-    else:
-        d3 = d1 - ab_ab
-        d4 = d2 - ab_ac
-        if d3 >= 0.0 and d4 <= d3:
-            v = 1.0  # vertex b
-        else:
-            vc = d1 * d4 - d3 * d2
-            if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-                v = d1 / (d1 - d3)  # edge ab
-            else:
-                d5 = d1 - ab_ac
-                d6 = d2 - ac_ac
-                if d6 >= 0.0 and d5 <= d6:
-                    w = 1.0  # vertex c
-                else:
-                    vb = d5 * d2 - d1 * d6
-                    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-                        w = d2 / (d2 - d6)  # edge ac
-                    else:
-                        va = d3 * d6 - d5 * d4
-                        if va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
-                            w = (d4 - d3) / ((d4 - d3) + (d5 - d6))  # edge bc
-                            v = 1.0 - w
-                        else:
-                            total = va + vb + vc
-                            v = vb / total if total > 0.0 else -1.0
-                            w = vc / total if total > 0.0 else -1.0
-                            if not (v >= 0.0 and w >= 0.0 and v + w <= 1.0):
-                                return _degenerate_d2(
-                                    px, py, pz, ax, ay, az, abx, aby, abz, acx, acy, acz
-                                )
-    dx = apx - (v * abx + w * acx)
-    dy = apy - (v * aby + w * acy)
-    dz = apz - (v * abz + w * acz)
-    return dx * dx + dy * dy + dz * dz
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _degenerate_d2(
-    px: float, py: float, pz: float,
-    ax: float, ay: float, az: float,
-    abx: float, aby: float, abz: float,
-    acx: float, acy: float, acz: float,
-) -> float:  # fmt: skip
-    """Squared distance to a (nearly) zero-area triangle: the nearest of its edges."""
-    bx, by, bz = ax + abx, ay + aby, az + abz
-    cx, cy, cz = ax + acx, ay + acy, az + acz
-    return min(
-        _segment_d2(px, py, pz, ax, ay, az, bx, by, bz),
-        _segment_d2(px, py, pz, bx, by, bz, cx, cy, cz),
-        _segment_d2(px, py, pz, cx, cy, cz, ax, ay, az),
-    )
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _segment_2d_d2(py: float, pz: float, ay: float, az: float, by: float, bz: float) -> float:
     """Squared distance in the ``(y, z)`` plane from ``(py, pz)`` to the segment ``a b``."""
     ey, ez = by - ay, bz - az
@@ -328,7 +223,7 @@ def _segment_2d_d2(py: float, pz: float, ay: float, az: float, by: float, bz: fl
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _scan_regions(
     vertices: NDArray[np.float64],
-    tri: NDArray[np.float64],
+    faces: NDArray[np.int64],
     kind: NDArray[np.int8],
     anchor: NDArray[np.int64],
     bounds_ptr: NDArray[np.int64],
@@ -367,11 +262,16 @@ def _scan_regions(
         nx = ny = nz = plane = 0.0
         if feature == 0:  # face prism, within the reach of the plane
             nx, ny, nz = normals[a, 0], normals[a, 1], normals[a, 2]
-            plane = nx * tri[a, 0] + ny * tri[a, 1] + nz * tri[a, 2]
+            first_corner = faces[a, 0]
+            plane = (
+                nx * vertices[first_corner, 0]
+                + ny * vertices[first_corner, 1]
+                + nz * vertices[first_corner, 2]
+            )
             for axis in range(3):
-                lo = hi = tri[a, axis]
-                for corner in range(2):
-                    value = tri[a, axis] + tri[a, 3 + 3 * corner + axis]
+                lo = hi = vertices[first_corner, axis]
+                for corner in range(1, 3):
+                    value = vertices[faces[a, corner], axis]
                     lo = min(lo, value)
                     hi = max(hi, value)
                 shift = abs(normals[a, axis]) * grow
@@ -455,12 +355,12 @@ def _scan_regions(
                     for t in range(t_first, t_last):
                         f = tests[t]
                         n_tests += 1
-                        d2 = _triangle_d2(
+                        fa, fb, fc = faces[f, 0], faces[f, 1], faces[f, 2]
+                        d2 = triangle_d2(
                             px, py, pz,
-                            tri[f, 0], tri[f, 1], tri[f, 2],
-                            tri[f, 3], tri[f, 4], tri[f, 5],
-                            tri[f, 6], tri[f, 7], tri[f, 8],
-                            tri[f, 9], tri[f, 10], tri[f, 11],
+                            vertices[fa, 0], vertices[fa, 1], vertices[fa, 2],
+                            vertices[fb, 0], vertices[fb, 1], vertices[fb, 2],
+                            vertices[fc, 0], vertices[fc, 1], vertices[fc, 2],
                         )  # fmt: skip
                         best = row[i]
                         if d2 < best or (d2 == best and f < row_face[i]):

@@ -22,7 +22,6 @@ import igl
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.triangle_table import triangle_table
 from voxel.voronoi import VoronoiRegions, voronoi_regions
 
 #: Query points handled at once (bounds temporary memory: about 150 bytes per point).
@@ -98,11 +97,6 @@ class SurfaceIndex:
     def regions(self) -> VoronoiRegions:
         """Voronoi-region bounds of the faces, edges and vertices (computed once)."""
         return voronoi_regions(self.vertices, self.faces)
-
-    @cached_property
-    def triangles(self) -> NDArray[np.float64]:
-        """Per face ``a``, ``b - a``, ``c - a`` and dot products, ``(F, 12) float64``."""
-        return triangle_table(self.vertices, self.faces)
 
     def __reduce__(self) -> tuple[Any, tuple[NDArray[np.float64], NDArray[np.int64]]]:
         return (SurfaceIndex.build, (self.vertices, self.faces))

@@ -192,7 +192,6 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
         near = nearest_in_reach(
             model.surface.vertices, model.surface.faces, grid, z_start, z_stop, reach,
             inside=inside, outside_reach_mm=half_width, regions=model.surface.regions,
-            tri=model.surface.triangles,
         )  # fmt: skip
         squared, face, n_tests = near
     else:
@@ -254,7 +253,7 @@ def _beyond_reach(
     wanted = np.zeros(shape)
     wanted.reshape(-1)[flat[far]] = (distance * (1 + 1e-9) + 1e-12) ** 2
     again = nearest_within(
-        surface.vertices, surface.faces, grid, z_start, wanted, surface.regions, surface.triangles
+        surface.vertices, surface.faces, grid, z_start, wanted, surface.regions
     )
     face_ids = face_ids.copy()
     face_ids[far] = again.face.reshape(-1)[flat[far]]

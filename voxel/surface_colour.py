@@ -18,6 +18,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel.closest_point import barycentric
+
 #: ``kind`` codes.
 CONSTANT, FACE, VERTEX, TEXTURE = 0, 1, 2, 3
 #: Wrap codes (``wrap`` columns u, v) and filter codes.
@@ -52,6 +54,9 @@ class SurfaceColour:
         Filter codes.
     factor : (M, 4) float64
         Linear RGB + alpha factor.
+    decode : (256,) float64
+        Linear value of each 8-bit sRGB code: the colour source's own table, so texels
+        and vertex colours decode exactly as its numpy path does.
     """
 
     kind: int
@@ -63,18 +68,7 @@ class SurfaceColour:
     wrap: NDArray[np.int64]
     filter: NDArray[np.int64]
     factor: NDArray[np.float64]
-
-
-def _srgb_decode_table() -> NDArray[np.float64]:
-    """Linear value of each 8-bit sRGB code, as ``pipeline.texture.decode_uint8`` has it."""
-    srgb = np.arange(256) / 255.0
-    table: NDArray[np.float64] = np.where(
-        srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4
-    )
-    return table
-
-
-_DECODE = _srgb_decode_table()
+    decode: NDArray[np.float64]
 
 
 def voxel_colours(
@@ -104,65 +98,10 @@ def voxel_colours(
         np.ascontiguousarray(points_mm, dtype=np.float64),
         np.ascontiguousarray(face_ids, dtype=np.int64),
         vertices, faces, colour.kind, colour.rgba, colour.corner_uv, colour.face_material,
-        colour.pixels, colour.image, colour.wrap, colour.filter, colour.factor, _DECODE,
+        colour.pixels, colour.image, colour.wrap, colour.filter, colour.factor, colour.decode,
         _THRESHOLD, _BIN_START, out,
     )  # fmt: skip
     return out
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _barycentric(
-    p0: float, p1: float, p2: float,
-    a0: float, a1: float, a2: float,
-    b0: float, b1: float, b2: float,
-    c0: float, c1: float, c2: float,
-) -> tuple[float, float]:  # fmt: skip
-    """Weights ``(v, w)`` of ``b`` and ``c`` of the closest point (Ericson, numpy's order).
-
-    IEEE division (``error_model="numpy"``) as in the numpy version; a degenerate
-    triangle with no region gives ``(0, 0)`` as there.
-    """
-    v, w = _region(p0, p1, p2, a0, a1, a2, b0, b1, b2, c0, c1, c2)
-    if not (math.isfinite(v) and math.isfinite(w)):
-        return 0.0, 0.0
-    return v, w
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _region(
-    p0: float, p1: float, p2: float,
-    a0: float, a1: float, a2: float,
-    b0: float, b1: float, b2: float,
-    c0: float, c1: float, c2: float,
-) -> tuple[float, float]:  # fmt: skip
-    """Ericson's Voronoi-region weights, regions from the highest priority down."""
-    ab0, ab1, ab2 = b0 - a0, b1 - a1, b2 - a2
-    ac0, ac1, ac2 = c0 - a0, c1 - a1, c2 - a2
-    ap0, ap1, ap2 = p0 - a0, p1 - a1, p2 - a2
-    d1 = ab0 * ap0 + ab1 * ap1 + ab2 * ap2
-    d2 = ac0 * ap0 + ac1 * ap1 + ac2 * ap2
-    ab_ab = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
-    ab_ac = ab0 * ac0 + ab1 * ac1 + ab2 * ac2
-    ac_ac = ac0 * ac0 + ac1 * ac1 + ac2 * ac2
-    d3, d4, d5, d6 = d1 - ab_ab, d2 - ab_ac, d1 - ab_ac, d2 - ac_ac
-    if d1 <= 0 and d2 <= 0:
-        return 0.0, 0.0
-    if d3 >= 0 and d4 <= d3:
-        return 1.0, 0.0
-    vc = d1 * d4 - d3 * d2
-    if vc <= 0 and d1 >= 0 and d3 <= 0:
-        return d1 / (d1 - d3), 0.0
-    if d6 >= 0 and d5 <= d6:
-        return 0.0, 1.0
-    vb = d5 * d2 - d1 * d6
-    if vb <= 0 and d2 >= 0 and d6 <= 0:
-        return 0.0, d2 / (d2 - d6)
-    va = d3 * d6 - d5 * d4
-    if va <= 0 and d4 - d3 >= 0 and d5 - d6 >= 0:
-        w_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        return 1.0 - w_bc, w_bc
-    total = va + vb + vc
-    return vb / total, vc / total
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -272,7 +211,7 @@ def _colour_kernel(
                 out[n, ch] = rgba[f, 0, ch]
             continue
         fa, fb, fc = faces[f, 0], faces[f, 1], faces[f, 2]
-        v, w = _barycentric(
+        v, w = barycentric(
             points[n, 0], points[n, 1], points[n, 2],
             vertices[fa, 0], vertices[fa, 1], vertices[fa, 2],
             vertices[fb, 0], vertices[fb, 1], vertices[fb, 2],

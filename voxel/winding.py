@@ -85,7 +85,7 @@ def winding_slab(
     counts, z_start = _crossing_counts(vertices, faces, grid, z_start, z_stop)
     n_zs, n_y, n_x1 = counts.shape
     winding = np.empty((n_zs, n_y, n_x1 - 1), dtype=np.int16)
-    unbalanced = _prefix_sums(counts, winding)
+    unbalanced = _prefix(counts, winding, np.zeros((0, 0, 0), dtype=np.bool_))
     return WindingSlab(winding, int(unbalanced))
 
 
@@ -104,7 +104,7 @@ def inside_slab(
     counts, z_start = _crossing_counts(vertices, faces, grid, z_start, z_stop)
     n_zs, n_y, n_x1 = counts.shape
     inside = np.empty((n_zs, n_y, n_x1 - 1), dtype=np.bool_)
-    unbalanced = _prefix_positive(counts, inside)
+    unbalanced = _prefix(counts, np.zeros((0, 0, 0), dtype=np.int16), inside)
     return inside, int(unbalanced)
 
 
@@ -221,36 +221,27 @@ def _scatter_crossings(
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _prefix_sums(counts: NDArray[np.int16], winding: NDArray[np.int16]) -> int:
-    """Fill ``winding`` with the running sums of ``counts`` along x; return unbalanced rows."""
-    n_z, n_y, n_x = winding.shape
+def _prefix(
+    counts: NDArray[np.int16], winding: NDArray[np.int16], inside: NDArray[np.bool_]
+) -> int:
+    """Write running sums of ``counts`` along x to ``winding`` and/or ``> 0`` to ``inside``.
+
+    Either output may be empty (not wanted). Returns the rows whose sums do not cancel.
+    """
+    n_z, n_y, n_x1 = counts.shape
+    want_winding = winding.size > 0
+    want_inside = inside.size > 0
     unbalanced = 0
     for k in range(n_z):
         for j in range(n_y):
             running = np.int16(0)
             row = counts[k, j]
-            out = winding[k, j]
-            for i in range(n_x):
+            for i in range(n_x1 - 1):
                 running += row[i]
-                out[i] = running
-            if running + row[n_x] != 0:
-                unbalanced += 1
-    return unbalanced
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _prefix_positive(counts: NDArray[np.int16], inside: NDArray[np.bool_]) -> int:
-    """Fill ``inside`` with running sums of ``counts`` along x ``> 0``; return unbalanced rows."""
-    n_z, n_y, n_x = inside.shape
-    unbalanced = 0
-    for k in range(n_z):
-        for j in range(n_y):
-            running = np.int16(0)
-            row = counts[k, j]
-            out = inside[k, j]
-            for i in range(n_x):
-                running += row[i]
-                out[i] = running > 0
-            if running + row[n_x] != 0:
+                if want_winding:
+                    winding[k, j, i] = running
+                if want_inside:
+                    inside[k, j, i] = running > 0
+            if running + row[n_x1 - 1] != 0:
                 unbalanced += 1
     return unbalanced
