@@ -9,6 +9,7 @@ import numpy as np
 from offset._validate import FloatArray, IntArray
 from offset.adjacency import bend_angles, edge_adjacency, face_normals
 from offset.pieces import MARGIN_RAD, Group, balls, prisms, sectors, vertex_caps
+from offset.planar import coplanar_pairs, flat_patches, patch_prisms
 
 #: Edges bending more than this (radians) inward get a sector. Even nearly flat reflex
 #: edges need one: skipping those below 1e-3 rad left thin cracks at saddle vertices.
@@ -31,10 +32,14 @@ class Features:
     faces : (F, 3) int64
     normals : (F, 3) float64
         Unit outward normals, zero rows for degenerate faces.
+    areas : (F,) float64, mm^2
     prism_faces : (P,) int64
-        Non-degenerate faces (each gets a prism).
+        Non-degenerate faces (each gets a prism, or shares one with its flat patch).
+    coplanar : (C, 2) int64
+        Edge-adjacent face pairs in one plane (:func:`offset.planar.coplanar_pairs`).
     edge_ends : (E, 2) int64
-        Vertex pairs of the edges that get a sector (reflex, or next to a degenerate face).
+        Vertex pairs of the edges that get a sector (reflex, or next to a degenerate face;
+        not where a flat patch covers both faces).
     edge_faces : (E, 2) int64
         The two faces of each such edge.
     cap_vertices, ball_vertices : (C,), (B,) int64
@@ -49,7 +54,9 @@ class Features:
     vertices: FloatArray
     faces: IntArray
     normals: FloatArray
+    areas: FloatArray
     prism_faces: IntArray
+    coplanar: IntArray
     edge_ends: IntArray
     edge_faces: IntArray
     cap_vertices: IntArray
@@ -66,7 +73,7 @@ def features(vertices: FloatArray, faces: IntArray) -> Features:
     vertices : (V, 3) float64, mm
     faces : (F, 3) int64
     """
-    normals, _ = face_normals(vertices, faces)
+    normals, areas = face_normals(vertices, faces)
     adj = edge_adjacency(faces)
     bend = bend_angles(normals, vertices, adj)
     degenerate = ~np.any(normals != 0, axis=1)
@@ -94,7 +101,9 @@ def features(vertices: FloatArray, faces: IntArray) -> Features:
         vertices=vertices,
         faces=faces,
         normals=normals,
+        areas=areas,
         prism_faces=np.flatnonzero(~degenerate),
+        coplanar=coplanar_pairs(normals, adj.face_left, adj.face_right),
         edge_ends=adj.edges[edge_sel],
         edge_faces=np.stack([adj.face_left[edge_sel], adj.face_right[edge_sel]], axis=1),
         cap_vertices=np.flatnonzero(ball_mask & ~full_ball),
@@ -107,20 +116,32 @@ def features(vertices: FloatArray, faces: IntArray) -> Features:
 def layer_pieces(feat: Features, d: FloatArray) -> list[Group]:
     """Return the pieces whose union is the band of depth `d` ``(F,) float64 mm``.
 
-    Prisms take their face's depth, sectors the larger of their two faces', vertex
-    pieces the deepest incident face's.
+    Prisms take their face's depth (one prism per flat patch of equal depth, see
+    :mod:`offset.planar`), sectors the larger of their two faces', vertex pieces the
+    deepest incident face's. An edge inside a flat patch needs no sector (its bend is
+    zero up to rounding), and a vertex whose only such edges are inside patches no cap.
     """
     v, f = feat.vertices, feat.faces
     vdepth = np.zeros(len(v))
     np.maximum.at(vdepth, f.reshape(-1), np.repeat(d, 3))
-    cv, bv = feat.cap_vertices, feat.ball_vertices
+    label, n_patches = flat_patches(feat.coplanar, len(f), d)
+    patches, covered = patch_prisms(v, f, feat.normals, feat.areas, label, n_patches, d)
+    single = feat.prism_faces[~covered[feat.prism_faces]]
+    ef = feat.edge_faces
+    inside = covered[ef[:, 0]] & (label[ef[:, 0]] == label[ef[:, 1]])
+    ends = feat.edge_ends[~inside]
+    on_edge = np.zeros(len(v), dtype=bool)
+    on_edge[ends.reshape(-1)] = True
+    cv = feat.cap_vertices[on_edge[feat.cap_vertices]]
+    bv = feat.ball_vertices[on_edge[feat.ball_vertices]]
     return [
-        prisms(v[f[feat.prism_faces]], feat.normals[feat.prism_faces], d[feat.prism_faces]),
+        prisms(v[f[single]], feat.normals[single], d[single]),
+        *patches,
         *sectors(
-            v[feat.edge_ends],
-            feat.normals[feat.edge_faces[:, 0]],
-            feat.normals[feat.edge_faces[:, 1]],
-            d[feat.edge_faces].max(axis=1),
+            v[ends],
+            feat.normals[ef[~inside, 0]],
+            feat.normals[ef[~inside, 1]],
+            d[ef[~inside]].max(axis=1),
             ARC_STEP_RAD,
         ),
         *vertex_caps(v[cv], vdepth[cv], feat.axis[cv], feat.half_angle[cv], CAP_STEP_RAD),

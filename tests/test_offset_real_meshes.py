@@ -8,13 +8,11 @@ tested against hand-made cases) and winding numbers for nesting.
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pytest
 import trimesh
 
-from offset import offset_shells, shell_report
+from offset import shell_report
 
 CASES = {
     "bunny": ("bunny/bunny.obj", 50.0),
@@ -24,23 +22,13 @@ CASES = {
 }
 
 
-def _load(path, size_mm: float) -> trimesh.Trimesh:
-    raw = trimesh.load(path, force="mesh")
-    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
-    mesh.merge_vertices(merge_tex=True, merge_norm=True)
-    mesh.apply_scale(size_mm / mesh.extents.max())
-    return mesh
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
-def test_shells_are_valid_nested_and_equidistant(shared_mesh, name):
+def test_shells_are_valid_nested_and_equidistant(real_mesh_shells, name):
     relative, size_mm = CASES[name]
-    mesh = _load(shared_mesh(relative), size_mm)
+    mesh, shells, caught = real_mesh_shells(relative, size_mm)
     thickness = [0.5, 1.0]  # depths 0.5 and 1.5 mm
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # a ShellDefectWarning fails the test
-        shells = offset_shells(mesh.vertices, mesh.faces, thickness)
+    assert [str(w.message) for w in caught] == []  # e.g. no ShellDefectWarning
     report = shell_report(mesh.vertices, mesh.faces, thickness, shells, baselines=False,
                           n_samples=4000)
     clean_input = report["input_self_intersections"] == 0
@@ -71,10 +59,9 @@ def test_shells_are_valid_nested_and_equidistant(shared_mesh, name):
 
 
 @pytest.mark.slow
-def test_duck_input_defect_is_reported(shared_mesh):
+def test_duck_input_defect_is_reported(real_mesh_shells):
     """The duck's bill crosses itself: the report says so instead of hiding it."""
-    duck = _load(shared_mesh("duck/Duck.glb"), 50.0)
-    shells = offset_shells(duck.vertices, duck.faces, [0.5])
-    report = shell_report(duck.vertices, duck.faces, [0.5], shells, baselines=False,
+    duck, shells, _ = real_mesh_shells(*CASES["duck"])
+    report = shell_report(duck.vertices, duck.faces, [0.5, 1.0], shells, baselines=False,
                           n_samples=500)
     assert report["input_self_intersections"] > 0

@@ -223,13 +223,11 @@ CASES = {
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
-def test_real_mesh_shell_files_are_valid_outside_shellvox(shared_mesh, tmp_path, name):
+def test_real_mesh_shell_files_are_valid_outside_shellvox(real_mesh_shells, tmp_path, name):
     relative, size_mm = CASES[name]
-    raw = trimesh.load(shared_mesh(relative), force="mesh")
-    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
-    mesh.merge_vertices(merge_tex=True, merge_norm=True)
-    mesh.apply_scale(size_mm / mesh.extents.max())
-    shells = offset_shells(mesh.vertices, mesh.faces, [0.5, 1.0])  # at 0.5 and 1.5 mm
+    # At 0.5 and 1.5 mm; computed once per run (shared with test_offset_real_meshes).
+    _, shells, caught = real_mesh_shells(relative, size_mm)
+    assert [str(w.message) for w in caught] == []
     written = save_shells(tmp_path, shells)  # a ShellvoxWarning (defective file) fails
     for w in written:
         assert "property double x" in header(w.path)
