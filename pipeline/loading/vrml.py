@@ -53,6 +53,9 @@ HARMLESS = {
     "TouchSensor", "VisibilitySensor", "CylinderSensor", "PlaneSensor", "SphereSensor",
     "PositionInterpolator", "OrientationInterpolator", "ColorInterpolator",
     "ScalarInterpolator", "CoordinateInterpolator", "NormalInterpolator",
+    # property nodes DEFined at the top level to be USEd in shapes
+    "Appearance", "Material", "ImageTexture", "Coordinate", "Color", "TextureCoordinate",
+    "Normal",
 }  # fmt: skip
 
 
@@ -77,6 +80,15 @@ def read_vrml(path: Path, options: LoadOptions) -> ColouredMesh:
     InputError
         The file is not VRML 2.0, is malformed, or has no face set.
     """
+    try:
+        return _read_vrml(path, options)
+    except InputError:
+        raise
+    except (ValueError, IndexError, TypeError) as error:  # a safety net: checks name the rest
+        raise InputError(path, f"is malformed ({type(error).__name__}: {error})", FIX) from None
+
+
+def _read_vrml(path: Path, options: LoadOptions) -> ColouredMesh:
     data = path.read_bytes()
     try:
         text = data.decode("utf-8")
@@ -236,7 +248,9 @@ class _Walk:
         if isinstance(colour, Node):
             table = _points(self.path, colour, "color", 3)
             per_vertex = geometry.fields.get("colorPerVertex", True) is not False
-            index = _laid_out(self.path, geometry, "colorIndex", per_vertex, polygon)
+            index = _laid_out(
+                self.path, geometry, "colorIndex", per_vertex, corner_pos if per_vertex else polygon
+            )
             if per_vertex:
                 ids = (index if len(index) else _index(geometry, "coordIndex"))[corner_pos]
             else:

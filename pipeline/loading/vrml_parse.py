@@ -105,8 +105,8 @@ class _Parser:
     def word(self) -> str:
         match = self.peek(_WORD)
         if match is None:
-            found = self.text[self.at : self.at + 20]
-            raise self.fail(f"expected a name, found {found!r}")
+            found = repr(self.text[self.at : self.at + 20]) if self.at < len(self.text) else ""
+            raise self.fail(f"expected a name, found {found or 'the end of the file'}")
         self.at = match.end()
         return match.group()
 
