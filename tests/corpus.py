@@ -622,14 +622,14 @@ CASES = [
         ("'painted'", "TEXCOORD_1", "baseColorFactor"),
     ),
     Case(
-        "glb KHR_texture_transform",
+        "glb malformed KHR_texture_transform",
         glb_with(
             embed_image(TEX),
             image={},
-            texture_extensions={"KHR_texture_transform": {"scale": [2, 2]}},
+            texture_extensions={"KHR_texture_transform": {"scale": [2, "x"]}},
         ),
-        "warning",
-        ("'painted'", "KHR_texture_transform", "not applied"),
+        "error",
+        ("'painted'", "KHR_texture_transform scale", "2 numbers"),
     ),
     Case("glb truncated", truncated_glb, "error", ("cut.glb", "truncated")),
     Case(
