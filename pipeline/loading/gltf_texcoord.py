@@ -172,5 +172,7 @@ def _read_vec2(
         data = (source or b"")[start : start + length]
     if len(data) < length:
         raise InputError(path, f"{name} (accessor {index}) runs past its buffer", FIX)
-    values: NDArray[Any] = np.ndarray((count, 2), dtype=dtype, buffer=data, strides=(stride, dtype.itemsize))
+    values: NDArray[Any] = np.ndarray(
+        (count, 2), dtype=dtype, buffer=data, strides=(stride, dtype.itemsize)
+    )
     return values.astype(np.float64) / divisor
