@@ -622,14 +622,14 @@ CASES = [
         ("'painted'", "TEXCOORD_1", "baseColorFactor"),
     ),
     Case(
-        "glb KHR_texture_transform",
+        "glb malformed KHR_texture_transform",
         glb_with(
             embed_image(TEX),
             image={},
-            texture_extensions={"KHR_texture_transform": {"scale": [2, 2]}},
+            texture_extensions={"KHR_texture_transform": {"scale": [2, "x"]}},
         ),
-        "warning",
-        ("'painted'", "KHR_texture_transform", "not applied"),
+        "error",
+        ("'painted'", "KHR_texture_transform scale", "2 numbers"),
     ),
     Case("glb truncated", truncated_glb, "error", ("cut.glb", "truncated")),
     Case(
@@ -709,8 +709,50 @@ CASES = [
             )
             .replace('pid="2" p1="0"', 'pid="5" p1="0"')
         ),
+        "error",
+        ("composite materials '5'", "unknown base materials '2'"),
+    ),
+    Case(
+        "3mf composite materials of base materials",
+        threemf(
+            model_xml()
+            .replace(
+                '<object id="1"',
+                '<basematerials id="3"><base name="a" displaycolor="#FF0000"/>'
+                '<base name="b" displaycolor="#0000FF"/></basematerials>'
+                '<m:compositematerials id="5" matid="3" matindices="0 1">'
+                '<m:composite values="1 3"/></m:compositematerials><object id="1"',
+            )
+            .replace('pid="2" p1="0"', 'pid="5" p1="0"')
+        ),
         "warning",
-        ("compositematerials", "'5'", "does not read", "255,255,255,255"),
+        ("compositematerials", "display colour", "no per-face material ratios"),
+    ),
+    Case(
+        "3mf multiproperties with a malformed blend method",
+        threemf(
+            model_xml()
+            .replace(
+                '<object id="1"',
+                '<m:multiproperties id="6" pids="2 2" blendmethods="screen">'
+                '<m:multi pindices="0 0"/></m:multiproperties><object id="1"',
+            )
+            .replace('pid="2" p1="0"', 'pid="6" p1="0"')
+        ),
+        "error",
+        ("multiproperties '6'", "blendmethods", "'screen'"),
+    ),
+    Case(
+        "3mf p:path to a missing model part",
+        threemf(
+            model_xml().replace(
+                '<build><item objectid="1"/>',
+                '<build><item objectid="1" p:path="/3D/Objects/gone.model" '
+                'xmlns:p="http://schemas.microsoft.com/3dmanufacturing/production/2015/06"/>',
+            )
+        ),
+        "error",
+        ("p:path", "'/3D/Objects/gone.model'"),
     ),
     Case(
         "3mf texture missing from the package",

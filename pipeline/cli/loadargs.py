@@ -12,7 +12,10 @@ from pipeline.errors import InputError
 def add_load_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``MODEL`` and the loader options (``--units``, ``--scale``, ...) to a parser."""
     parser.add_argument(
-        "model", type=Path, metavar="MODEL", help="model file: .obj .ply .glb .gltf .3mf .stl .off"
+        "model",
+        type=Path,
+        metavar="MODEL",
+        help="model file: .obj .ply .glb .gltf .3mf .stl .off .wrl",
     )
     group = parser.add_argument_group("model loading")
     group.add_argument(

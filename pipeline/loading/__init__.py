@@ -1,6 +1,6 @@
 """Load any coloured model users bring into a :class:`~pipeline.mesh.ColouredMesh` in mm.
 
-Formats: OBJ (+MTL, textures), PLY, glTF/GLB, 3MF, STL, OFF. Every loader returns the
+Formats: OBJ (+MTL, textures), PLY, glTF/GLB, 3MF, STL, OFF, VRML 2.0. Every loader returns the
 raw mesh in file units; this module converts units, applies ``--colour``, checks for
 NaN/inf and absurd sizes, then :func:`pipeline.topology.prepare` merges and checks it.
 
@@ -38,6 +38,7 @@ from pipeline.loading.images import MAX_TEXTURE_PIXELS
 from pipeline.loading.obj import read_obj
 from pipeline.loading.threemf import read_3mf
 from pipeline.loading.trimesh_formats import read_with_trimesh
+from pipeline.loading.vrml import read_vrml
 from pipeline.mesh import ColouredMesh
 from pipeline.topology import prepare
 
@@ -56,6 +57,7 @@ FORMATS = {
     ".3mf": "3mf",
     ".stl": "stl",
     ".off": "off",
+    ".wrl": "wrl",
 }
 
 
@@ -65,7 +67,8 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
     Parameters
     ----------
     path : str or Path
-        Model file; the format is chosen by suffix (``.obj .ply .glb .gltf .3mf .stl .off``).
+        Model file; the format is chosen by suffix (``.obj .ply .glb .gltf .3mf .stl .off
+        .wrl``).
     options : LoadOptions, optional
         Units, scale, fallback colour and texture, repair and size limits.
 
@@ -122,6 +125,8 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         mm_per_unit = declared
     elif file_type in ("glb", "gltf"):
         mesh = read_gltf(path, options)
+    elif file_type == "wrl":
+        mesh = read_vrml(path, options)
     else:
         mesh = read_with_trimesh(path, file_type, options)
 

@@ -20,11 +20,12 @@ textures of any size, ignores buffer ``byteLength`` and rounds ``baseColorFactor
   of its own, named after the primitive, and no images, so each loaded part is matched
   to its primitive exactly and no image is read twice.
 
-A primitive's colour, per the glTF specification: texture x factor (with
-``TEXCOORD_0``), else ``COLOR_0`` x factor as vertex colours (``COLOR_0`` is linear
-light), else the factor. A declared colour that cannot be used (a texture without
-``TEXCOORD_0`` or on another texture coordinate set, ``KHR_texture_transform``,
-``COLOR_0`` beside a texture) is reported in a one-line warning naming what is used.
+A primitive's colour, per the glTF specification: texture x factor (with the
+material's ``TEXCOORD_n`` moved by its ``KHR_texture_transform``,
+:mod:`pipeline.loading.gltf_texcoord`), else ``COLOR_0`` x factor as vertex colours
+(``COLOR_0`` is linear light), else the factor. A declared colour that cannot be used
+(a texture on a primitive without its ``TEXCOORD_n``, ``COLOR_0`` beside a texture) is
+reported in a one-line warning naming what is used.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ from numpy.typing import NDArray
 
 from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.loading.gltf_texcoord import primitive_uv, texture_transform
 from pipeline.loading.images import TextureRef, read_textures
 from pipeline.loading.references import check_inside
 from pipeline.loading.trimesh_formats import combine_parts
@@ -83,6 +85,7 @@ class _BaseColour:
     tex_coord: int
     wrap: tuple[WrapMode, WrapMode]
     filter: FilterMode
+    transform: NDArray[np.float64]  # (3, 3) KHR_texture_transform, glTF texture space
 
 
 def read_gltf(path: Path, options: LoadOptions) -> ColouredMesh:
@@ -141,7 +144,7 @@ def _read_gltf(path: Path, options: LoadOptions) -> ColouredMesh:
                 document.json["meshes"][mesh_index]["primitives"][primitive_index],
                 colours,
                 images,
-                options,
+                (buffers, options),
             )
         )
     if not parts:
@@ -330,7 +333,7 @@ def _base_colours(document: _Document) -> list[_BaseColour]:
         image: int | None = None
         wrap: tuple[WrapMode, WrapMode] = ("repeat", "repeat")
         filt: FilterMode = "linear"
-        tex_coord = 0
+        tex_coord, transform = 0, np.eye(3)
         if info is not None:
             texture_index = info.get("index")
             if not isinstance(texture_index, int) or not 0 <= texture_index < len(textures):
@@ -350,15 +353,8 @@ def _base_colours(document: _Document) -> list[_BaseColour]:
                 GL_WRAP.get(sampler.get("wrapT", 10497), "repeat"),
             )
             filt = "nearest" if sampler.get("magFilter") in GL_NEAREST else "linear"
-            tex_coord = int(info.get("texCoord", 0))
-            if "KHR_texture_transform" in info.get("extensions", {}):
-                warnings.warn(
-                    f"{path}: material {name!r}: KHR_texture_transform is not applied "
-                    "(the texture is used untransformed)",
-                    ShellvoxWarning,
-                    stacklevel=4,
-                )
-        result.append(_BaseColour(name, factor, image, tex_coord, wrap, filt))
+            transform, tex_coord = texture_transform(path, name, info)
+        result.append(_BaseColour(name, factor, image, tex_coord, wrap, filt, transform))
     return result
 
 
@@ -489,7 +485,7 @@ def _part(
     primitive: dict[str, Any],
     colours: list[_BaseColour],
     images: dict[int, NDArray[np.uint8] | None],
-    options: LoadOptions,
+    context: tuple[list[Path | bytes | None], LoadOptions],
 ) -> dict[str, Any]:
     """Return one primitive instance's geometry and colour, as :func:`combine_parts` takes them.
 
@@ -497,6 +493,7 @@ def _part(
     corner order so faces stay outward (UVs and colours are gathered after).
     """
     path = document.path
+    buffers, options = context
     faces = np.asarray(geometry.faces, dtype=np.int64)
     if np.linalg.det(matrix[:3, :3]) < 0:
         faces = faces[:, ::-1]
@@ -518,12 +515,17 @@ def _part(
             assert options.colour is not None
             part["rgba"] = np.broadcast_to(np.asarray(options.colour, np.uint8), (*faces.shape, 4))
             return part
-        problem = None
-        if colour.tex_coord != 0:
-            problem = f"uses texture coordinate set TEXCOORD_{colour.tex_coord}"
-        elif uv is None or len(uv) != len(geometry.vertices):
-            problem = "is on a primitive without TEXCOORD_0"
-        if problem is None:
+        uv, problem = primitive_uv(
+            path,
+            document.json,
+            buffers,
+            primitive,
+            colour.tex_coord,
+            colour.transform,
+            None if uv is None else np.asarray(uv, np.float64),
+            len(geometry.vertices),
+        )
+        if uv is not None:
             if vertex_colour is not None and not np.allclose(vertex_colour, 1.0):
                 warnings.warn(
                     f"{path}: material {colour.name!r}: COLOR_0 vertex colours beside its "
@@ -531,8 +533,7 @@ def _part(
                     ShellvoxWarning,
                     stacklevel=4,
                 )
-            # trimesh flips v to the bottom-left origin used throughout shellvox.
-            part["uv"] = np.asarray(uv, np.float64)[faces]
+            part["uv"] = uv[faces]  # v up: the bottom-left origin used throughout shellvox
             part["material"] = Material(
                 colour.name,
                 factor=colour.factor,

@@ -1,24 +1,29 @@
-"""3MF reader (core + materials extension) from the package's XML.
+"""3MF reader (core, materials and production extensions, slicer paint) from the XML.
 
-trimesh reads 3MF geometry but drops colour groups and textures, so the XML is read here:
-``<colorgroup>`` and ``<basematerials>`` colours per triangle or per vertex, ``<texture2d>``
-with ``<texture2dgroup>`` coordinates, the model ``unit``, components and build-item
-transforms. The archive is checked before anything is extracted: no entry may escape it,
-and entries may not expand beyond sane sizes (zip-bomb guard). Textures are entries of
-the package (never files outside it) and share the pixel budget of
-:mod:`pipeline.loading.images`. Anything malformed (XML, zip CRC, colour strings,
-transforms, numbers, references) is an :class:`~pipeline.errors.InputError`.
+trimesh reads 3MF geometry but drops colour groups and textures, and lib3mf does not
+give the slicers' paint attributes, so the package's XML is read here
+(:mod:`pipeline.loading.threemf_package` checks the archive first): the model ``unit``,
+build items, components and their transforms, including components and items in other
+model parts (Production extension ``p:path``, as Bambu Studio and OrcaSlicer write
+them; only the root part may refer to other parts); per triangle or per corner the
+property groups of :mod:`pipeline.loading.threemf_properties` (colour groups, base and
+composite materials, textures, multiproperties); and multi-material paint of PrusaSlicer,
+Bambu Studio and OrcaSlicer with the project's filament colours
+(:mod:`pipeline.loading.slicer_paint`, :mod:`pipeline.loading.paint_tree`). Anything
+malformed (XML, zip CRC, colour strings, transforms, numbers, references) is an
+:class:`~pipeline.errors.InputError`.
 
-Reference: 3MF Core Specification 1.3 and Materials and Properties Extension 1.2.
+Reference: 3MF Core Specification 1.3, Materials and Properties Extension 1.2,
+Production Extension 1.2.
 """
 
 from __future__ import annotations
 
 import warnings
 import zipfile
-import zlib
 from dataclasses import dataclass
-from pathlib import Path, PurePosixPath
+from pathlib import Path
+from typing import Any
 from xml.etree import ElementTree
 
 import numpy as np
@@ -26,17 +31,20 @@ from numpy.typing import NDArray
 
 from pipeline.config import UNIT_MM, LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading.images import TextureRef, read_textures
+from pipeline.loading.images import MAX_TEXTURE_PIXELS
+from pipeline.loading.slicer_paint import PAINT_ATTRIBUTES, paint_parts, read_project
+from pipeline.loading.threemf_multi import Layered, bake
+from pipeline.loading.threemf_package import check_archive, parse_xml, root_model_part
+from pipeline.loading.threemf_properties import (
+    CORE,
+    Properties,
+    parse_numbers,
+    read_properties,
+)
 from pipeline.mesh import ColouredMesh
-from pipeline.texture import FilterMode, Material, WrapMode, decode_uint8
+from pipeline.texture import Material, decode_uint8
 
-CORE = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
-MATERIAL = "{http://schemas.microsoft.com/3dmanufacturing/material/2015/02}"
-MODEL_REL = "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"
-
-MAX_ENTRY_BYTES = 4 * 1024**3
-MAX_TOTAL_BYTES = 8 * 1024**3
-MAX_RATIO = 200.0
+PRODUCTION = "{http://schemas.microsoft.com/3dmanufacturing/production/2015/06}"
 UNITS_3MF = {
     "micron": "micron",
     "millimeter": "mm",
@@ -45,23 +53,90 @@ UNITS_3MF = {
     "foot": "foot",
     "meter": "m",
 }
-WRAP_3MF: dict[str, WrapMode] = {
-    "wrap": "repeat",
-    "mirror": "mirror",
-    "clamp": "clamp",
-    "none": "clamp",
-}
+
+Part = dict[str, Any]
 
 
 @dataclass
-class _Properties:
-    """Property groups of one model: colours (sRGBA) and texture coordinates by id."""
+class _ModelPart:
+    """One model part of the package: its objects and property groups."""
 
-    colours: dict[str, NDArray[np.uint8]]
-    uv: dict[str, tuple[NDArray[np.float64], int]]  # id -> (coordinates (n, 2), material)
-    materials: list[Material]
-    unsupported: dict[str, str]  # id -> element name of groups shellvox does not read
-    fallback: NDArray[np.uint8]  # (4,) sRGBA for their triangles: --colour or white
+    name: str
+    objects: dict[str, ElementTree.Element]
+    properties: Properties
+
+
+class _Package:
+    """The open package: its model parts (read on first use) and baked textures."""
+
+    def __init__(self, path: Path, archive: zipfile.ZipFile, options: LoadOptions) -> None:
+        self.path, self.archive, self.options = path, archive, options
+        self.root_name = root_model_part(path, archive)
+        self.materials: list[Material] = []
+        self.parts: dict[str, _ModelPart] = {}
+        self.baked: dict[tuple[str, str, bytes], int] = {}
+        self.baked_pixels = 0
+        self.averaged = 0
+
+    def part(self, name: str, root: ElementTree.Element | None = None) -> _ModelPart:
+        if name not in self.parts:
+            root = parse_xml(self.path, self.archive, name) if root is None else root
+            resources = root.find(f"{CORE}resources")
+            if resources is None:
+                raise InputError(self.path, f"{name} has no <resources>", "re-export it as 3MF")
+            objects = {obj.get("id", ""): obj for obj in resources.iter(f"{CORE}object")}
+            properties = read_properties(
+                self.path, self.archive, resources, self.options, self.materials
+            )
+            self.parts[name] = _ModelPart(name, objects, properties)
+        return self.parts[name]
+
+    def resolve(self, reference: str, within: str) -> str:
+        """Return the part a ``p:path`` names (only the root part may name others)."""
+        if within != self.root_name:
+            raise InputError(
+                self.path,
+                f"model part {within} refers to another model part ({reference})",
+                "only the root model part may use p:path; re-export it",
+            )
+        name = reference.replace("\\", "/").lstrip("/")
+        if name not in self.archive.namelist():
+            raise InputError(
+                self.path, f"p:path refers to a missing model part {reference!r}", "re-export it"
+            )
+        return name
+
+    def bake(self, part: str, group: str, layered: Layered, constants: NDArray[np.float64]) -> int:
+        """Index of the material baking ``layered``'s texture under these other layers."""
+        key = (part, group, constants.tobytes())
+        if key not in self.baked:
+            source = self.materials[layered.texture]
+            if source.image is None:  # replaced by --colour: nothing to blend
+                return layered.texture
+            self.baked_pixels += source.image.shape[0] * source.image.shape[1]
+            if self.baked_pixels > MAX_TEXTURE_PIXELS and not self.options.force:
+                raise InputError(
+                    self.path,
+                    f"multiproperties {group!r} need {self.baked_pixels:,} texture pixels "
+                    f"baked, more than the limit of {MAX_TEXTURE_PIXELS:,}",
+                    "pass --force",
+                )
+            image = bake(
+                source.image,
+                constants,
+                layered.texture_layer,
+                layered.methods,
+                material_first=layered.material_first,
+            )
+            material = Material(
+                f"{source.name} in multiproperties {group!r}",
+                image=image,
+                wrap=source.wrap,
+                filter=source.filter,
+            )
+            self.baked[key] = len(self.materials)
+            self.materials.append(material)
+        return self.baked[key]
 
 
 def read_3mf(path: Path, options: LoadOptions) -> tuple[ColouredMesh, float]:
@@ -106,191 +181,157 @@ def _read_3mf(path: Path, options: LoadOptions) -> tuple[ColouredMesh, float]:
             path, "is not a 3MF package (not a zip archive)", "re-export it as 3MF"
         ) from None
     with archive:
-        _check_archive(path, archive)
-        model_name = _model_part(path, archive)
-        root = _parse_xml(path, archive, model_name)
+        check_archive(path, archive)
+        package = _Package(path, archive, options)
+        root = parse_xml(path, archive, package.root_name)
         unit = root.get("unit", "millimeter")
         if unit not in UNITS_3MF:
             raise InputError(
                 path, f"declares unknown unit {unit!r}", f"use one of {', '.join(UNITS_3MF)}"
             )
-        resources = root.find(f"{CORE}resources")
-        if resources is None:
-            raise InputError(path, "has no <resources>", "re-export it as 3MF")
-        properties = _read_properties(path, archive, resources, options)
-        objects = {obj.get("id", ""): obj for obj in resources.iter(f"{CORE}object")}
-        parts = []
+        package.part(package.root_name, root)
+        project = read_project(path, archive)
+        parts: list[Part] = []
         build = root.find(f"{CORE}build")
-        items = [] if build is None else list(build.iter(f"{CORE}item"))
-        for item in items:
-            parts += _object_meshes(
-                path,
-                objects,
-                item.get("objectid", ""),
-                _transform(path, item.get("transform")),
-                properties,
-                0,
-            )
+        for item in [] if build is None else build.iter(f"{CORE}item"):
+            name = package.root_name
+            if item.get(f"{PRODUCTION}path"):
+                name = package.resolve(str(item.get(f"{PRODUCTION}path")), name)
+            transform = _transform(path, item.get("transform"))
+            parts += _object_meshes(package, name, item.get("objectid", ""), transform, (), 0)
+    if package.averaged:
+        warnings.warn(
+            f"{path}: {package.averaged} textured multiproperties triangles have different "
+            "colours under the texture at their corners; each gets their mean",
+            ShellvoxWarning,
+            stacklevel=3,
+        )
+    parts = paint_parts(path, parts, project)
     if not parts:
         raise InputError(path, "has no build items with meshes", "re-export it with geometry")
-    return _combine(path, parts, properties.materials), UNIT_MM[UNITS_3MF[unit]]
+    return _combine(path, parts, package.materials), UNIT_MM[UNITS_3MF[unit]]
 
 
-def _check_archive(path: Path, archive: zipfile.ZipFile) -> None:
-    total = 0
-    for info in archive.infolist():
-        name = PurePosixPath(info.filename.replace("\\", "/"))
-        if name.is_absolute() or ".." in name.parts or ":" in info.filename:
-            raise InputError(
-                path,
-                f"zip entry {info.filename!r} escapes the archive",
-                "refusing to read it; re-export the 3MF from a trusted tool",
+def _object_meshes(
+    package: _Package,
+    part_name: str,
+    object_id: str,
+    transform: NDArray[np.float64],
+    trail: tuple[str, ...],
+    depth: int,
+) -> list[Part]:
+    path = package.path
+    part = package.part(part_name)
+    if depth > 32 or object_id not in part.objects:
+        problem = f"references missing or cyclic object {object_id!r} in {part_name}"
+        raise InputError(path, problem, "re-export it")
+    obj = part.objects[object_id]
+    trail = (*trail, object_id)
+    mesh = obj.find(f"{CORE}mesh")
+    parts: list[Part] = []
+    if mesh is not None:
+        parts.append(_mesh_part(package, part, obj, mesh, transform, trail))
+    components = obj.find(f"{CORE}components")
+    if components is not None:
+        for component in components.iter(f"{CORE}component"):
+            child = transform @ _transform(path, component.get("transform"))
+            name = part_name
+            if component.get(f"{PRODUCTION}path"):
+                name = package.resolve(str(component.get(f"{PRODUCTION}path")), part_name)
+            parts += _object_meshes(
+                package, name, component.get("objectid", ""), child, trail, depth + 1
             )
-        total += info.file_size
-        ratio = info.file_size / max(info.compress_size, 1)
-        if (
-            info.file_size > MAX_ENTRY_BYTES
-            or total > MAX_TOTAL_BYTES
-            or (ratio > MAX_RATIO and info.file_size > 64 * 1024**2)
-        ):
-            raise InputError(
-                path,
-                f"zip entry {info.filename!r} expands to {info.file_size} "
-                f"bytes (ratio {ratio:.0f}:1), a likely zip bomb",
-                "refusing to read it; re-export the 3MF",
-            )
+    return parts
 
 
-def _model_part(path: Path, archive: zipfile.ZipFile) -> str:
-    names = set(archive.namelist())
-    if "_rels/.rels" in names:
-        try:
-            rels = ElementTree.fromstring(_read_entry(path, archive, "_rels/.rels"))
-        except ElementTree.ParseError as error:
-            raise InputError(
-                path, f"its _rels/.rels is malformed XML ({error})", "re-export it as 3MF"
-            ) from None
-        for rel in rels:
-            if rel.get("Type") == MODEL_REL and rel.get("Target"):
-                target = str(rel.get("Target")).lstrip("/")
-                if target in names:
-                    return target
-    for name in names:
-        if name.lower().endswith(".model"):
-            return name
-    raise InputError(path, "has no 3D model part", "re-export it as 3MF")
-
-
-def _read_entry(path: Path, archive: zipfile.ZipFile, name: str) -> bytes:
-    try:
-        with archive.open(name) as handle:
-            data = handle.read(MAX_ENTRY_BYTES + 1)
-    except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as error:
-        # A bad CRC-32, corrupt deflate data or a truncated archive.
+def _mesh_part(
+    package: _Package,
+    part: _ModelPart,
+    obj: ElementTree.Element,
+    mesh: ElementTree.Element,
+    transform: NDArray[np.float64],
+    trail: tuple[str, ...],
+) -> Part:
+    path, properties = package.path, part.properties
+    coordinates = [v.get(k, "nan") for v in mesh.iter(f"{CORE}vertex") for k in "xyz"]
+    vertices = parse_numbers(path, "vertex coordinate", coordinates, float).astype(np.float64)
+    vertices = vertices.reshape(-1, 3)
+    triangles = list(mesh.iter(f"{CORE}triangle"))
+    corners = [t.get(k, "-1") for t in triangles for k in ("v1", "v2", "v3")]
+    faces = parse_numbers(path, "vertex index", corners, int).astype(np.int64).reshape(-1, 3)
+    if len(vertices) == 0 or len(faces) == 0:
+        raise InputError(path, f"object {obj.get('id')} has an empty mesh", "re-export it")
+    if faces.min() < 0 or faces.max() >= len(vertices):
         raise InputError(
-            path, f"zip entry {name!r} is corrupt ({error})", "re-export or re-download it"
-        ) from None
-    except (NotImplementedError, RuntimeError) as error:  # unknown compression, encrypted
-        raise InputError(
-            path, f"zip entry {name!r} cannot be read ({error})", "re-export it as 3MF"
-        ) from None
-    if len(data) > MAX_ENTRY_BYTES:
-        raise InputError(path, f"zip entry {name!r} is larger than declared", "refusing it")
-    return data
-
-
-def _parse_xml(path: Path, archive: zipfile.ZipFile, name: str) -> ElementTree.Element:
-    try:
-        return ElementTree.fromstring(_read_entry(path, archive, name))
-    except ElementTree.ParseError as error:
-        raise InputError(path, f"model XML is malformed ({error})", "re-export it") from None
-
-
-def _colour(path: Path, value: str | None) -> NDArray[np.uint8]:
-    text = (value or "").strip()
-    try:
-        if len(text) not in (7, 9) or text[0] != "#":
-            raise ValueError(text)
-        rgba = bytes.fromhex(text[1:] + ("ff" if len(text) == 7 else ""))
-    except ValueError:
-        raise InputError(
-            path, f"has a malformed colour {value!r}", "colours are #RRGGBB or #RRGGBBAA in hex"
-        ) from None
-    return np.frombuffer(rgba, dtype=np.uint8).copy()
-
-
-def _numbers(path: Path, what: str, values: list[str], dtype: type) -> NDArray[np.generic]:
-    """Parse XML attribute strings as numbers, or refuse naming what they are."""
-    try:
-        array: NDArray[np.generic] = np.array(values, dtype=np.str_).astype(dtype)
-    except ValueError:
-        bad = next((v for v in values if not _parses(v, dtype)), "?")
-        raise InputError(path, f"has a non-numeric {what} {bad!r}", "re-export it as 3MF") from None
-    return array
-
-
-def _parses(value: str, dtype: type) -> bool:
-    try:
-        dtype(value)
-    except ValueError:
-        return False
-    return True
-
-
-def _read_properties(
-    path: Path, archive: zipfile.ZipFile, resources: ElementTree.Element, options: LoadOptions
-) -> _Properties:
-    colours: dict[str, NDArray[np.uint8]] = {}
-    for group in resources.iter(f"{MATERIAL}colorgroup"):
-        colours[group.get("id", "")] = np.array(
-            [_colour(path, c.get("color")) for c in group.iter(f"{MATERIAL}color")], np.uint8
-        ).reshape(-1, 4)
-    for group in resources.iter(f"{CORE}basematerials"):
-        colours[group.get("id", "")] = np.array(
-            [_colour(path, b.get("displaycolor")) for b in group.iter(f"{CORE}base")], np.uint8
-        ).reshape(-1, 4)
-    textures: dict[str, int] = {}
-    elements = list(resources.iter(f"{MATERIAL}texture2d"))
-    entries = set(archive.namelist())
-    refs = []
-    for texture in elements:
-        name = (texture.get("path") or "").lstrip("/")
-        data = _read_entry(path, archive, name) if name in entries else None
-        refs.append(TextureRef(path, f"texture {name!r} (in the package)", data, "re-export it"))
-    images = read_textures(refs, colour=options.colour, force=options.force)
-    materials: list[Material] = []
-    for texture, ref, image in zip(elements, refs, images, strict=True):
-        wrap = (
-            WRAP_3MF.get(texture.get("tilestyleu", "wrap"), "repeat"),
-            WRAP_3MF.get(texture.get("tilestylev", "wrap"), "repeat"),
+            path, f"object {obj.get('id')} has a vertex index out of range", "re-export it"
         )
-        filt: FilterMode = "nearest" if texture.get("filter") == "nearest" else "linear"
-        textures[texture.get("id", "")] = len(materials)
-        if image is None:  # replaced by --colour (read_textures warned)
-            assert options.colour is not None
-            fallback = decode_uint8(np.asarray(options.colour, np.uint8))
-            materials.append(Material(ref.label, factor=fallback))
+    if not np.isfinite(vertices).all():
+        bad = int((~np.isfinite(vertices)).any(axis=1).sum())
+        raise InputError(
+            path,
+            f"object {obj.get('id')} has {bad} vertices with NaN or infinite coordinates",
+            "fix or re-export the model",
+        )
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused by load_model
+        vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
+    default_pid, default_index = obj.get("pid", ""), obj.get("pindex", "")
+    pid = np.array([t.get("pid", default_pid) for t in triangles], dtype=object)
+    p1 = [t.get("p1", default_index if t.get("pid") is None else "") for t in triangles]
+    indices = [
+        str(value)
+        for a, t in zip(p1, triangles, strict=True)
+        for value in (a or -1, t.get("p2", a or -1), t.get("p3", a or -1))
+    ]
+    index = parse_numbers(path, "property index", indices, int).astype(np.int64).reshape(-1, 3)
+    n = len(faces)
+    rgba = np.full((n, 3, 4), 255, dtype=np.uint8)
+    uv = np.zeros((n, 3, 2))
+    material = np.full(n, -1, dtype=np.int64)
+    for group in set(pid.tolist()) - {""}:  # loop over property groups, not faces
+        chosen = pid == group
+        if group in properties.colours:
+            table = properties.colours[group]
+            rgba[chosen] = table[_check_index(path, index[chosen], len(table))]
+        elif group in properties.uv:
+            coords, texture = properties.uv[group]
+            uv[chosen] = coords[_check_index(path, index[chosen], len(coords))]
+            material[chosen] = texture
+        elif group in properties.layered:
+            layered = properties.layered[group]
+            corner = _check_index(path, index[chosen], len(layered.uv))
+            uv[chosen], material[chosen] = _layered(package, part.name, group, layered, corner)
         else:
-            materials.append(Material(ref.label, image=image, wrap=wrap, filter=filt))
-    uv: dict[str, tuple[NDArray[np.float64], int]] = {}
-    for group in resources.iter(f"{MATERIAL}texture2dgroup"):
-        texid = group.get("texid", "")
-        if texid not in textures:
             raise InputError(
-                path,
-                f"texture group {group.get('id')!r} refers to unknown texture id {texid!r}",
-                "re-export it as 3MF",
+                path, f"triangles reference unknown property group {group!r}", "re-export it"
             )
-        values = [c.get(k, "0") for c in group.iter(f"{MATERIAL}tex2coord") for k in "uv"]
-        coords = _numbers(path, "texture coordinate", values, float).reshape(-1, 2)
-        uv[group.get("id", "")] = (coords.astype(np.float64), textures[texid])
-    unsupported = {
-        element.get("id", ""): element.tag.rpartition("}")[2]
-        for element in resources
-        if element.tag in (f"{MATERIAL}compositematerials", f"{MATERIAL}multiproperties")
+    paint = None
+    if any(a in t.attrib for t in triangles for a in PAINT_ATTRIBUTES):
+        paint = [t.get(PAINT_ATTRIBUTES[0]) or t.get(PAINT_ATTRIBUTES[1]) or "" for t in triangles]
+    return {
+        "vertices": vertices,
+        "faces": faces,
+        "rgba": rgba,
+        "uv": uv,
+        "material": material,
+        "coloured": pid != "",
+        "paint": paint,
+        "trail": trail,
     }
-    plain: NDArray[np.uint8] = np.array(options.colour or (255, 255, 255, 255), np.uint8)
-    return _Properties(colours, uv, materials, unsupported, plain)
+
+
+def _layered(
+    package: _Package, part: str, group: str, layered: Layered, corner: NDArray[np.int64]
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """UVs ``(n, 3, 2)`` and baked material ``(n,)`` of triangles of a textured group."""
+    constants = layered.constants[corner]  # (n, 3, L, 4)
+    differ = (constants != constants[:, :1]).any(axis=(1, 2, 3))
+    package.averaged += int(differ.sum())
+    mean = constants.mean(axis=1)  # linear light
+    keys, inverse = np.unique(mean.reshape(len(mean), -1), axis=0, return_inverse=True)
+    table = np.array(
+        [package.bake(part, group, layered, key.reshape(-1, 4)) for key in keys], np.int64
+    )  # loop over distinct layer colours
+    return layered.uv[corner], table[inverse.reshape(-1)]
 
 
 def _transform(path: Path, text: str | None) -> NDArray[np.float64]:
@@ -321,115 +362,13 @@ def _transform(path: Path, text: str | None) -> NDArray[np.float64]:
     return matrix
 
 
-def _object_meshes(
-    path: Path,
-    objects: dict[str, ElementTree.Element],
-    object_id: str,
-    transform: NDArray[np.float64],
-    properties: _Properties,
-    depth: int,
-) -> list[dict[str, NDArray[np.generic]]]:
-    if depth > 32 or object_id not in objects:
-        raise InputError(path, f"references missing or cyclic object {object_id!r}", "re-export it")
-    obj = objects[object_id]
-    mesh = obj.find(f"{CORE}mesh")
-    parts: list[dict[str, NDArray[np.generic]]] = []
-    if mesh is not None:
-        parts.append(_mesh_part(path, obj, mesh, transform, properties))
-    components = obj.find(f"{CORE}components")
-    if components is not None:
-        for component in components.iter(f"{CORE}component"):
-            child = transform @ _transform(path, component.get("transform"))
-            parts += _object_meshes(
-                path, objects, component.get("objectid", ""), child, properties, depth + 1
-            )
-    return parts
-
-
-def _mesh_part(
-    path: Path,
-    obj: ElementTree.Element,
-    mesh: ElementTree.Element,
-    transform: NDArray[np.float64],
-    properties: _Properties,
-) -> dict[str, NDArray[np.generic]]:
-    coordinates = [v.get(k, "nan") for v in mesh.iter(f"{CORE}vertex") for k in "xyz"]
-    vertices = _numbers(path, "vertex coordinate", coordinates, float).astype(np.float64)
-    vertices = vertices.reshape(-1, 3)
-    triangles = list(mesh.iter(f"{CORE}triangle"))
-    corners = [t.get(k, "-1") for t in triangles for k in ("v1", "v2", "v3")]
-    faces = _numbers(path, "vertex index", corners, int).astype(np.int64).reshape(-1, 3)
-    if len(vertices) == 0 or len(faces) == 0:
-        raise InputError(path, f"object {obj.get('id')} has an empty mesh", "re-export it")
-    if faces.min() < 0 or faces.max() >= len(vertices):
-        raise InputError(
-            path, f"object {obj.get('id')} has a vertex index out of range", "re-export it"
-        )
-    if not np.isfinite(vertices).all():
-        bad = int((~np.isfinite(vertices)).any(axis=1).sum())
-        raise InputError(
-            path,
-            f"object {obj.get('id')} has {bad} vertices with NaN or infinite coordinates",
-            "fix or re-export the model",
-        )
-    with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused by load_model
-        vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
-    default_pid, default_index = obj.get("pid", ""), obj.get("pindex", "")
-    pid = np.array([t.get("pid", default_pid) for t in triangles], dtype=object)
-    p1 = [t.get("p1", default_index if t.get("pid") is None else "") for t in triangles]
-    indices = [
-        str(value)
-        for a, t in zip(p1, triangles, strict=True)
-        for value in (a or -1, t.get("p2", a or -1), t.get("p3", a or -1))
-    ]
-    index = _numbers(path, "property index", indices, int).astype(np.int64).reshape(-1, 3)
-    n = len(faces)
-    rgba = np.full((n, 3, 4), 255, dtype=np.uint8)
-    uv = np.zeros((n, 3, 2))
-    material = np.full(n, -1, dtype=np.int64)
-    for group in set(pid.tolist()) - {""}:  # loop over property groups, not faces
-        chosen = pid == group
-        if group in properties.colours:
-            table = properties.colours[group]
-            rgba[chosen] = table[_check_index(path, index[chosen], len(table))]
-        elif group in properties.uv:
-            coords, texture = properties.uv[group]
-            uv[chosen] = coords[_check_index(path, index[chosen], len(coords))]
-            material[chosen] = texture
-        elif group in properties.unsupported:
-            rgba[chosen] = properties.fallback
-            colour = ",".join(str(c) for c in properties.fallback)
-            warnings.warn(
-                f"{path}: {int(chosen.sum())} triangles use a <{properties.unsupported[group]}> "
-                f"property group ({group!r}), which shellvox does not read; they get "
-                f"{colour} (white, or --colour)",
-                ShellvoxWarning,
-                stacklevel=5,
-            )
-        else:
-            raise InputError(
-                path, f"triangles reference unknown property group {group!r}", "re-export it"
-            )
-    coloured = pid != ""
-    return {
-        "vertices": vertices,
-        "faces": faces,
-        "rgba": rgba,
-        "uv": uv,
-        "material": material,
-        "coloured": coloured.astype(bool),
-    }
-
-
 def _check_index(path: Path, index: NDArray[np.int64], size: int) -> NDArray[np.int64]:
     if index.min() < 0 or index.max() >= size:
         raise InputError(path, "a triangle's property index is out of range", "re-export it")
     return index
 
 
-def _combine(
-    path: Path, parts: list[dict[str, NDArray[np.generic]]], materials: list[Material]
-) -> ColouredMesh:
+def _combine(path: Path, parts: list[Part], materials: list[Material]) -> ColouredMesh:
     offsets = np.cumsum([0] + [len(p["vertices"]) for p in parts[:-1]])
     vertices = np.concatenate([p["vertices"] for p in parts]).astype(np.float64)
     faces = np.concatenate([p["faces"] + o for p, o in zip(parts, offsets, strict=True)])
