@@ -13,6 +13,7 @@ import igl
 import numpy as np
 import numpy.typing as npt
 import scipy.spatial
+import trimesh
 
 from offset._validate import FloatArray, IntArray
 from offset.intersections import intersecting_pairs
@@ -44,6 +45,50 @@ class Surface:
         self.crossing_points = np.asarray(vertices[faces[np.unique(crossing)]].reshape(-1, 3))
         #: int: number of crossing input face pairs.
         self.n_crossing = int(crossing.shape[0])
+        tri = self.vertices[self.faces]
+        centre = tri.mean(axis=1)
+        #: (F, 3) float64 mm and (F,) float64 mm: face centroids and the largest distance
+        #: from a centroid to its corners, for finding the faces near a point.
+        self.centres = centre
+        self.reach = np.linalg.norm(tri - centre[:, None, :], axis=2).max(axis=1)
+        self._centre_tree: scipy.spatial.cKDTree | None = None
+
+    def within_depth(
+        self, points: FloatArray, depth: FloatArray, slack: float
+    ) -> npt.NDArray[np.bool_]:
+        """Return which points lie within ``(1 + slack) * D_f`` of some face ``f``.
+
+        Exact point-triangle distances (:func:`trimesh.triangles.closest_point`) to every
+        face whose bounding sphere comes that close.
+
+        Parameters
+        ----------
+        points : (n, 3) float64, mm
+        depth : (F,) float64, mm
+        slack : float
+
+        Returns
+        -------
+        (n,) bool
+        """
+        if len(points) == 0:
+            return np.zeros(0, dtype=bool)
+        if self._centre_tree is None:
+            self._centre_tree = scipy.spatial.cKDTree(self.centres)
+        radius = (1.0 + slack) * float(depth.max()) + float(self.reach.max())
+        near = scipy.spatial.cKDTree(points).sparse_distance_matrix(
+            self._centre_tree, radius, output_type="ndarray"
+        )
+        which = np.asarray(near["i"], dtype=np.int64)
+        face = np.asarray(near["j"], dtype=np.int64)
+        foot = trimesh.triangles.closest_point(  # type: ignore[no-untyped-call]
+            self.vertices[self.faces[face]], points[which]
+        )
+        dist = np.linalg.norm(foot - points[which], axis=1)
+        hit = dist <= (1.0 + slack) * depth[face]
+        out = np.zeros(len(points), dtype=bool)
+        out[which[hit]] = True
+        return out
 
 
 def crossing_count(vertices: FloatArray, faces: IntArray) -> int:
@@ -66,10 +111,13 @@ def too_deep(
 ) -> npt.NDArray[np.bool_]:
     """Return which shell triangles have their centroid deeper than allowed.
 
-    The allowed distance from the surface is ``(1 + DEEP_TOLERANCE)`` times the largest
-    depth of the faces around the nearest surface face (its vertices' incident faces),
-    so variable depth never counts as a defect. Points within twice the largest depth of
-    a self-intersecting part of the input are skipped (no well-defined solid there).
+    A centroid is too deep when it lies farther than ``(1 + DEEP_TOLERANCE) D_f`` from
+    every face ``f``: no piece reaches it (pieces are inscribed in those bands). First
+    the nearest surface face and the faces around it (its vertices' incident faces) are
+    checked, then, for centroids beyond those, every face within reach (where depths
+    step, the deeper face's rounded edge reaches under several rings of shallower
+    faces). Points within twice the largest depth of a self-intersecting part of the
+    input are skipped (no well-defined solid there).
 
     Parameters
     ----------
@@ -95,6 +143,9 @@ def too_deep(
     np.maximum.at(vdepth, surface.faces.reshape(-1), np.repeat(depth, 3))
     allowed = vdepth[surface.faces[np.asarray(face, dtype=np.int64)]].max(axis=1)
     deep = dist > (1.0 + DEEP_TOLERANCE) * allowed
+    if np.any(deep):
+        idx = np.flatnonzero(deep)
+        deep[idx[surface.within_depth(centroid[idx], depth, DEEP_TOLERANCE)]] = False
     if surface.n_crossing and np.any(deep):
         tree = scipy.spatial.cKDTree(surface.crossing_points)
         near, _ = tree.query(centroid[deep])

@@ -20,54 +20,55 @@ flat faces and creases asked for here. The removed set is the union of convex pi
   ideal rounded region) in equal steps of at most ``ARC_STEP_RAD`` (7.5 degrees);
 * a cone with a spherical cap (points at most ``CAP_STEP_RAD``, 12 degrees, apart; or a
   whole icosphere where the normal cone is wider than a hemisphere) at each vertex of
-  such an edge, radius the deepest incident face.
+  such an edge, radius the deepest incident face;
+* where neighbouring depths step (by more than ``STEP_FRACTION``, 10 %, of the deeper),
+  the deeper face's band reaches past its prism: a whole cylinder about the edge and a
+  whole ball about its ends, radius the deeper depth (:func:`offset.band._depth_steps`).
+  With equal depths the nearest feature's piece covers every point of the band; across
+  a step it does not (without these pieces, a 1.0 / 0.3 mm step on a flat top left the
+  shell 0.7 mm shallower than the deeper face asks).
 
 Error bounds: all polytopes are inscribed in the exact swept region, so the shell is never
 deeper than asked except by the overlap below (at most ``5e-5 D``, at reflex features),
 and at most ``D (1 - cos(3.75 deg)) = 0.21 % D`` shallower at reflex edges and
 ``D (1 - cos(12 deg / sqrt 2)) = 1.1 % D`` at reflex vertices (cap facets; the whole balls
 used where the normal cone is wider than a hemisphere are icospheres of 642 points, within
-about 0.5 % D); face interiors and convex creases are exact. Pieces overlap their
-neighbours by ``GROW_FRACTION * D`` along the surface (sliver triangles' corners by at
-most ten times that) so that no surface edge lies exactly on a piece boundary; without
-it, Booleans left slivers of material along reflex edges.
+about 0.5 % D); face interiors and convex creases are exact. Next to a depth step below
+``STEP_FRACTION`` the shell is shallower than the deeper face asks by at most that step.
+Pieces overlap their neighbours by ``GROW_FRACTION * D`` along the surface (sliver
+triangles' corners by at most ten times that) so that no surface edge lies exactly on a
+piece boundary; without it, Booleans left slivers of material along reflex edges.
 
 The union is built bottom-up along a Morton curve (:mod:`offset.union`): runs of 16
 neighbouring pieces first, then neighbouring results pairwise, each Boolean evaluated
-eagerly; one batch Boolean over everything (manifold3d's own grouping) was 2-3 times
-slower. Guards after the Boolean (:mod:`offset.guards`): components of about zero volume
-are dropped; where part of the previous boundary survived (a mis-classified region) the
-nearby pieces are subtracted once more; and the shell is checked for crossing triangles
-(:func:`offset.intersections.intersecting_pairs`) and for triangles whose centroid lies
-deeper than any piece reaches. manifold3d guarantees a manifold result, but not a
-geometrically embedded or exact one: near-coplanar overlaps of pieces (nearly flat
-reflex edges) occasionally give sub-micrometre crossing triangles, a folded triangle, or
-a thin crack cut into the core, and which ones depends on the order of the Booleans. A
-crossing shell is first simplified to ``SIMPLIFY_FRACTION * D`` (manifold3d edge
-collapse). Where triangles still cross, or lie deeper than asked, the core is recomputed
-locally (:func:`_patch`): in boxes around them, from the previous core and only the
-pieces that reach into the boxes, united in another order, and put back in place of the
-old core there; the boxes grow each round (:data:`PATCH_ROUNDS`). After a simplification
-or a patch, only the pairs with a new triangle or one that crossed before are tested
-again: the others come out of manifold3d with the same coordinates
-(:mod:`offset.mesh_diff`). On the 100 mm airplane at 0.5 mm every union order left such
-a defect over nearly flat, slightly reflex input edges (bends of -0.1 to -3 degrees),
-with every vertex at ``D`` (within 4e-5 ``D``) but the triangles between them too deep:
-a quad of about 0.9 mm^2 split along the wrong diagonal, 2.2 % ``D`` (11 um) deep at the
-centroids, 5e-3 mm^3 of core removed; or a fold, a 0.3 mm^2 triangle upside down between
-two others, 0.38 % ``D`` deep (the folded layers only touch, so the crossing check does
-not see it). On a 94k-face spot, 2 to 18 sub-micrometre crossing pairs survived the
-simplification in every union order; recomputing all of the union for each order took 40
-minutes per layer, a patch takes seconds. A shell still crossing or too deep after the
-patches is recomputed with another leaf size of the union tree (:data:`LEAF_SIZES`), the
-best attempt is kept, and a :class:`ShellDefectWarning` is raised if defects remain
-after every order.
+eagerly so that every Boolean joins two neighbouring regions. Coplanar neighbouring
+faces of equal depth share one prism (:mod:`offset.planar`).
+
+manifold3d guarantees a manifold result, but not an embedded or exact one: near-coplanar
+overlaps of pieces (nearly flat reflex edges) can leave sub-micrometre crossing
+triangles, a folded triangle or a thin crack cut into the core, and which ones depends
+on the order of the Booleans. Hence the guards (:mod:`offset.guards`), in this order:
+
+1. components of about zero volume are dropped (:func:`_drop_slivers`);
+2. where part of the previous boundary survived the cut (a mis-classified region), the
+   nearby pieces are subtracted once more (:data:`REPAIR_ROUNDS`);
+3. a shell with crossing triangles (:func:`offset.intersections.intersecting_pairs`) is
+   simplified to ``SIMPLIFY_FRACTION * D`` (manifold3d's edge collapse);
+4. where triangles still cross, or lie deeper than any piece reaches
+   (:func:`offset.guards.too_deep`; a fold between layers that only touch is caught
+   here, not by the crossing test), the core is recomputed locally (:func:`_patch`): in
+   boxes around them, from the previous core and the pieces reaching into the boxes,
+   united in another order; the boxes grow each round (:data:`PATCH_ROUNDS`). After a
+   simplification or a patch only pairs with a new triangle, or one that crossed
+   before, are tested again (:mod:`offset.mesh_diff`);
+5. a shell still defective after the patches is recomputed with another leaf size of
+   the union tree (:data:`LEAF_SIZES`); the best attempt is kept, and a
+   :class:`ShellDefectWarning` names what remains.
 
 The input must be a closed, consistently oriented surface without self-intersections; a
 self-intersecting input (e.g. the Khronos duck's bill) bounds no well-defined solid and
-gives local defects there. The cost is that of the union, about 1 ms per piece on two
-cores (manifold3d runs in parallel): for the 5856-face spot at 100 mm about 12 s per
-layer, plus the crossing check and any retries; see ``benchmarks/bench_offset.py``.
+gives local defects there. The cost is that of the union, one pairwise Boolean per
+piece, about 1 ms each on two cores; see ``benchmarks/bench_offset.py``.
 
 References
 ----------

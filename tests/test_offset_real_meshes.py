@@ -23,6 +23,7 @@ CASES = {
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("real_mesh_shells")  # one worker computes them once
 @pytest.mark.parametrize("name", list(CASES))
 def test_shells_are_valid_nested_and_equidistant(real_mesh_shells, name):
     relative, size_mm = CASES[name]
@@ -59,6 +60,7 @@ def test_shells_are_valid_nested_and_equidistant(real_mesh_shells, name):
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("real_mesh_shells")  # one worker computes them once
 def test_duck_input_defect_is_reported(real_mesh_shells):
     """The duck's bill crosses itself: the report says so instead of hiding it."""
     duck, shells, _ = real_mesh_shells(*CASES["duck"])

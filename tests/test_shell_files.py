@@ -222,6 +222,7 @@ CASES = {
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("real_mesh_shells")  # one worker computes them once
 @pytest.mark.parametrize("name", list(CASES))
 def test_real_mesh_shell_files_are_valid_outside_shellvox(real_mesh_shells, tmp_path, name):
     relative, size_mm = CASES[name]
