@@ -191,40 +191,6 @@ def _caps(
     return pts, _cap_topology(rings, azimuths)
 
 
-def cylinders(ends: FloatArray, r: FloatArray, max_step: float) -> Group:
-    """Return inscribed cylinders of radius ``r`` about segments, ends grown by GROW_FRACTION.
-
-    Parameters
-    ----------
-    ends : (N, 2, 3) float64, mm
-    r : (N,) float64, mm
-    max_step : float, radians
-        Largest angle between neighbouring ring points: the facets stay within
-        ``r (1 - cos(max_step / 2))`` of the round cylinder.
-
-    Returns
-    -------
-    points (N, 2m, 3) float64 mm, tris (T, 3) int64
-    """
-    m = max(int(np.ceil(2 * np.pi / max_step)), 3)
-    t = ends[:, 1] - ends[:, 0]
-    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
-    helper = np.where(np.abs(t[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    u = np.cross(t, helper)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    w = np.cross(t, u)
-    ang = 2 * np.pi * np.arange(m) / m
-    ring = r[:, None, None] * (
-        np.cos(ang)[None, :, None] * u[:, None, :] + np.sin(ang)[None, :, None] * w[:, None, :]
-    )
-    ext = (GROW_FRACTION * r)[:, None] * t
-    pts = np.concatenate(
-        [(ends[:, 0] - ext)[:, None] + ring, (ends[:, 1] + ext)[:, None] + ring], axis=1
-    )
-    tris = _ring_prism_topology(m)
-    return _orient_rings(pts, tris, m), tris
-
-
 def balls(centres: FloatArray, r: FloatArray, subdivisions: int) -> Group:
     """Return inscribed icospheres of radius ``r`` about ``centres`` (``(N, P, 3)`` mm)."""
     ico = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)

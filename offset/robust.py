@@ -20,21 +20,24 @@ flat faces and creases asked for here. The removed set is the union of convex pi
   ideal rounded region) in equal steps of at most ``ARC_STEP_RAD`` (7.5 degrees);
 * a cone with a spherical cap (points at most ``CAP_STEP_RAD``, 12 degrees, apart; or a
   whole icosphere where the normal cone is wider than a hemisphere) at each vertex of
-  such an edge, radius the deepest incident face;
-* where neighbouring depths step (by more than ``STEP_FRACTION``, 10 %, of the deeper),
-  the deeper face's band reaches past its prism: a whole cylinder about the edge and a
-  whole ball about its ends, radius the deeper depth (:func:`offset.band._depth_steps`).
-  With equal depths the nearest feature's piece covers every point of the band; across
-  a step it does not (without these pieces, a 1.0 / 0.3 mm step on a flat top left the
-  shell 0.7 mm shallower than the deeper face asks).
+  such an edge, radius the deepest incident face.
 
 Error bounds: all polytopes are inscribed in the exact swept region, so the shell is never
 deeper than asked except by the overlap below (at most ``5e-5 D``, at reflex features),
 and at most ``D (1 - cos(3.75 deg)) = 0.21 % D`` shallower at reflex edges and
 ``D (1 - cos(12 deg / sqrt 2)) = 1.1 % D`` at reflex vertices (cap facets; the whole balls
 used where the normal cone is wider than a hemisphere are icospheres of 642 points, within
-about 0.5 % D); face interiors and convex creases are exact. Next to a depth step below
-``STEP_FRACTION`` the shell is shallower than the deeper face asks by at most that step.
+about 0.5 % D); face interiors and convex creases are exact.
+
+Depth steps: where neighbouring faces take different depths, each face's prism goes to
+its own depth, so the shell steps sharply at the shared edge (moved by the overlap
+``GROW_FRACTION * D``), as the voxel layers do: they take the depth of the nearest face
+(:mod:`voxel.layer_kernel`). The core as defined above would instead round the deeper
+face's band under its shallower neighbour (a whole cylinder about the edge, a ball
+about each corner): on a flat top with a 1.0 / 0.3 mm step the two differ by up to
+0.7 mm next to the edge. Shells and voxels are kept to one rule, the voxels'; sectors
+and caps at reflex features take the larger depth of their faces.
+
 Pieces overlap their neighbours by ``GROW_FRACTION * D`` along the surface (sliver
 triangles' corners by at most ten times that) so that no surface edge lies exactly on a
 piece boundary; without it, Booleans left slivers of material along reflex edges.
