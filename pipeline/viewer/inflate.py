@@ -115,6 +115,12 @@ def pick_bytes(
             f"stream_bounds and wanted_bounds must both be (S + 1,), got "
             f"{stream_bounds.shape} and {wanted_bounds.shape}"
         )
+    for name, bounds, size in (
+        ("stream_bounds", stream_bounds, len(data)),
+        ("wanted_bounds", wanted_bounds, len(wanted)),
+    ):
+        if bounds[0] < 0 or bounds[-1] > size or np.any(np.diff(bounds) < 0):
+            raise ValueError(f"{name} must ascend within 0..{size}, got {bounds}")
     if len(stream_bounds) == 1:
         return np.zeros(0, dtype=np.uint8)
     out = np.zeros(len(wanted), dtype=np.uint8)
@@ -460,7 +466,7 @@ def _symbols(
             st[0] += 4
             if st[0] + size > stop:
                 return -2, 0
-            if n_lits + size > len(lits):
+            if total + size > len(lits):
                 return -7, 0
             if size == 0:
                 continue
@@ -511,7 +517,7 @@ def _symbols(
             held -= used
             sym = entry >> 4
             if sym < 256:  # a literal: extends the run of literals before it
-                if n_lits >= len(lits):
+                if total >= len(lits):
                     return -7, 0
                 if n > 0 and kinds[n - 1] == _LIT:
                     lengths[n - 1] += 1
@@ -556,6 +562,8 @@ def _symbols(
             held -= used
             if distance > total:
                 return -5, 0
+            if total + length > len(lits):
+                return -7, 0
             if distance <= 4:
                 # the pattern: the last `distance` bytes, oldest first
                 if distance == 1:
@@ -630,8 +638,6 @@ def _symbols(
                     total += length
                     continue
                 # otherwise kept as literals, copied from its sources
-                if n_lits + length > len(lits):
-                    return -7, 0
                 base = n_lits
                 k = 0
                 while k < length:
