@@ -13,6 +13,8 @@ Only the files named here can ever be read: the stacks, ``thickness.ply`` and
 
 from __future__ import annotations
 
+import math
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,7 +25,7 @@ from numpy.typing import NDArray
 from pipeline.build_manifest import check_files, read_manifest
 from pipeline.errors import InputError
 from pipeline.viewer.depth import Surface
-from pipeline.viewer.stacks import StackError, TiffStack
+from pipeline.viewer.stacks import StackError, SymbolCache, TiffStack
 from voxel.grid import GridSpec
 
 #: The stacks the viewer reads: name -> (file, samples). materials.tif is optional.
@@ -75,6 +77,8 @@ class BuildFolder:
         self.stacks = stacks
         self.surface = surface
         self.files = files
+        self._stop = threading.Event()
+        self._warming: threading.Thread | None = None
         self.layers = tuple(
             Layer(
                 int(layer["index"]),
@@ -129,13 +133,16 @@ class BuildFolder:
         files = {"manifest.json": (folder / "manifest.json").resolve()}
         files.update({name: (folder / name).resolve() for name in SERVED_FILES if name in listed})
         stacks: dict[str, TiffStack] = {}
+        cache = SymbolCache()  # one memory budget for the build's stacks
         try:
             for key, (name, samples) in STACKS.items():
                 if name not in listed:
                     continue
                 if key == "colour":
                     samples = int(manifest.get("tiff", {}).get(name, {}).get("samples", 3))
-                stacks[key] = TiffStack((folder / name).resolve(), grid.shape_zyx, samples=samples)
+                stacks[key] = TiffStack(
+                    (folder / name).resolve(), grid.shape_zyx, samples=samples, cache=cache
+                )
         except StackError as error:
             for stack in stacks.values():
                 stack.close()
@@ -151,9 +158,30 @@ class BuildFolder:
         return cls(folder.resolve(), manifest, grid, stacks, surface, files)
 
     def close(self) -> None:
-        """Close the stacks."""
+        """Stop warming the cache, close the stacks."""
+        self._stop.set()
+        if self._warming is not None:
+            self._warming.join()
         for stack in self.stacks.values():
             stack.close()
+
+    def warm_in_background(self, screen_pixels: int = 1000) -> None:
+        """Decode, in a thread, the pages a whole-model y or x slice shows.
+
+        A zoomed-out view of a tall model reads every ``step``-th page (``step`` a power
+        of two, about the model's pages per ``screen_pixels``); decoding them ahead
+        makes the first y and x slices as quick as the next ones.
+        """
+        n_z = self.grid.shape_zyx[0]
+        step = 2 ** max(0, round(math.log2(max(1.0, n_z / screen_pixels))))
+        order = [s for s in ("layers", "colour", "materials") if s in self.stacks]
+
+        def run() -> None:
+            for name in order:
+                self.stacks[name].warm(range(0, n_z, step), self._stop)
+
+        self._warming = threading.Thread(target=run, name="warm-cache", daemon=True)
+        self._warming.start()
 
     def __enter__(self) -> BuildFolder:
         return self

@@ -1,29 +1,29 @@
-"""Random access into zlib streams: chosen bytes of a stream without inflating the rest.
+"""Random access into zlib streams: chosen bytes of a stream without inflating all of it.
 
 A voxel slice along y or x needs one row or one column of every TIFF page, and a
-page is one deflate stream (RFC 1951), which has no random access: zlib must write
-out every byte before the ones asked for (0.4 GB/s on voxel pages). This decoder reads
-the stream's *symbols* instead and writes no output: a run of literals is kept as
-the literal bytes, a match whose distance is 1 to 4 bytes (the runs of a voxel page;
-:mod:`voxel.deflate` writes no other kind) as its repeating pattern of 1 to 4 bytes,
-taken from the last 4 bytes of output, which are tracked, and a longer-distance match
-(zlib's general matches) as a reference back. A byte at position ``p`` is then read
-from the symbol that holds ``p``, following references back until a literal or a
-pattern. The cost is per symbol, not per byte: a page of long runs (a layer index
-page) decodes hundreds of times faster than zlib inflates it.
+page is a deflate stream (RFC 1951), which has no random access: zlib writes out every
+byte before the ones asked for (0.4 GB/s on voxel pages). :func:`decode` reads a
+stream's *symbols* instead and writes no output: a run of literals is kept as its
+bytes, a match at a distance of 1 to 4 bytes (the runs of a voxel page;
+:mod:`voxel.deflate` writes no other kind) as its repeating pattern of 1 to 4 bytes, and
+a match from further back (zlib's general matches) as copies of the symbols it
+repeats. The result, :class:`Symbols`, is a run-length description of the inflated
+bytes, about as large as the compressed stream; :func:`pick` reads any bytes of it by
+binary search. Decoding costs per symbol, not per byte: a page of long runs decodes
+several times faster than zlib inflates it, and a decoded page answers any row or
+column at once.
 
 Huffman decoding follows Mark Adler's ``puff.c`` (the reference inflater in zlib's
-``contrib/puff``): canonical codes decoded bit by bit from per-length counts.
+``contrib/puff``) for the code tables, with a lookup table for codes up to 10 bits.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba
 import numpy as np
 from numpy.typing import NDArray
-
-#: Symbol kinds: literal bytes (and copies from further back), a short periodic match.
-_LIT, _PAT = 0, 1
 
 #: Base length and extra bits of length symbols 257..285 (RFC 1951 section 3.2.5).
 _LEN_BASE = np.array(
@@ -41,12 +41,14 @@ _DIST_EXTRA = np.array(
 #: Bits of the lookup tables of the literal/length and distance codes (longer codes
 #: are decoded bit by bit).
 _TABLE_BITS = 10
+#: Runs shorter than this are kept as literal bytes (a run symbol takes 16 bytes).
+_SHORT_RUN = 16
 #: Order of the code-length code lengths in a dynamic block header.
 _CL_ORDER = np.array(
     [16, 17, 18, 0, 8, 7, 9, 6, 10, 5, 11, 4, 12, 3, 13, 2, 14, 1, 15], dtype=np.int64
 )
 
-#: Failures, by code (see :data:`FAILURES`).
+#: Failures, by code.
 FAILURES = {
     1: "not a zlib stream (bad header or preset dictionary)",
     2: "the stream ends early",
@@ -55,11 +57,89 @@ FAILURES = {
     5: "a match reaches back before the stream's start",
     6: "a position asked for lies past the stream's end",
     7: "the stream inflates to more bytes than expected",
+    8: "more symbols than room (internal: retried with more)",
 }
 
 
 class InflateError(ValueError):
     """A stream is not valid zlib data, or is shorter than the bytes asked of it."""
+
+
+class Symbols(NamedTuple):
+    """The inflated bytes of one stream as runs (see the module docstring).
+
+    Attributes
+    ----------
+    starts : (n + 1,) int64
+        Symbol ``m`` covers inflated bytes ``starts[m] .. starts[m + 1] - 1``;
+        ``starts[n]`` is the inflated size.
+    infos : (n,) int64
+        ``>= 0``: literal bytes from ``lits[infos[m]]`` on; ``< 0``: a repeating pattern,
+        ``x = -infos[m] - 1`` holds its period ``x & 0xFF`` (1 to 4) and its bytes
+        ``x >> 8`` (the first in the low byte).
+    lits : (L,) uint8
+        Literal bytes.
+    """
+
+    starts: NDArray[np.int64]
+    infos: NDArray[np.int64]
+    lits: NDArray[np.uint8]
+
+    @property
+    def size(self) -> int:
+        """Inflated size in bytes."""
+        return int(self.starts[-1])
+
+    @property
+    def nbytes(self) -> int:
+        """Memory held, in bytes."""
+        return int(self.starts.nbytes + self.infos.nbytes + self.lits.nbytes)
+
+
+def decode(stream: bytes | NDArray[np.uint8], *, max_inflated: int) -> Symbols:
+    """Decode a zlib stream into :class:`Symbols`.
+
+    Parameters
+    ----------
+    stream : bytes or (B,) uint8
+        One zlib stream (RFC 1950).
+    max_inflated : int
+        Bytes the stream may inflate to (a TIFF strip's size); more is an error.
+
+    Raises
+    ------
+    InflateError
+        The stream is invalid or inflates to more than ``max_inflated`` bytes.
+    """
+    data = np.frombuffer(stream, dtype=np.uint8) if isinstance(stream, bytes) else stream
+    data = np.ascontiguousarray(data, dtype=np.uint8)
+    lits = np.empty(max(0, max_inflated), dtype=np.uint8)
+    for capacity in (8 * len(data) + 64, max(0, max_inflated) + 2):
+        # at most one symbol per bit, except for copies split at their sources' symbols;
+        # and never more symbols than bytes
+        starts = np.empty(capacity + 1, dtype=np.int64)
+        infos = np.empty(capacity, dtype=np.int64)
+        n, n_lits = _decode_stream(data, starts, infos, lits)
+        if n != -8:
+            break
+    if n < 0:
+        raise InflateError(FAILURES.get(-int(n), "invalid stream"))
+    return Symbols(starts[: n + 1].copy(), infos[:n].copy(), lits[:n_lits].copy())
+
+
+def pick(symbols: Symbols, wanted: NDArray[np.int64]) -> NDArray[np.uint8]:
+    """Return the inflated bytes at positions ``wanted`` (any order; ascending is fastest).
+
+    Raises
+    ------
+    InflateError
+        A position lies outside ``0 .. size - 1``.
+    """
+    wanted = np.ascontiguousarray(wanted, dtype=np.int64)
+    out = np.empty(len(wanted), dtype=np.uint8)
+    if not _pick(symbols.starts, symbols.infos, symbols.lits, wanted, out):
+        raise InflateError(f"{FAILURES[6]} ({symbols.size} bytes)")
+    return out
 
 
 def pick_bytes(
@@ -70,7 +150,7 @@ def pick_bytes(
     *,
     max_inflated: int,
 ) -> NDArray[np.uint8]:
-    """Return chosen bytes of the inflated content of many zlib streams.
+    """Return chosen bytes of many zlib streams (:func:`decode`, then :func:`pick`).
 
     Parameters
     ----------
@@ -79,12 +159,11 @@ def pick_bytes(
     stream_bounds : (S + 1,) int64
         Stream ``s`` is ``data[stream_bounds[s]:stream_bounds[s + 1]]``.
     wanted : (N,) int64
-        Byte positions in the inflated streams, ascending within each stream.
+        Byte positions in the inflated streams.
     wanted_bounds : (S + 1,) int64
-        The positions of stream ``s`` are ``wanted[wanted_bounds[s]:wanted_bounds[s + 1]]``
-        (any order; ascending is fastest).
+        The positions of stream ``s`` are ``wanted[wanted_bounds[s]:wanted_bounds[s + 1]]``.
     max_inflated : int
-        Bytes a stream may inflate to (a TIFF strip's size); more is an error.
+        Bytes a stream may inflate to; more is an error.
 
     Returns
     -------
@@ -101,15 +180,15 @@ def pick_bytes(
     >>> import zlib
     >>> raw = bytes(range(200)) * 50
     >>> packed = np.frombuffer(zlib.compress(raw), np.uint8)
-    >>> wanted = np.array([0, 7, 9999])
     >>> bounds = np.array([0, len(packed)])
+    >>> wanted = np.array([0, 7, 9999])
     >>> pick_bytes(packed, bounds, wanted, np.array([0, 3]), max_inflated=len(raw)).tolist()
     [0, 7, 199]
     """
     data = np.ascontiguousarray(data, dtype=np.uint8)
-    stream_bounds = np.ascontiguousarray(stream_bounds, dtype=np.int64)
-    wanted = np.ascontiguousarray(wanted, dtype=np.int64)
-    wanted_bounds = np.ascontiguousarray(wanted_bounds, dtype=np.int64)
+    stream_bounds = np.asarray(stream_bounds, dtype=np.int64)
+    wanted = np.asarray(wanted, dtype=np.int64)
+    wanted_bounds = np.asarray(wanted_bounds, dtype=np.int64)
     if len(stream_bounds) != len(wanted_bounds) or len(stream_bounds) < 1:
         raise ValueError(
             f"stream_bounds and wanted_bounds must both be (S + 1,), got "
@@ -121,65 +200,47 @@ def pick_bytes(
     ):
         if bounds[0] < 0 or bounds[-1] > size or np.any(np.diff(bounds) < 0):
             raise ValueError(f"{name} must ascend within 0..{size}, got {bounds}")
-    if len(stream_bounds) == 1:
-        return np.zeros(0, dtype=np.uint8)
-    out = np.zeros(len(wanted), dtype=np.uint8)
-    # at most one symbol per bit (a 1-bit code); literals: at most the inflated size
-    longest = int(np.diff(stream_bounds).max())
-    capacity = 8 * longest + 8
-    status = _pick_all(data, stream_bounds, wanted, wanted_bounds, out, capacity, max_inflated)
-    if status[0] != 0:
-        raise InflateError(f"stream {status[1]}: {FAILURES.get(int(status[0]), 'failed')}")
-    return out
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _pick_all(
-    data: NDArray[np.uint8],
-    stream_bounds: NDArray[np.int64],
-    wanted: NDArray[np.int64],
-    wanted_bounds: NDArray[np.int64],
-    out: NDArray[np.uint8],
-    capacity: int,
-    max_inflated: int,
-) -> NDArray[np.int64]:
-    """Decode each stream's symbols and read its wanted bytes; return ``[code, stream]``."""
-    starts = np.empty(capacity, dtype=np.int64)
-    lengths = np.empty(capacity, dtype=np.int64)
-    kinds = np.empty(capacity, dtype=np.uint8)
-    infos = np.empty(capacity, dtype=np.int64)
-    lits = np.empty(max_inflated, dtype=np.uint8)
-    status = np.zeros(2, dtype=np.int64)
+    out = np.empty(len(wanted), dtype=np.uint8)
     for s in range(len(stream_bounds) - 1):
         w0, w1 = wanted_bounds[s], wanted_bounds[s + 1]
         if w0 == w1:
             continue
-        result = _symbols(
-            data, stream_bounds[s], stream_bounds[s + 1], starts, lengths, kinds, infos, lits
-        )
-        n_symbols, total = result[0], result[1]
-        if n_symbols < 0:
-            status[0] = -n_symbols
-            status[1] = s
-            return status
-        m = 0
-        for i in range(w0, w1):
-            p = wanted[i]
-            if p < 0 or p >= total:
-                status[0] = 6
-                status[1] = s
-                return status
-            if p < starts[m]:  # not ascending: search again
-                m = _find(p, m + 1, starts)
-            while starts[m] + lengths[m] <= p:
-                m += 1
-            out[i] = _value(p, m, starts, kinds, infos, lits)
-    return status
+        try:
+            symbols = decode(data[stream_bounds[s] : stream_bounds[s + 1]],
+                             max_inflated=max_inflated)  # fmt: skip
+            out[w0:w1] = pick(symbols, wanted[w0:w1])
+        except InflateError as error:
+            raise InflateError(f"stream {s}: {error}") from None
+    return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _pick(
+    starts: NDArray[np.int64],
+    infos: NDArray[np.int64],
+    lits: NDArray[np.uint8],
+    wanted: NDArray[np.int64],
+    out: NDArray[np.uint8],
+) -> bool:
+    """Fill ``out`` with the bytes at ``wanted``; False if one lies outside the stream."""
+    n = len(infos)
+    total = starts[n]
+    m = 0
+    for i in range(len(wanted)):
+        p = wanted[i]
+        if p < 0 or p >= total:
+            return False
+        if p < starts[m]:  # not ascending: search again
+            m = _find(p, m + 1, starts)
+        while starts[m + 1] <= p:
+            m += 1
+        out[i] = _value(p, m, starts, infos, lits)
+    return True
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _find(p: int, hi: int, starts: NDArray[np.int64]) -> int:
-    """Index of the symbol holding position ``p`` among symbols ``0 .. hi - 1``."""
+    """Return the last symbol ``m < hi`` with ``starts[m] <= p``."""
     lo = 0
     while hi - lo > 1:
         mid = (lo + hi) // 2
@@ -192,20 +253,38 @@ def _find(p: int, hi: int, starts: NDArray[np.int64]) -> int:
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _value(
-    p: int,
-    m: int,
-    starts: NDArray[np.int64],
-    kinds: NDArray[np.uint8],
-    infos: NDArray[np.int64],
-    lits: NDArray[np.uint8],
+    p: int, m: int, starts: NDArray[np.int64], infos: NDArray[np.int64], lits: NDArray[np.uint8]
 ) -> int:
     """Return the inflated byte at ``p``, held by symbol ``m``."""
     offset = p - starts[m]
     info = infos[m]
-    if kinds[m] == _LIT:
+    if info >= 0:
         return int(lits[info + offset])
-    period = info & 0xFF
-    return int((info >> (8 * (1 + offset % period))) & 0xFF)
+    x = -info - 1
+    return int((x >> (8 * (1 + offset % (x & 0xFF)))) & 0xFF)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _rotate(pattern: int, period: int, phase: int) -> int:
+    """Return a pattern of ``period`` bytes started at byte ``phase`` instead of 0."""
+    out = 0
+    for j in range(period):
+        out |= ((pattern >> (8 * ((phase + j) % period))) & 0xFF) << (8 * j)
+    return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _continues(
+    n: int, total: int, period: int, pattern: int, starts: NDArray[np.int64],
+    infos: NDArray[np.int64],
+) -> bool:  # fmt: skip
+    """Whether a run of ``pattern`` (period ``period``) at ``total`` goes on symbol ``n - 1``."""
+    if n == 0 or infos[n - 1] >= 0:
+        return False
+    x = -infos[n - 1] - 1
+    if (x & 0xFF) != period:
+        return False
+    return _rotate(x >> 8, period, (total - starts[n - 1]) % period) == pattern
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -415,26 +494,74 @@ def _long_code(bits: int, count: NDArray[np.int64], symbol: NDArray[np.int64]) -
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _symbols(
-    data: NDArray[np.uint8], start: int, stop: int, starts: NDArray[np.int64],
-    lengths: NDArray[np.int64], kinds: NDArray[np.uint8], infos: NDArray[np.int64],
+def _put(
+    source: NDArray[np.uint8], count: int, n: int, n_lits: int, total: int, tail: int,
+    starts: NDArray[np.int64], infos: NDArray[np.int64], lits: NDArray[np.uint8],
+) -> tuple[int, int, int, int]:  # fmt: skip
+    """Append inflated bytes ``source[:count]``; return ``(n, n_lits, total, tail)``.
+
+    Bytes go to the literals, except that a run of ``_SHORT_RUN`` equal bytes becomes a
+    run symbol (period 1) that the following equal bytes extend: zlib copies runs in
+    pieces, and a run kept as literals would be copied on as literals. ``tail`` counts
+    the equal bytes ending the literals. ``n`` is -1 when ``infos`` has no room.
+    (One call for many bytes: a call per byte costs more than the work.)
+    """
+    for k in range(count):
+        byte = int(source[k])
+        if n > 0 and infos[n - 1] < 0:
+            if -infos[n - 1] - 1 == (1 | (byte << 8)):  # the run of this byte goes on
+                total += 1
+                starts[n] = total
+                continue
+            if n >= len(infos):
+                return -1, n_lits, total, 0
+            infos[n] = n_lits
+            n += 1
+            tail = 0
+        elif n == 0:
+            infos[0] = n_lits
+            n = 1
+            tail = 0
+        tail = tail + 1 if tail > 0 and lits[n_lits - 1] == byte else 1
+        lits[n_lits] = byte
+        n_lits += 1
+        total += 1
+        starts[n] = total
+        if tail == _SHORT_RUN:  # the last bytes are a run: a run symbol from its first
+            n_lits -= tail
+            if total - tail == starts[n - 1]:
+                infos[n - 1] = -(1 | (byte << 8)) - 1
+            else:
+                if n >= len(infos):
+                    return -1, n_lits, total, 0
+                starts[n] = total - tail
+                infos[n] = -(1 | (byte << 8)) - 1
+                n += 1
+                starts[n] = total
+            tail = 0
+    return n, n_lits, total, tail
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _decode_stream(
+    data: NDArray[np.uint8], starts: NDArray[np.int64], infos: NDArray[np.int64],
     lits: NDArray[np.uint8],
 ) -> tuple[int, int]:  # fmt: skip
-    """Decode the symbols of one zlib stream; return ``(n_symbols, inflated size)``.
+    """Decode one zlib stream into symbols; return ``(n_symbols, n_lits)``.
 
-    ``n_symbols`` is minus a failure code (:data:`FAILURES`) when the stream is invalid.
-    Symbol ``n`` covers inflated bytes ``starts[n] .. starts[n] + lengths[n] - 1``:
-    ``_LIT`` reads ``lits[infos[n]:]``; ``_PAT`` repeats ``infos[n] >> 8`` (bytes, low
-    first) with period ``infos[n] & 0xFF``.
+    ``n_symbols`` is minus a failure code (:data:`FAILURES`) when the stream is invalid
+    (-8: more symbols than ``infos`` holds). ``starts[n]`` is kept at the inflated size.
     """
-    if stop - start < 2:
+    stop = len(data)
+    if stop < 2:
         return -2, 0
-    cmf = int(data[start])
-    flg = int(data[start + 1])
+    cmf = int(data[0])
+    flg = int(data[1])
     if (cmf & 0x0F) != 8 or (cmf * 256 + flg) % 31 != 0 or (flg & 0x20) != 0:
         return -1, 0
+    capacity = len(infos)
     st = np.zeros(4, dtype=np.int64)  # byte position, stop, bit buffer, bits in it
-    st[0] = start + 2
+    st[0] = 2
     st[1] = stop
     lcount = np.zeros(16, dtype=np.int64)
     lsymbol = np.zeros(288, dtype=np.int64)
@@ -442,12 +569,14 @@ def _symbols(
     dsymbol = np.zeros(30, dtype=np.int64)
     ltable = np.zeros(1 << _TABLE_BITS, dtype=np.int64)
     dtable = np.zeros(1 << _TABLE_BITS, dtype=np.int64)
+    piece = np.zeros(258, dtype=np.uint8)  # the bytes of a copy, read before written
     fixed = _fixed_lengths()
     mask = (1 << _TABLE_BITS) - 1
     n = 0  # symbols
     n_lits = 0
     total = 0  # inflated bytes so far
-    last = 0  # the last 4 inflated bytes, the latest in the low byte
+    tail = 0  # equal bytes ending the literals (see _put)
+    starts[0] = 0
     final = 0
     while final == 0:
         final = _bits(data, st, 1)
@@ -468,23 +597,12 @@ def _symbols(
                 return -2, 0
             if total + size > len(lits):
                 return -7, 0
-            if size == 0:
-                continue
-            if n > 0 and kinds[n - 1] == _LIT:
-                lengths[n - 1] += size
-            else:
-                starts[n] = total
-                lengths[n] = size
-                kinds[n] = _LIT
-                infos[n] = n_lits
-                n += 1
-            for k in range(size):
-                byte = int(data[st[0] + k])
-                lits[n_lits] = byte
-                n_lits += 1
-                last = ((last << 8) | byte) & 0xFFFFFFFF
+            n, n_lits, total, tail = _put(
+                data[st[0] : st[0] + size], size, n, n_lits, total, tail, starts, infos, lits
+            )
+            if n < 0:
+                return -8, 0
             st[0] += size
-            total += size
             continue
         if kind == 1:
             _construct(fixed, 288, lcount, lsymbol)
@@ -516,21 +634,22 @@ def _symbols(
             buf >>= used
             held -= used
             sym = entry >> 4
-            if sym < 256:  # a literal: extends the run of literals before it
+            if sym < 256:  # a literal (as in _put, written out: this is the hot path)
                 if total >= len(lits):
                     return -7, 0
-                if n > 0 and kinds[n - 1] == _LIT:
-                    lengths[n - 1] += 1
-                else:
-                    starts[n] = total
-                    lengths[n] = 1
-                    kinds[n] = _LIT
-                    infos[n] = n_lits
-                    n += 1
+                if n == 0 or infos[n - 1] < 0 or tail + 1 >= _SHORT_RUN:
+                    piece[0] = sym
+                    n, n_lits, total, tail = _put(
+                        piece, 1, n, n_lits, total, tail, starts, infos, lits
+                    )
+                    if n < 0:
+                        return -8, 0
+                    continue
+                tail = tail + 1 if tail > 0 and lits[n_lits - 1] == sym else 1
                 lits[n_lits] = sym
                 n_lits += 1
                 total += 1
-                last = ((last << 8) | sym) & 0xFFFFFFFF
+                starts[n] = total
                 continue
             if sym == 256:
                 break
@@ -565,118 +684,93 @@ def _symbols(
             if total + length > len(lits):
                 return -7, 0
             if distance <= 4:
-                # the pattern: the last `distance` bytes, oldest first
-                if distance == 1:
-                    pattern = last & 0xFF
-                else:
-                    pattern = 0
-                    for j in range(distance):
-                        pattern |= ((last >> (8 * (distance - 1 - j))) & 0xFF) << (8 * j)
-                if (
-                    n > 0
-                    and kinds[n - 1] == _PAT
-                    and (infos[n - 1] & 0xFF) == distance
-                    and lengths[n - 1] >= distance
-                ):
-                    lengths[n - 1] += length  # the same periodic run goes on
-                else:
-                    starts[n] = total
-                    lengths[n] = length
-                    kinds[n] = _PAT
-                    infos[n] = distance | (pattern << 8)
-                    n += 1
-                if distance == 1:
-                    last = pattern * 0x01010101 if length >= 4 else (
-                        ((last << (8 * length)) | (pattern * 0x01010101 >> (8 * (4 - length))))
-                        & 0xFFFFFFFF
-                    )
-                else:
-                    phase = length % distance  # the pattern index of the byte after the run
-                    new_last = 0
-                    for age in range(4, 0, -1):  # oldest of the last four first
-                        if age <= length:
-                            j = phase - age
-                            while j < 0:
-                                j += distance
-                            byte = (pattern >> (8 * j)) & 0xFF
-                        else:
-                            byte = (last >> (8 * (age - length - 1))) & 0xFF
-                        new_last = (new_last << 8) | byte
-                    last = new_last
-            else:
-                q = total - distance
-                m = _find(q, n, starts)
-                period = infos[m] & 0xFF
-                if (
-                    kinds[m] == _PAT
-                    and q + min(distance, length) <= starts[m] + lengths[m]
-                    and distance % period == 0
-                ):
-                    # a copy of a periodic run: the run goes on (zlib's long runs)
-                    if m == n - 1 and starts[m] + lengths[m] == total:
-                        lengths[m] += length
-                    else:
-                        pattern = infos[m] >> 8
-                        phase = (total - starts[m]) % period
-                        rotated = 0
-                        for j in range(period):
-                            byte = (pattern >> (8 * ((phase + j) % period))) & 0xFF
-                            rotated |= byte << (8 * j)
+                # a run repeating the last `distance` bytes
+                if n > 0 and infos[n - 1] < 0:
+                    x = -infos[n - 1] - 1
+                    if distance % (x & 0xFF) == 0 and total - starts[n - 1] >= distance:
+                        total += length  # the same periodic run goes on
                         starts[n] = total
-                        lengths[n] = length
-                        kinds[n] = _PAT
-                        infos[n] = period | (rotated << 8)
-                        n += 1
-                    new_last = 0
-                    for age in range(4, 0, -1):
-                        if age <= length:
-                            byte = _value(total + length - age, n - 1, starts, kinds, infos, lits)
-                        else:
-                            byte = (last >> (8 * (age - length - 1))) & 0xFF
-                        new_last = (new_last << 8) | byte
-                    last = new_last
-                    total += length
+                        continue
+                pattern = 0
+                m = n - 1
+                for j in range(distance):
+                    p = total - distance + j
+                    while starts[m] > p:
+                        m -= 1
+                    pattern |= _value(p, m, starts, infos, lits) << (8 * j)
+                    m = n - 1
+                if length < _SHORT_RUN and distance == 1 and infos[n - 1] >= 0:
+                    # a short run after literals: more literals (the common case, fast)
+                    run = tail + length if lits[n_lits - 1] == pattern else length
+                    if run < _SHORT_RUN:
+                        lits[n_lits : n_lits + length] = pattern
+                        n_lits += length
+                        total += length
+                        starts[n] = total
+                        tail = run
+                        continue
+                if length < _SHORT_RUN:  # cheaper as literals
+                    for k in range(length):
+                        piece[k] = (pattern >> (8 * (k % distance))) & 0xFF
+                    n, n_lits, total, tail = _put(
+                        piece, length, n, n_lits, total, tail, starts, infos, lits
+                    )
+                    if n < 0:
+                        return -8, 0
                     continue
-                # otherwise kept as literals, copied from its sources
-                base = n_lits
-                k = 0
-                while k < length:
-                    if k >= distance:  # overlapping: bytes of this copy, `distance` at a time
-                        chunk = min(length - k, distance)
-                        for j in range(chunk):
-                            lits[base + k + j] = lits[base + k + j - distance]
+                if infos[n - 1] >= 0 and total - starts[n - 1] >= distance:
+                    # the literals it repeats start the run: a run starts where its bytes do
+                    # (copies of it then meet one symbol, not a literal and a run)
+                    n_lits -= distance
+                    if total - starts[n - 1] == distance:
+                        n -= 1
                     else:
-                        while starts[m] + lengths[m] <= q:
-                            m += 1
-                        offset = q - starts[m]
-                        chunk = min(starts[m] + lengths[m] - q, distance - k, length - k)
-                        info = infos[m]
-                        if kinds[m] == _LIT:
-                            for j in range(chunk):
-                                lits[base + k + j] = lits[info + offset + j]
-                        else:
-                            period = info & 0xFF
-                            for j in range(chunk):
-                                shift = 8 * (1 + (offset + j) % period)
-                                lits[base + k + j] = (info >> shift) & 0xFF
-                        q += chunk
-                    k += chunk
-                n_lits += length
-                if n > 0 and kinds[n - 1] == _LIT:
-                    lengths[n - 1] += length
-                else:
+                        starts[n] = total - distance
+                if n >= capacity:
+                    return -8, 0
+                infos[n] = -(distance | (pattern << 8)) - 1
+                n += 1
+                total += length
+                starts[n] = total
+                tail = 0
+                continue
+            # a copy from further back: copies of the symbols it spans
+            q = total - distance
+            k = 0
+            while k < length:
+                m = _find(q, n, starts)
+                chunk = min(starts[m + 1] - q, length - k)
+                info = infos[m]
+                if info < 0 and chunk >= _SHORT_RUN:  # a piece of a run
+                    x = -info - 1
+                    period = x & 0xFF
+                    pattern = _rotate(x >> 8, period, (q - starts[m]) % period)
+                    if not _continues(n, total, period, pattern, starts, infos):
+                        if n >= capacity:
+                            return -8, 0
+                        infos[n] = -(period | (pattern << 8)) - 1
+                        n += 1
+                        tail = 0
+                    total += chunk
                     starts[n] = total
-                    lengths[n] = length
-                    kinds[n] = _LIT
-                    infos[n] = base
-                    n += 1
-                for k in range(max(0, length - 4), length):
-                    last = ((last << 8) | int(lits[base + k])) & 0xFFFFFFFF
-            total += length
+                else:  # literal bytes (or a short piece of a run): read, then appended
+                    if info >= 0:
+                        source = info + q - starts[m]
+                        piece[:chunk] = lits[source : source + chunk]
+                    else:
+                        for j in range(chunk):
+                            piece[j] = _value(q + j, m, starts, infos, lits)
+                    n, n_lits, total, tail = _put(
+                        piece, chunk, n, n_lits, total, tail, starts, infos, lits
+                    )
+                    if n < 0:
+                        return -8, 0
+                q += chunk
+                k += chunk
         # give back the whole bytes read ahead: the bit reader continues at the byte
         st[0] = pos - held // 8
         st[2] = buf & ((1 << (held % 8)) - 1)
         st[3] = held % 8
     if final < 0:
         return -2, 0
-    return n, total
+    return n, n_lits

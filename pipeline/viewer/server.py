@@ -22,7 +22,6 @@ keeps other web pages from reading the build through the browser (DNS rebinding)
 from __future__ import annotations
 
 import json
-import threading
 import time
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -67,16 +66,20 @@ class ViewerServer(ThreadingHTTPServer):
         The build (closed by :meth:`server_close`).
     port : int
         TCP port on 127.0.0.1; 0 picks a free one (see :attr:`url`).
+    warm : bool
+        Decode the pages of whole-model y and x slices in the background
+        (:meth:`BuildFolder.warm_in_background`).
     """
 
     daemon_threads = True
 
-    def __init__(self, folder: BuildFolder, port: int = 0) -> None:
+    def __init__(self, folder: BuildFolder, port: int = 0, *, warm: bool = True) -> None:
         self.folder = folder
         self.static = static_files()
         self.build_json = json.dumps(folder.describe()).encode("utf-8")
-        self.log_lock = threading.Lock()
         super().__init__(("127.0.0.1", port), _Handler)
+        if warm:
+            folder.warm_in_background()
 
     @property
     def port(self) -> int:

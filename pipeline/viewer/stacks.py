@@ -5,10 +5,12 @@ pages of ``(Y, X[, S])`` uint8, each page one strip or a few (what
 :mod:`voxel.tiff_writer` writes). The page and strip offsets are read once (tifffile);
 the file stays open and every read is an ``os.pread`` of the strips a region needs, so
 any number of server threads read at once. A z slice inflates its strips with zlib; a
-y or x slice takes one row or column of every page it covers, read out of the deflate
-symbols by :mod:`pipeline.viewer.inflate` without inflating the rest of the page.
-Regions are ``range`` objects of indices with a step: a view zoomed out to a whole
-5 G-voxel model asks for every fourth page, not all of them.
+y or x slice takes one row or column of every page it covers, read out of the page's
+deflate symbols (:mod:`pipeline.viewer.inflate`) without inflating it. Decoded pages
+are kept in a :class:`SymbolCache` shared by the stacks of a build (about as large as
+the compressed pages), so the next y or x slice through the same pages only reads
+them. Regions are ``range`` objects of indices with a step: a view zoomed out to a
+whole 5 G-voxel model asks for every fourth page, not all of them.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from __future__ import annotations
 import os
 import threading
 import zlib
+from collections import OrderedDict
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -25,15 +28,54 @@ import numpy as np
 import tifffile
 from numpy.typing import NDArray
 
-from pipeline.viewer.inflate import pick_bytes
+from pipeline.viewer.inflate import InflateError, Symbols, decode, pick
 
 Axis = Literal["z", "y", "x"]
 
 #: TIFF compression codes read: deflate (the TIFF 6 code and Adobe's).
 DEFLATE = (8, 32946)
 
-#: Streams per worker call below which a slice is read in one thread.
+#: Streams below which a slice is read in one thread (above: two, the decoder is nogil).
 _SPLIT_STREAMS = 64
+
+#: Memory for decoded pages kept between requests, bytes (a 100 mm J750 part's layers
+#: and colour pages take about 0.4 and 0.6 GB).
+CACHE_BYTES = 1 << 30
+
+
+class SymbolCache:
+    """Decoded strips, least recently used first out, within a memory budget.
+
+    Parameters
+    ----------
+    budget_bytes : int
+        Memory the kept :class:`~pipeline.viewer.inflate.Symbols` may hold.
+    """
+
+    def __init__(self, budget_bytes: int = CACHE_BYTES) -> None:
+        self.budget_bytes = budget_bytes
+        self.used_bytes = 0
+        self._items: OrderedDict[tuple[int, int, int], Symbols] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, key: tuple[int, int, int]) -> Symbols | None:
+        """Return the strip at ``(stack id, page, strip)``, or None."""
+        with self._lock:
+            symbols = self._items.get(key)
+            if symbols is not None:
+                self._items.move_to_end(key)
+            return symbols
+
+    def put(self, key: tuple[int, int, int], symbols: Symbols) -> None:
+        """Keep a decoded strip, dropping the least recently used beyond the budget."""
+        with self._lock:
+            if key in self._items:
+                return
+            self._items[key] = symbols
+            self.used_bytes += symbols.nbytes
+            while self.used_bytes > self.budget_bytes and self._items:
+                _, dropped = self._items.popitem(last=False)
+                self.used_bytes -= dropped.nbytes
 
 
 class StackError(ValueError):
@@ -51,6 +93,8 @@ class TiffStack:
         The build's grid ``(Z, Y, X)``; the file must hold exactly this.
     samples : int
         0 for a grey stack, 3 or 4 for RGB(A).
+    cache : SymbolCache, optional
+        Where decoded pages are kept (shared by a build's stacks); default: a new one.
 
     Raises
     ------
@@ -59,8 +103,16 @@ class TiffStack:
         other than deflate, or offsets past its end.
     """
 
-    def __init__(self, path: Path, shape_zyx: Sequence[int], *, samples: int) -> None:
+    def __init__(
+        self,
+        path: Path,
+        shape_zyx: Sequence[int],
+        *,
+        samples: int,
+        cache: SymbolCache | None = None,
+    ) -> None:
         self.path = Path(path)
+        self.cache = cache if cache is not None else SymbolCache()
         self.shape_zyx = (int(shape_zyx[0]), int(shape_zyx[1]), int(shape_zyx[2]))
         self.samples = samples
         self._pool: ThreadPoolExecutor | None = None
@@ -166,50 +218,55 @@ class TiffStack:
         n_x = self.shape_zyx[2]
         size = self.pixel_bytes
         rps = self.rows_per_strip
-        strips = np.unique(ys // rps)
-        # byte positions inside each strip, in (y, x, sample) order, per strip used
+        # byte positions inside each strip used, in (y, x, sample) order
         positions = []
-        for strip in strips:
+        for strip in np.unique(ys // rps):
             local = ys[ys // rps == strip] - strip * rps
             pos = ((local[:, None] * n_x + xs[None, :]) * size)[..., None] + np.arange(size)
-            positions.append(pos.reshape(-1))
-        per_page = np.concatenate(positions)
-        streams = [(int(z), int(s)) for z in pages for s in strips]
-        wanted = np.tile(per_page, len(pages))
-        counts = np.array([len(p) for p in positions] * len(pages), dtype=np.int64)
-        bounds = np.concatenate([[0], np.cumsum(counts)])
-        max_inflated = rps * n_x * size
-        if len(streams) < 2 * _SPLIT_STREAMS:
-            values = self._pick(streams, wanted, bounds, max_inflated)
+            positions.append((int(strip), pos.reshape(-1)))
+        jobs = [(int(z), strip, pos) for z in pages for strip, pos in positions]
+        if len(jobs) < 2 * _SPLIT_STREAMS:
+            parts = self._read(jobs)
         else:  # two halves at once (the decoder releases the GIL)
-            half = len(streams) // 2
-            pool = self._executor()
-            second = pool.submit(
-                self._pick, streams[half:], wanted[bounds[half] :], bounds[half:] - bounds[half],
-                max_inflated,
-            )  # fmt: skip
-            first = self._pick(streams[:half], wanted[: bounds[half]], bounds[: half + 1],
-                               max_inflated)  # fmt: skip
-            values = np.concatenate([first, second.result()])
-        return values.reshape(len(pages), len(ys), len(xs), size)
+            half = len(jobs) // 2
+            second = self._executor().submit(self._read, jobs[half:])
+            parts = self._read(jobs[:half]) + second.result()
+        return np.concatenate(parts).reshape(len(pages), len(ys), len(xs), size)
 
-    def _pick(
-        self,
-        streams: list[tuple[int, int]],
-        wanted: NDArray[np.int64],
-        bounds: NDArray[np.int64],
-        max_inflated: int,
-    ) -> NDArray[np.uint8]:
-        chunks = [
-            os.pread(self._fd, int(self.counts[z, s]), int(self.offsets[z, s])) for z, s in streams
-        ]
-        lengths = np.fromiter((len(c) for c in chunks), dtype=np.int64, count=len(chunks))
-        data = np.frombuffer(b"".join(chunks), dtype=np.uint8)
-        stream_bounds = np.concatenate([[0], np.cumsum(lengths)])
-        try:
-            return pick_bytes(data, stream_bounds, wanted, bounds, max_inflated=max_inflated)
-        except ValueError as error:
-            raise StackError(f"{self.path}: {error}") from None
+    def _read(self, jobs: list[tuple[int, int, NDArray[np.int64]]]) -> list[NDArray[np.uint8]]:
+        """Bytes at positions in strips: ``[(page, strip, positions), ...]``."""
+        out = []
+        for z, strip, positions in jobs:
+            key = (id(self), z, strip)
+            symbols = self.cache.get(key)
+            try:
+                if symbols is None:
+                    count, offset = int(self.counts[z, strip]), int(self.offsets[z, strip])
+                    raw = os.pread(self._fd, count, offset)
+                    expected = self._strip_rows(strip) * self.shape_zyx[2] * self.pixel_bytes
+                    symbols = decode(raw, max_inflated=expected)
+                    if symbols.size != expected:
+                        raise InflateError(f"{symbols.size} bytes, not {expected}")
+                    self.cache.put(key, symbols)
+                out.append(pick(symbols, positions))
+            except InflateError as error:
+                raise StackError(f"{self.path}: page {z} cannot be read ({error})") from None
+        return out
+
+    def warm(self, pages: range, stop: threading.Event) -> None:
+        """Decode every strip of ``pages`` into the cache (until ``stop`` is set).
+
+        Run in a background thread, so that y and x slices through these pages are read
+        from the cache.
+        """
+        n_strips = self.offsets.shape[1]
+        for z in pages:
+            for strip in range(n_strips):
+                if stop.is_set() or self._fd < 0:
+                    return
+                if self.cache.used_bytes > 0.8 * self.cache.budget_bytes:
+                    return
+                self._read([(z, strip, np.zeros(1, dtype=np.int64))])
 
     def _executor(self) -> ThreadPoolExecutor:
         with self._pool_lock:

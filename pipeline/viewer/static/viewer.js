@@ -91,8 +91,11 @@
     const dpr = window.devicePixelRatio || 1;
     const [u0, v1] = toPlane(0, 0);
     const [u1, v0] = toPlane(w, h);
-    const cs = Math.max(1, Math.floor(1 / (state.scale * dpr * p.su)));
-    const rs = Math.max(1, Math.floor(1 / (state.scale * dpr * p.sv)));
+    // voxels per device pixel, to a power of two: the pages of one step are among those
+    // of the next finer one, so pages the server decoded before serve again
+    const step = (s) => 2 ** Math.max(0, Math.round(Math.log2(1 / (state.scale * dpr * s))));
+    const cs = step(p.su);
+    const rs = step(p.sv);
     const span = (lo, hi, o, s, n, step) => {
       let a = Math.max(0, Math.floor((lo - o) / s - 0.5));
       const b = Math.min(n, Math.ceil((hi - o) / s + 0.5) + 1);
