@@ -213,6 +213,7 @@
 
   async function loadLoop() {
     state.busy = true;
+    let failed = false;
     while (state.pending) {
       state.pending = false;
       const view = {
@@ -232,19 +233,19 @@
           totalMs: performance.now() - started,
         };
         showError("");
+        failed = false;
       } catch (error) {
         showError(String(error.message || error));
-        body.dataset.status = "error";
+        failed = true;
         continue;
       }
       draw();
       showStatus();
-      if (!state.pending) {
-        body.dataset.view = `${view.axis}:${view.index}:${view.mode}`;
-        body.dataset.status = "ready";
-      }
     }
     state.busy = false;
+    const image = state.image;
+    if (image) body.dataset.view = `${image.axis}:${image.index}:${image.mode}`;
+    body.dataset.status = failed ? "error" : "ready";
   }
 
   // ---- drawing ----
