@@ -1,8 +1,10 @@
 """Verify a build against its manifest, summarise it and draw previews.
 
 Every file the manifest lists must be there, a regular file, of the recorded size and
-SHA-256; otherwise one line names the file and the fix (rebuild). Previews are sections
-and a layer-depth histogram in DIR/preview/.
+SHA-256; otherwise one line names the file and the fix (rebuild). Previews
+(:mod:`pipeline.previews`) in DIR/preview/: sections through the coloured surface with a
+voxel-scale inset, the outer colour layer from six sides, the layer-depth histogram and
+the halftone.
 """
 
 from __future__ import annotations
@@ -11,14 +13,10 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-import tifffile
-
 from pipeline.build_manifest import read_manifest, verify_files
 from pipeline.errors import InputError
 from pipeline.outdir import OutputFolder
-from voxel.atomic import atomic_path
-from voxel.preview import boundary_depths, halftone_image, histogram_image, section_image
+from pipeline.previews import write_previews
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -92,93 +90,3 @@ def summary_rows(manifest: dict[str, Any], folder: Path) -> list[tuple[str, str]
     for name, value in manifest["seconds"].items():
         rows.append((f"seconds {name}", f"{value:.2f}"))
     return rows
-
-
-def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
-    """Write mid-height XY, XZ and YZ sections and the depth histogram to DIR/preview/."""
-    n_z, n_y, n_x = manifest["grid"]["shape_zyx"]
-    vx, vy, vz = manifest["grid"]["voxel_size_mm"]
-    n_bands = len(manifest["layers"]) - 2
-    colour_layers = tuple(layer["index"] for layer in manifest["layers"] if layer["colour"])
-    with (
-        tifffile.TiffFile(folder / "layers.tif") as lt,
-        tifffile.TiffFile(folder / "colour.tif") as ct,
-    ):
-        for name, tif in (("layers.tif", lt), ("colour.tif", ct)):  # before allocating
-            shape = (len(tif.pages), *tif.pages[0].shape[:2]) if len(tif.pages) else (0,)
-            if shape != (n_z, n_y, n_x):
-                raise ValueError(
-                    f"{name} holds {shape} (z, y, x) voxels but the manifest's grid is "
-                    f"{(n_z, n_y, n_x)}"
-                )
-        xz_layers = np.zeros((n_z, n_x), np.uint8)
-        yz_layers = np.zeros((n_z, n_y), np.uint8)
-        xz_rgb = np.zeros((n_z, n_x, 3), np.uint8)
-        yz_rgb = np.zeros((n_z, n_y, 3), np.uint8)
-        is_colour = np.zeros(256, dtype=bool)
-        is_colour[list(colour_layers)] = True
-        colour_voxels = np.zeros(n_z, dtype=np.int64)
-        for z in range(n_z):  # one page at a time: memory stays one page
-            page = lt.pages[z].asarray()
-            colour = ct.pages[z].asarray()[..., :3]
-            colour_voxels[z] = np.count_nonzero(is_colour[page])
-            xz_layers[z], yz_layers[z] = page[n_y // 2], page[:, n_x // 2]
-            xz_rgb[z], yz_rgb[z] = colour[n_y // 2], colour[:, n_x // 2]
-            if z == n_z // 2:
-                xy_layers, xy_rgb = page, colour
-    sections = {
-        "xy_mid.png": (xy_layers[::-1], xy_rgb[::-1], (vx, vy)),
-        "xz_mid.png": (xz_layers[::-1], xz_rgb[::-1], (vx, vz)),
-        "yz_mid.png": (yz_layers[::-1], yz_rgb[::-1], (vy, vz)),
-    }
-    preview = folder / "preview"
-    preview.mkdir(exist_ok=True)
-    written = []
-    depths: list[list[np.ndarray[Any, Any]]] = [[] for _ in range(n_bands)]
-    for name, (layers, rgb, pixel_mm) in sections.items():
-        image = section_image(
-            layers, rgb, colour_layers=colour_layers, n_bands=n_bands, pixel_mm=pixel_mm
-        )
-        with atomic_path(preview / name) as temporary:
-            image.save(temporary, format="PNG")
-        written.append(preview / name)
-        for band, values in enumerate(boundary_depths(layers, pixel_mm, n_bands)):
-            depths[band].append(values)
-    expected = list(np.cumsum([float(_thickness(layer)) for layer in manifest["layers"][1:-1]]))
-    image = histogram_image([np.concatenate(d) for d in depths], expected)
-    with atomic_path(preview / "layer_depth_histogram.png") as temporary:
-        image.save(temporary, format="PNG")
-    written.append(preview / "layer_depth_histogram.png")
-    if "materials.tif" in manifest["files"] and manifest.get("materials"):
-        written.append(_halftone_preview(folder, manifest, int(np.argmax(colour_voxels))))
-    return written
-
-
-def _halftone_preview(folder: Path, manifest: dict[str, Any], z: int) -> Path:
-    """Draw slice `z` (the one with the most colour-layer voxels): target vs halftone."""
-    vx, vy, _ = manifest["grid"]["voxel_size_mm"]
-    display = np.zeros((256, 3), dtype=np.uint8)
-    for material in manifest["materials"]:
-        display[int(material["index"])] = material["display_srgb"]
-    with (
-        tifffile.TiffFile(folder / "layers.tif") as lt,
-        tifffile.TiffFile(folder / "colour.tif") as ct,
-        tifffile.TiffFile(folder / "materials.tif") as mt,
-    ):
-        layers = lt.pages[z].asarray()
-        colour = ct.pages[z].asarray()[..., :3]
-        materials = mt.pages[z].asarray()
-    colour_layers = [layer["index"] for layer in manifest["layers"] if layer["colour"]]
-    target = np.where(np.isin(layers, colour_layers)[..., None], colour, display[materials])
-    image = halftone_image(
-        target[::-1].astype(np.uint8), materials[::-1], display, pixel_mm=(vx, vy)
-    )
-    path = folder / "preview" / f"halftone_z{z:05d}.png"
-    with atomic_path(path) as temporary:
-        image.save(temporary, format="PNG")
-    return path
-
-
-def _thickness(layer: dict[str, Any]) -> float:
-    thickness: float = layer["thickness_mm"]
-    return thickness
