@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -75,3 +76,72 @@ def write_face_ply(
         stream.write(("\n".join(header) + "\n").encode("ascii"))
         stream.write(vertex_rows.tobytes())
         stream.write(face_rows.tobytes())
+
+
+class FacePly(NamedTuple):
+    """A mesh with per-face values, as :func:`write_face_ply` writes it.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+    values : dict of str to (F,) float64
+        The per-face properties, in file order.
+    """
+
+    vertices: NDArray[np.float64]
+    faces: NDArray[np.int64]
+    values: dict[str, NDArray[np.float64]]
+
+
+def read_face_ply(path: str | Path) -> FacePly:
+    """Read a PLY written by :func:`write_face_ply` (that layout only, as written).
+
+    Raises
+    ------
+    ValueError
+        The file is not that layout, or is shorter than its header says.
+    """
+    data = Path(path).read_bytes()
+    end = data.find(b"end_header\n")
+    if not data.startswith(b"ply\n") or end < 0:
+        raise ValueError(f"{path}: not a PLY file (no complete header)")
+    lines = [line.strip() for line in data[:end].decode("ascii", "replace").splitlines()]
+    lines = [line for line in lines[1:] if line and not line.startswith("comment")]
+    counts: dict[str, int] = {}
+    names: list[str] = []
+    layout = []
+    element = ""
+    for line in lines:
+        words = line.split()
+        if words[0] == "element" and len(words) == 3 and words[2].isdigit():
+            element = words[1]
+            counts[element] = int(words[2])
+            layout.append(f"element {element}")
+        elif element == "face" and words[:2] == ["property", "double"] and len(words) == 3:
+            names.append(words[2])
+        else:
+            layout.append(line)
+    expected = [
+        "format binary_little_endian 1.0",
+        "element vertex",
+        "property double x",
+        "property double y",
+        "property double z",
+        "element face",
+        "property list uchar int vertex_indices",
+    ]
+    if layout != expected or set(counts) != {"vertex", "face"}:
+        raise ValueError(f"{path}: not shellvox's per-face PLY layout ({'; '.join(layout)})")
+    row = np.dtype([("n", "u1"), ("corners", "<i4", (3,))] + [(k, "<f8") for k in names])
+    start = end + len(b"end_header\n")
+    n_v, n_f = counts["vertex"], counts["face"]
+    if len(data) < start + 24 * n_v + row.itemsize * n_f:
+        raise ValueError(f"{path}: shorter than its header says (truncated?)")
+    vertices = np.frombuffer(data, dtype="<f8", count=3 * n_v, offset=start).reshape(n_v, 3)
+    rows = np.frombuffer(data, dtype=row, count=n_f, offset=start + 24 * n_v)
+    faces = rows["corners"].astype(np.int64)
+    if np.any(rows["n"] != 3) or (n_f and (faces.min() < 0 or faces.max() >= n_v)):
+        raise ValueError(f"{path}: faces that are not triangles of its vertices")
+    values = {name: rows[name].astype(np.float64) for name in names}
+    return FacePly(vertices.astype(np.float64), faces, values)

@@ -57,3 +57,19 @@ def real_mesh_shells():
         return cache[key]
 
     return get
+
+
+@pytest.fixture(scope="session")
+def small_colour_build(tmp_path_factory):
+    """The default model built on a coarse grid (thickness rule, materials; TIFFs only).
+
+    Read-only: a test that changes a build copies it first.
+    """
+    from pipeline.cli import main
+
+    out = tmp_path_factory.mktemp("small_colour_build") / "build"
+    model = Path(__file__).resolve().parents[1] / "data" / "colour_target" / "colour_target.obj"
+    argv = ["build", str(model), "-o", str(out), "--voxel-size", "0.2,0.2,0.15",
+            "--format", "tiff", "--no-progress"]  # fmt: skip
+    assert main(argv) == 0
+    return out

@@ -31,7 +31,7 @@ def test_rebuild_with_other_options_replaces_the_old_build(tmp_path, shells):
     assert_succeeded(old, out)
     assert_succeeded(run(["inspect", str(out)], tmp_path / "inspect"), out)
     old_files = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
-    assert {"volume.vdb", "materials.tif", "preview/xy_mid.png"} <= old_files
+    assert {"volume.vdb", "materials.tif", "preview/section_xy.png"} <= old_files
     assert ("shells/shell_3.ply" in old_files) == shells
     (out / "notes.txt").write_text("mine")  # not shellvox's: stays
     # New: two layers, no VDB, no materials, no shell meshes.

@@ -197,3 +197,192 @@ def halftone_image(
     draw.text((4, height - 16), f"target colour | halftoned materials; inset: {side} x {side} "
               f"voxels at ({x0}, {y0})", fill=(0, 0, 0))
     return canvas
+
+
+def _palette(n_bands: int) -> NDArray[np.uint8]:
+    """Display colour of every layer index: outside, bands (cycled), core, then magenta."""
+    return np.array(
+        [OUTSIDE_RGB, *(BAND_RGB[k % len(BAND_RGB)] for k in range(n_bands)), CORE_RGB]
+        + [(255, 0, 255)] * (256 - n_bands - 2),
+        dtype=np.uint8,
+    )
+
+
+#: How much lighter the layers under the colour are drawn in a colour section.
+FADE = 0.55
+
+
+def colour_and_layers(
+    layers: NDArray[np.uint8],
+    rgb: NDArray[np.uint8],
+    *,
+    colour_layers: tuple[int, ...],
+    n_bands: int,
+) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
+    """Return a section's colour picture and its layer picture, one pixel per voxel.
+
+    Parameters
+    ----------
+    layers : (H, W) uint8
+        Layer index of the section.
+    rgb : (H, W, 3) uint8
+        sRGB colour of the section (read in the colour layers only).
+    colour_layers : tuple of int
+        Layers drawn with their surface colour in the colour picture.
+    n_bands : int
+        ``K``; layer ``K + 1`` is the core.
+
+    Returns
+    -------
+    colour, layer : (H, W, 3) uint8
+        The colour layers in their colour, the other layers lightened, outside white;
+        and every layer in its tone (:data:`BAND_RGB`, :data:`CORE_RGB`).
+    """
+    palette = _palette(n_bands)
+    layer_picture = palette[layers]
+    faded = (palette + (255 - palette.astype(np.float64)) * FADE).round().astype(np.uint8)
+    colour_picture = faded[layers]
+    coloured = np.isin(layers, np.asarray(colour_layers, dtype=np.uint8))
+    colour_picture[coloured] = rgb[coloured]
+    return colour_picture, layer_picture
+
+
+def section_pair_image(
+    layers: NDArray[np.uint8],
+    rgb: NDArray[np.uint8],
+    *,
+    colour_layers: tuple[int, ...],
+    n_bands: int,
+    pixel_mm: tuple[float, float],
+    title: str,
+    max_pixels: int = 900,
+    inset_voxels: int = 40,
+    inset_pixels: int = 420,
+) -> Image.Image:
+    """Draw a section's colour beside its layers, and both zoomed to voxels below.
+
+    Parameters
+    ----------
+    layers : (H, W) uint8
+        Layer index of the section (rows top to bottom as drawn).
+    rgb : (H, W, 3) uint8
+        sRGB colour of the section.
+    colour_layers, n_bands
+        As in :func:`colour_and_layers`.
+    pixel_mm : (2,) float, mm
+        Physical ``(width, height)`` of one voxel in the section.
+    title : str
+        A line of text under the pictures.
+    max_pixels : int
+        Longest side of each full section.
+    inset_voxels : int
+        Side of the zoomed square, in voxels, centred where most vivid colour-layer
+        voxels touch the layers under them.
+    inset_pixels : int
+        About the side of each zoomed square, in pixels (each voxel a block).
+
+    Returns
+    -------
+    PIL.Image.Image
+        ``[colour | layers]`` at true aspect (nearest resampling: every drawn colour is a
+        voxel's), above ``[colour inset | layer inset]``.
+    """
+    colour, layer = colour_and_layers(
+        layers, rgb, colour_layers=colour_layers, n_bands=n_bands
+    )
+    height_mm = layers.shape[0] * pixel_mm[1]
+    width_mm = layers.shape[1] * pixel_mm[0]
+    scale = max_pixels / max(height_mm, width_mm)
+    size = (max(1, round(width_mm * scale)), max(1, round(height_mm * scale)))
+    full = [Image.fromarray(a, "RGB").resize(size, Image.Resampling.NEAREST)
+            for a in (colour, layer)]  # fmt: skip
+    # the inset: where vivid colour meets the layers under it (its depth shows there)
+    coloured = np.isin(layers, np.asarray(colour_layers, dtype=np.uint8))
+    vivid = coloured & (np.ptp(rgb.astype(np.int16), axis=-1) > 24)
+    under = ndimage.binary_dilation((layers > 0) & ~coloured, iterations=2)
+    target = next(m for m in (vivid & under, vivid, coloured) if m.any() or m is coloured)
+    side_y = max(1, min(inset_voxels, layers.shape[0]))
+    side_x = max(1, min(inset_voxels, layers.shape[1]))
+    window = ndimage.uniform_filter(target.astype(np.float32), size=(side_y, side_x),
+                                    mode="constant")  # fmt: skip
+    cy, cx = np.unravel_index(int(np.argmax(window)), window.shape)
+    y0 = int(np.clip(cy - side_y // 2, 0, layers.shape[0] - side_y))
+    x0 = int(np.clip(cx - side_x // 2, 0, layers.shape[1] - side_x))
+    crop = (slice(y0, y0 + side_y), slice(x0, x0 + side_x))
+    block = max(1, round(inset_pixels / max(side_x * pixel_mm[0], side_y * pixel_mm[1])
+                         * min(pixel_mm)))  # fmt: skip
+    inset_size = (
+        max(1, round(side_x * block * pixel_mm[0] / min(pixel_mm))),
+        max(1, round(side_y * block * pixel_mm[1] / min(pixel_mm))),
+    )
+    insets = [Image.fromarray(np.ascontiguousarray(a[crop]), "RGB").resize(
+        inset_size, Image.Resampling.NEAREST) for a in (colour, layer)]  # fmt: skip
+    gap = 8
+    width = max(2 * size[0], 2 * inset_size[0]) + gap
+    height = size[1] + inset_size[1] + 2 * gap + 36
+    canvas = Image.new("RGB", (width, height), (255, 255, 255))
+    canvas.paste(full[0], (0, 0))
+    canvas.paste(full[1], (size[0] + gap, 0))
+    top = size[1] + gap
+    canvas.paste(insets[0], (0, top))
+    canvas.paste(insets[1], (inset_size[0] + gap, top))
+    draw = ImageDraw.Draw(canvas)
+    # where the inset comes from, outlined on both full sections
+    for left in (0, size[0] + gap):
+        box = [left + x0 * size[0] / layers.shape[1], y0 * size[1] / layers.shape[0],
+               left + (x0 + side_x) * size[0] / layers.shape[1] - 1,
+               (y0 + side_y) * size[1] / layers.shape[0] - 1]  # fmt: skip
+        draw.rectangle(box, outline=(255, 0, 255))
+    draw.text((4, height - 32), title, fill=(0, 0, 0))
+    draw.text((4, height - 16), f"colour | layers; below: {side_x} x {side_y} voxels at "
+              f"voxel scale (magenta box)", fill=(0, 0, 0))  # fmt: skip
+    return canvas
+
+
+def outer_views_image(
+    views: list[tuple[str, NDArray[np.uint8], NDArray[np.bool_], tuple[float, float]]],
+    *,
+    pixels_per_mm: float,
+) -> Image.Image:
+    """Draw orthographic views of the outer colour layer, all at one scale.
+
+    Parameters
+    ----------
+    views : list of (label, (H, W, 3) uint8, (H, W) bool, (2,) float)
+        Per view: its name, the colour seen at each pixel (rows top to bottom as
+        drawn), where the model is, and the physical ``(width, height)`` of one pixel
+        in mm.
+    pixels_per_mm : float
+        Drawing scale.
+
+    Returns
+    -------
+    PIL.Image.Image
+        The views in rows of three on white, each labelled.
+    """
+    pictures = []
+    for label, rgb, hit, pixel_mm in views:
+        picture = np.where(hit[..., None], rgb, np.uint8(255)).astype(np.uint8)
+        size = (max(1, round(rgb.shape[1] * pixel_mm[0] * pixels_per_mm)),
+                max(1, round(rgb.shape[0] * pixel_mm[1] * pixels_per_mm)))  # fmt: skip
+        image = Image.fromarray(picture, "RGB").resize(size, Image.Resampling.NEAREST)
+        pictures.append((label, image))
+    gap, label_h, columns = 12, 18, 3
+    rows = [pictures[i : i + columns] for i in range(0, len(pictures), columns)]
+    widths = [max(p[1].size[0] for p in col) for col in zip(*rows, strict=False)]
+    heights = [max(p[1].size[1] for p in row) for row in rows]
+    canvas = Image.new(
+        "RGB",
+        (sum(widths) + gap * (len(widths) + 1), sum(heights) + (gap + label_h) * len(rows) + gap),
+        (255, 255, 255),
+    )
+    draw = ImageDraw.Draw(canvas)
+    y = gap
+    for row, row_height in zip(rows, heights, strict=True):
+        x = gap
+        for (label, image), column_width in zip(row, widths, strict=False):
+            draw.text((x, y), label, fill=(0, 0, 0))
+            canvas.paste(image, (x, y + label_h))
+            x += column_width + gap
+        y += row_height + label_h + gap
+    return canvas

@@ -1,0 +1,217 @@
+"""Latency of ``shellvox view`` on a large build: time to first slice, per-slice latency.
+
+Usage (from the repository root, on a finished build)::
+
+    .venv/bin/python benchmarks/bench_viewer.py /tmp/spot100 [--screen 1600x1000]
+
+The server runs in this process (a thread), and the requests are the page's own: for
+a screen of W x H device pixels, the slice fitted to the screen (every ``step``-th voxel,
+``step`` the power of two nearest the voxels per pixel), each mode's arrays asked for at
+once (colour: layers + colour; depth: layers + depth; ...), timed until the last byte.
+
+- ``first_slice``: from opening the folder (manifest, file sizes, page index of each
+  stack) to the first z slice in colour mode, as ``shellvox view`` starts.
+- ``cold``: each axis and mode in turn on a server that decodes pages only when asked
+  (the first y or x slice through a stack decodes its pages; the next ones read them
+  from the cache).
+- ``warmed``: after the server's background decoding of the whole-model pages
+  (``BuildFolder.warm_in_background``, timed), every axis and mode at several slices.
+- ``zoomed``: one voxel per pixel around the model's centre (a page range at step 1).
+
+Writes ``benchmarks/results/bench_viewer.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import http.client
+import json
+import math
+import os
+import statistics
+import sys
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from pipeline.viewer.folder import BuildFolder  # noqa: E402
+from pipeline.viewer.server import ViewerServer  # noqa: E402
+
+MODES = {
+    "colour": ("layers", "colour"),
+    "layers": ("layers",),
+    "blend": ("layers", "colour"),
+    "materials": ("materials",),
+    "depth": ("layers", "depth"),
+    "thickness": ("layers", "depth"),
+}
+PLANE = {"z": ("y", "x"), "y": ("z", "x"), "x": ("z", "y")}
+
+
+def fitted_region(folder: BuildFolder, axis: str, width: int, height: int) -> dict[str, int]:
+    """The region the page asks for when the whole slice fits the screen (viewer.js)."""
+    v_axis, u_axis = PLANE[axis]
+    shape = dict(zip("zyx", folder.grid.shape_zyx, strict=True))
+    size = dict(zip("xyz", folder.grid.voxel_mm, strict=True))
+    scale = 0.95 * min(
+        width / (shape[u_axis] * size[u_axis]), height / (shape[v_axis] * size[v_axis])
+    )
+
+    def step(voxel_mm: float) -> int:
+        return int(2 ** max(0, round(math.log2(1 / (scale * voxel_mm)))))
+
+    return {"r0": 0, "r1": shape[v_axis], "rs": step(size[v_axis]),
+            "c0": 0, "c1": shape[u_axis], "cs": step(size[u_axis])}  # fmt: skip
+
+
+def zoomed_region(folder: BuildFolder, axis: str, width: int, height: int) -> dict[str, int]:
+    """One voxel per pixel, ``width x height`` voxels around the slice's centre."""
+    v_axis, u_axis = PLANE[axis]
+    shape = dict(zip("zyx", folder.grid.shape_zyx, strict=True))
+    r0 = max(0, shape[v_axis] // 2 - height // 2)
+    c0 = max(0, shape[u_axis] // 2 - width // 2)
+    return {"r0": r0, "r1": r0 + height, "rs": 1, "c0": c0, "c1": c0 + width, "cs": 1}
+
+
+def fetch(port: int, kind: str, axis: str, index: int, region: dict[str, int]) -> int:
+    """GET one slice array; return its size in bytes."""
+    query = "&".join(f"{k}={v}" for k, v in {"kind": kind, "axis": axis, "index": index,
+                                              **region}.items())  # fmt: skip
+    connection = http.client.HTTPConnection("127.0.0.1", port, timeout=120)
+    connection.request("GET", "/api/slice?" + query)
+    response = connection.getresponse()
+    body = response.read()
+    connection.close()
+    if response.status != 200:
+        raise RuntimeError(f"{query}: {response.status} {body[:200]!r}")
+    return len(body)
+
+
+def view(pool: ThreadPoolExecutor, port: int, mode: str, axis: str, index: int,
+         region: dict[str, int]) -> float:  # fmt: skip
+    """Seconds until all of a mode's arrays arrived (asked for at once, as the page does)."""
+    started = time.perf_counter()
+    futures = [pool.submit(fetch, port, kind, axis, index, region) for kind in MODES[mode]]
+    for future in futures:
+        future.result()
+    return time.perf_counter() - started
+
+
+def serve(folder: BuildFolder, *, warm: bool) -> tuple[ViewerServer, threading.Thread]:
+    server = ViewerServer(folder, 0, warm=warm)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    return server, thread
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("build", type=Path)
+    parser.add_argument("--screen", default="1600x1000", help="device pixels W x H")
+    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/bench_viewer.json")
+    args = parser.parse_args()
+    width, height = (int(v) for v in args.screen.split("x"))
+    load = os.getloadavg()
+    pool = ThreadPoolExecutor(4)
+    result: dict[str, object] = {
+        "command": f"benchmarks/bench_viewer.py BUILD --screen {args.screen}",
+        "machine": f"{os.cpu_count()} cores shared with other jobs; load average at start "
+        f"{load[0]:.1f}, {load[1]:.1f}, {load[2]:.1f}",
+    }
+
+    # time to first slice, as `shellvox view` starts: open, index the stacks, z in colour
+    started = time.perf_counter()
+    folder = BuildFolder.open(args.build)
+    opened = time.perf_counter() - started
+    server, thread = serve(folder, warm=False)
+    n_z, n_y, n_x = folder.grid.shape_zyx
+    region = fitted_region(folder, "z", width, height)
+    first = view(pool, server.port, "colour", "z", n_z // 2, region)
+    result["build"] = {
+        "folder": str(args.build),
+        "grid_zyx": [n_z, n_y, n_x],
+        "voxels": n_z * n_y * n_x,
+        "file_bytes": {name: r["bytes"] for name, r in folder.manifest["files"].items()},
+    }
+    result["first_slice"] = {
+        "open_seconds": round(opened, 3),
+        "first_z_slice_seconds": round(first, 3),
+        "total_seconds": round(time.perf_counter() - started, 3),
+    }
+    print(json.dumps(result["first_slice"]), flush=True)
+
+    # cold: pages decoded when first asked for
+    cold: dict[str, dict[str, list[float]]] = {}
+    for mode in MODES:
+        for axis in ("z", "y", "x"):
+            extent = {"z": n_z, "y": n_y, "x": n_x}[axis]
+            region = fitted_region(folder, axis, width, height)
+            times = [view(pool, server.port, mode, axis, extent // 2 + k * 11, region)
+                     for k in range(3)]  # fmt: skip
+            cold.setdefault(axis, {})[mode] = [round(t, 3) for t in times]
+            print("cold", axis, mode, cold[axis][mode], flush=True)
+    result["cold"] = {
+        "note": "three slices per axis and mode, modes in this order; the first y slice "
+        "of a mode whose stack was not read yet decodes the pages, the rest read them "
+        "from the cache",
+        "seconds": cold,
+        "steps": {a: fitted_region(folder, a, width, height) for a in "zyx"},
+        "cache_mb": round(folder.stacks["layers"].cache.used_bytes / 1e6, 1),
+    }
+    server.shutdown()
+    server.server_close()
+    thread.join()
+
+    # warmed: the server decodes the whole-model pages first (as `shellvox view` does)
+    folder = BuildFolder.open(args.build)
+    started = time.perf_counter()
+    server, thread = serve(folder, warm=True)
+    assert folder._warming is not None
+    folder._warming.join()
+    warming = time.perf_counter() - started
+    warmed: dict[str, dict[str, dict[str, float]]] = {}
+    for axis in ("z", "y", "x"):
+        extent = {"z": n_z, "y": n_y, "x": n_x}[axis]
+        region = fitted_region(folder, axis, width, height)
+        for mode in MODES:
+            times = [view(pool, server.port, mode, axis, int(extent * f), region)
+                     for f in (0.3, 0.4, 0.5, 0.6, 0.7)]  # fmt: skip
+            warmed.setdefault(axis, {})[mode] = {
+                "median": round(statistics.median(times), 3), "max": round(max(times), 3)
+            }
+            print("warmed", axis, mode, warmed[axis][mode], flush=True)
+    result["warmed"] = {
+        "background_decoding_seconds": round(warming, 2),
+        "cache_mb": round(folder.stacks["layers"].cache.used_bytes / 1e6, 1),
+        "seconds": warmed,
+    }
+    zoomed: dict[str, dict[str, float]] = {}
+    for axis in ("y", "x"):
+        extent = {"z": n_z, "y": n_y, "x": n_x}[axis]
+        region = zoomed_region(folder, axis, width, height)
+        for mode in ("colour", "materials", "depth"):
+            first_time = view(pool, server.port, mode, axis, extent // 2 + 3, region)
+            again = view(pool, server.port, mode, axis, extent // 2 + 5, region)
+            zoomed.setdefault(axis, {})[mode] = {"first": round(first_time, 3),
+                                                 "next": round(again, 3)}  # fmt: skip
+            print("zoomed", axis, mode, zoomed[axis][mode], flush=True)
+    result["zoomed"] = {
+        "note": f"{width} x {height} voxels at step 1 around the centre: pages not among "
+        "the warmed ones are decoded on the first slice",
+        "seconds": zoomed,
+    }
+    server.shutdown()
+    server.server_close()
+    thread.join()
+    pool.shutdown()
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(result, indent=1) + "\n")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
