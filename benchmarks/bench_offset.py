@@ -13,6 +13,11 @@ speed: ../shared/meshes/spot (5856 faces) with two Loop subdivisions (93,696 fac
 to --size-mm; for each depth the robust offset is timed (one layer) next to OpenVDB's
 createLevelSetFromPolygons at --voxel-mm with a narrow band just wide enough to hold that
 depth, as a ratio. A benchmark, not a test. Results are merged into --out (JSON).
+
+flat: the default model (data/colour_target, 3468 faces, 2364 of them in 174 flat
+patches) and the airplane at 100 mm, two layers of 0.5 mm, with one prism per flat patch
+(offset.planar) and, in the same process, with per-face prisms only: time, CPU time,
+pieces, shell faces and volumes (which must agree).
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
+import offset.band as band
 from offset import offset_shells, shell_report
 from offset.intersections import intersecting_pairs
 from offset.robust import ShellDefectWarning
@@ -177,9 +183,53 @@ def speed(size_mm: float, voxel_mm: float, depths: list[float], subdivisions: in
             "size_mm": size_mm, "voxel_mm": voxel_mm, "runs": runs}
 
 
+def flat() -> dict[str, Any]:
+    """Time the robust shells with and without one prism per flat patch."""
+    cases = {"colour_target": (ROOT / "data" / "colour_target" / "colour_target.obj", None)}
+    airplane = SHARED / "airplane" / "colored_airplane.ply"
+    if airplane.is_file():
+        cases["airplane_100mm"] = (airplane, 100.0)
+    keep = band.flat_patches
+    rows: dict[str, Any] = {}
+    for name, (path, size) in cases.items():
+        raw = trimesh.load(path, force="mesh")
+        mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
+        mesh.merge_vertices(merge_tex=True, merge_norm=True)
+        if size is not None:
+            mesh.apply_scale(size / mesh.extents.max())
+        v = np.asarray(mesh.vertices, dtype=np.float64)
+        f = np.asarray(mesh.faces, dtype=np.int64)
+        for mode in ("patches", "per_face"):
+            if mode == "per_face":
+                band.flat_patches = lambda pairs, n, d: (np.full(n, -1), 0)
+            try:
+                pieces = band.layer_pieces(band.features(v, f), np.full(len(f), 0.5))
+                load = os.getloadavg()
+                start, cpu = time.perf_counter(), time.process_time()
+                shells = offset_shells(v, f, [0.5, 0.5])
+                row = {
+                    "seconds": time.perf_counter() - start,
+                    "cpu_seconds": time.process_time() - cpu,
+                    "load_avg_1_5_15_before": list(load),
+                    "pieces_layer_1": int(sum(len(p) for p, _ in pieces)),
+                    "shell_faces": [len(s.faces) for s in shells],
+                    "volumes_mm3": [
+                        float(trimesh.Trimesh(s.vertices, s.faces, process=False).volume)
+                        for s in shells
+                    ],
+                }
+            finally:
+                band.flat_patches = keep
+            rows.setdefault(name, {"n_faces": len(f)})[mode] = row
+            print(name, mode, {k: row[k] for k in ("seconds", "pieces_layer_1",
+                                                   "shell_faces")}, flush=True)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--part", choices=("quality", "speed", "both"), default="both")
+    parser.add_argument("--part", choices=("quality", "speed", "flat", "both"),
+                        default="both")
     parser.add_argument("--meshes", type=str, default="", help="comma list (quality part)")
     parser.add_argument("--size-mm", type=float, default=50.0)
     parser.add_argument("--voxel-mm", type=float, default=0.05)
@@ -196,6 +246,9 @@ def main(argv: list[str] | None = None) -> int:
         names = [n for n in args.meshes.split(",") if n] or None
         result.setdefault("quality", {}).update(quality(names))
         result["quality_setup"] = {"thickness_mm": THICKNESS, "n_samples": 20_000}
+        args.out.write_text(json.dumps(result, indent=1) + "\n")
+    if args.part == "flat":
+        result["flat"] = flat()
         args.out.write_text(json.dumps(result, indent=1) + "\n")
     if args.part in ("speed", "both"):
         depths = [float(x) for x in args.depths.split(",")]
