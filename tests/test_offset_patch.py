@@ -12,7 +12,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 import trimesh
 
-from offset import robust
+from offset import core_cut, robust
 from offset.band import features, layer_pieces
 from offset.guards import Surface, too_deep, too_deep_count
 from offset.union import to_manifold
@@ -71,20 +71,20 @@ def test_patch_restores_the_exact_core_around_a_dent():
     surface = Surface(v, f)
     bad = too_deep(surface, d, dented, core_f)
     base = to_manifold(v, f).as_original()
-    vert, tri = robust._patch(base, pieces, dented, core_f, bad, DEPTH, DEPTH, robust.LEAF)
+    vert, tri = core_cut.patch_core(base, pieces, dented, core_f, bad, DEPTH, DEPTH, robust.LEAF)
     _assert_exact_inner_box(vert, tri)
     assert too_deep_count(surface, d, vert, tri) == 0
 
 
 def test_robust_offset_repairs_a_dented_cut_without_warning(monkeypatch):
     """Every union order gives the same dent: only the local patch can repair it."""
-    cut = robust._cut
+    cut = robust.cut_core
 
     def dented_cut(*args, **kwargs):
         vert, tri = cut(*args, **kwargs)
         return _dent(vert, 0.2), tri
 
-    monkeypatch.setattr(robust, "_cut", dented_cut)
+    monkeypatch.setattr(robust, "cut_core", dented_cut)
     v, f = _box(SIZE)
     # pyproject turns warnings into errors: a ShellDefectWarning fails the test.
     [(vert, tri)] = robust.robust_offset(v, f, np.full((1, len(f)), DEPTH))
@@ -95,7 +95,7 @@ def test_boxes_cluster_like_the_dense_overlap_graph():
     """Clusters of padded boxes equal the components of the all-pairs overlap test."""
     rng = np.random.default_rng(2)
     tris = rng.random((300, 1, 3)) * 60 + rng.random((300, 3, 3)) * rng.random((300, 1, 1)) * 4
-    lo, hi = robust._boxes(tris, 0.5)
+    lo, hi = core_cut._boxes(tris, 0.5)
     t_lo, t_hi = tris.min(axis=1) - 0.5, tris.max(axis=1) + 0.5
     overlap = np.all((t_lo[:, None] <= t_hi[None]) & (t_hi[:, None] >= t_lo[None]), axis=2)
     n, label = scipy.sparse.csgraph.connected_components(
@@ -113,7 +113,7 @@ def test_boxes_cluster_like_the_dense_overlap_graph():
 
 def test_robust_offset_repairs_a_crossing_cut_without_warning(monkeypatch):
     """A small closed component crossing the core's top face, in every union order."""
-    cut = robust._cut
+    cut = robust.cut_core
     stray = trimesh.creation.box((0.2, 0.2, 0.2))
     stray.apply_translation([1.0, -2.0, INNER])  # straddles the top face z = INNER
 
@@ -124,14 +124,14 @@ def test_robust_offset_repairs_a_crossing_cut_without_warning(monkeypatch):
             np.concatenate([tri, np.asarray(stray.faces) + len(vert)]),
         )
 
-    monkeypatch.setattr(robust, "_cut", crossing_cut)
+    monkeypatch.setattr(robust, "cut_core", crossing_cut)
     v, f = _box(SIZE)
     # The defect is seen (and not simplified away) before the repair.
     dirty_v, dirty_f = crossing_cut(
         to_manifold(v, f).as_original(), layer_pieces(features(v, f), np.full(len(f), DEPTH)),
         DEPTH, DEPTH, robust.LEAF,
     )
-    assert robust._uncross(dirty_v, dirty_f, DEPTH)[3] > 0
+    assert core_cut.uncross(dirty_v, dirty_f, DEPTH)[3] > 0
     # pyproject turns warnings into errors: a ShellDefectWarning fails the test.
     [(vert, tri)] = robust.robust_offset(v, f, np.full((1, len(f)), DEPTH))
     _assert_exact_inner_box(vert, tri)
