@@ -14,7 +14,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import threading
 from pathlib import Path
 
 import colour
@@ -23,9 +22,8 @@ import pytest
 import tifffile
 import trimesh
 from PIL import Image
+from viewer_run import serving
 
-from pipeline.viewer.folder import BuildFolder
-from pipeline.viewer.server import ViewerServer
 from voxel.preview import BAND_RGB, CORE_RGB, OUTSIDE_RGB
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -76,13 +74,8 @@ def page(playwright_api, tmp_path):
 
 @pytest.fixture
 def served(small_colour_build):
-    viewer = ViewerServer(BuildFolder.open(small_colour_build), 0)
-    thread = threading.Thread(target=viewer.serve_forever, daemon=True)
-    thread.start()
-    yield viewer
-    viewer.shutdown()
-    viewer.server_close()
-    thread.join()
+    with serving(small_colour_build) as viewer:
+        yield viewer
 
 
 @pytest.fixture

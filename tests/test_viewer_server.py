@@ -13,7 +13,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import threading
 from pathlib import Path
 
 import colour
@@ -21,24 +20,20 @@ import numpy as np
 import pytest
 import tifffile
 import trimesh
+from viewer_run import serving
 
 from pipeline.cli import main
 from pipeline.errors import InputError
 from pipeline.viewer.folder import BuildFolder
-from pipeline.viewer.server import STATIC, ViewerServer
+from pipeline.viewer.server import STATIC
 
 REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
 def server(small_colour_build):
-    viewer = ViewerServer(BuildFolder.open(small_colour_build), 0)
-    thread = threading.Thread(target=viewer.serve_forever, daemon=True)
-    thread.start()
-    yield viewer
-    viewer.shutdown()
-    viewer.server_close()
-    thread.join()
+    with serving(small_colour_build) as viewer:
+        yield viewer
 
 
 @pytest.fixture(scope="module")
