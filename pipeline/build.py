@@ -42,13 +42,13 @@ from pipeline.slab_runner import SlabRunner, material_tally, resolve_workers
 from pipeline.stack_outputs import StackOutputs
 from voxel.agreement import shell_agreement
 from voxel.atomic import atomic_path, write_text_atomic
-from voxel.colour import srgb_to_linear
 from voxel.colour_report import ColourReport, sample_surface, thickness_effect
 from voxel.grid import GridRangeError, GridSpec
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
 from voxel.slab import SlabResult, StackModel
+from voxel.srgb import codes_to_linear
 from voxel.vdb_writer import VdbEncoder
 
 
@@ -334,7 +334,7 @@ class _Job:
         result = report.result()
         samples = report.samples
         display = np.array([m.display_srgb for m in self.profile.materials], dtype=np.uint8)
-        linear = srgb_to_linear(display).astype(np.float64)
+        linear = codes_to_linear(display).astype(np.float64)
         share = self.plan.separation.proportions(samples.target_rgba).astype(np.float64)
         ideal = share @ linear[list(self.plan.column_materials)]
         colour_depth = np.cumsum(self.thickness, axis=0)[max(self.config.colour_layers) - 1]

@@ -140,13 +140,3 @@ def test_vdb_skips_empty_slabs_and_crops_to_content(tmp_path):
     grids, _ = vdb.readAll(str(tmp_path / "v.vdb"))
     color = {grid.name: grid for grid in grids}["color"]
     assert color.getConstAccessor().getValue((4, 3, 6)) == pytest.approx((0.0, 0.0, 0.0), abs=1e-6)
-
-
-def test_srgb_decoding_matches_colour_science():
-    from voxel.colour import srgb_to_linear
-
-    codes = np.arange(256, dtype=np.uint8)
-    expected = colour.models.eotf_sRGB(codes / 255.0)
-    np.testing.assert_allclose(srgb_to_linear(codes), expected, atol=2e-7)
-    with pytest.raises(ValueError, match="uint8"):
-        srgb_to_linear(np.array([0.5]))

@@ -24,7 +24,9 @@ Modules
 - :mod:`voxel.layer_kernel` the per-voxel pass: layers, SDF band, colour voxels, tallies.
 - :mod:`voxel.surface_colour` compiled colour of the nearest points (face, vertex,
   texture), with the numpy path's arithmetic; :mod:`voxel.nearest` exact nearest points
-  by libigl's tree (queries beyond the reach); :mod:`voxel.colour` colour helpers.
+  by libigl's tree (queries beyond the reach); :mod:`voxel.colour` colour helpers;
+  :mod:`voxel.srgb` the sRGB transfer curve and CIELAB (the only place colours change
+  encoding; the loaders in :mod:`pipeline` use it too).
 - :mod:`voxel.slab` ``compute_slab``: the pure per-slab function (layers, colours, SDF band).
 - :mod:`voxel.deflate` a compiled run-length deflate (zlib) encoder for slices.
 - :mod:`voxel.tiff_writer`, :mod:`voxel.vdb_writer` (with :mod:`voxel.vdb_format`),

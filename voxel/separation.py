@@ -70,8 +70,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from voxel.atomic import atomic_path
-from voxel.colour import srgb_to_linear
 from voxel.material_kernels import proportions_kernel
+from voxel.srgb import codes_to_linear, linear_to_lab
 
 SeparationMethod = Literal["mixing", "icc"]
 
@@ -256,8 +256,8 @@ def _solve_mixing_table(
     codes = node_codes(step)
     grid = np.stack(np.meshgrid(codes, codes, codes, indexing="ij"), axis=-1).reshape(-1, 3)
     proportions = mix_proportions(
-        srgb_to_linear(grid).astype(np.float64),
-        srgb_to_linear(np.asarray(colours, dtype=np.uint8)).astype(np.float64),
+        codes_to_linear(grid).astype(np.float64),
+        codes_to_linear(np.asarray(colours, dtype=np.uint8)).astype(np.float64),
     )
     n_nodes = len(codes)
     table = proportions.astype(np.float32).reshape(n_nodes, n_nodes, n_nodes, len(colours))
@@ -333,15 +333,7 @@ def _project_on_subset(
 
 def _lab_cost(targets: NDArray[np.float64], materials: NDArray[np.float64]) -> NDArray[np.float64]:
     """Return ``|Lab(material) - Lab(target)|^2`` (N, P), colours in linear sRGB."""
-    import colour  # colour-science: imported here, only where a table is built
-
-    space = colour.RGB_COLOURSPACES["sRGB"]
-
-    def lab(linear: NDArray[np.float64]) -> NDArray[np.float64]:
-        xyz = colour.RGB_to_XYZ(linear, space)
-        return np.asarray(colour.XYZ_to_Lab(xyz, space.whitepoint), dtype=np.float64)
-
-    difference = lab(materials)[None, :, :] - lab(targets)[:, None, :]
+    difference = linear_to_lab(materials)[None, :, :] - linear_to_lab(targets)[:, None, :]
     cost: NDArray[np.float64] = (difference**2).sum(axis=2)
     return cost
 
@@ -412,7 +404,7 @@ def _cell_weights(step: int) -> tuple[NDArray[np.int64], NDArray[np.float32]]:
     """Per sRGB code: its table cell (lower node) and the linear-light weight of the upper node."""
     codes = np.arange(256)
     cell = np.minimum(codes // step, 255 // step - 1).astype(np.int64)
-    linear = srgb_to_linear(codes.astype(np.uint8)).astype(np.float64)
+    linear = codes_to_linear(codes.astype(np.uint8)).astype(np.float64)
     low = linear[cell * step]
     high = linear[(cell + 1) * step]
     weight = ((linear - low) / (high - low)).astype(np.float32)

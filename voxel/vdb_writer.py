@@ -43,8 +43,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour import srgb_to_linear
 from voxel.grid import GridSpec
+from voxel.srgb import codes_to_linear
 from voxel.vdb_format import LEAF, GridSpool, write_file
 
 GRID_NAMES = ("density", "layer", "color", "sdf")
@@ -351,7 +351,7 @@ class VdbEncoder:
         self._leaves(layer, blocks, any_in & ~tile, layers, inside)
         # color: leaves wherever a colour voxel is; black ones stay active (background 0).
         leaf = blocks.any(coloured)
-        linear = srgb_to_linear(blocks.gather(rgb, leaf))
+        linear = codes_to_linear(blocks.gather(rgb, leaf))
         on = blocks.gather(coloured, leaf)
         linear[on] = np.maximum(linear[on], np.float32(1e-7))
         color.add_leaves(blocks.origins(leaf), linear, on, None, self._level)

@@ -52,7 +52,8 @@ from pipeline.loading.images import TextureRef, read_textures
 from pipeline.loading.references import check_inside
 from pipeline.loading.trimesh_formats import combine_parts
 from pipeline.mesh import ColouredMesh
-from pipeline.texture import FilterMode, Material, WrapMode, encode_uint8
+from pipeline.texture import FilterMode, Material, WrapMode
+from voxel.srgb import encode_uint8
 
 GL_WRAP: dict[int, WrapMode] = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
 GL_NEAREST = (9728, 9984, 9986)

@@ -35,7 +35,8 @@ from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.images import TextureRef, read_textures
 from pipeline.loading.references import check_inside, is_inside
 from pipeline.mesh import ColouredMesh
-from pipeline.texture import Material, WrapMode, encode_uint8, srgb_to_linear
+from pipeline.texture import Material, WrapMode
+from voxel.srgb import encode_uint8, srgb_to_linear
 
 #: Fix for an OBJ texture that cannot be used.
 TEXTURE_FIX = "put the image beside the MTL, or pass --texture FILE"

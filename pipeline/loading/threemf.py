@@ -42,7 +42,8 @@ from pipeline.loading.threemf_properties import (
     read_properties,
 )
 from pipeline.mesh import ColouredMesh
-from pipeline.texture import Material, decode_uint8
+from pipeline.texture import Material
+from voxel.srgb import decode_uint8
 
 PRODUCTION = "{http://schemas.microsoft.com/3dmanufacturing/production/2015/06}"
 UNITS_3MF = {

@@ -25,7 +25,8 @@ from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.images import TextureRef, read_textures
 from pipeline.loading.references import check_inside
 from pipeline.mesh import ColouredMesh
-from pipeline.texture import Material, decode_uint8
+from pipeline.texture import Material
+from voxel.srgb import decode_uint8
 
 #: PLY properties that look like colour but are not the ``red green blue`` trimesh reads.
 PLY_COLOURISH = {
