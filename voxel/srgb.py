@@ -85,7 +85,7 @@ def encode_uint8(linear_rgba: NDArray[np.floating[Any]]) -> NDArray[np.uint8]:
 
     Examples
     --------
-    >>> encode_uint8(np.array([0.214, 0.214, 0.214, 1.0])).tolist()
+    >>> encode_uint8(np.array([0.2159, 0.2159, 0.2159, 1.0])).tolist()
     [128, 128, 128, 255]
     """
     linear_rgba = np.asarray(linear_rgba, dtype=np.float64)
@@ -101,7 +101,7 @@ def linear_to_lab(linear: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
 
     Examples
     --------
-    >>> linear_to_lab(np.array([1.0, 1.0, 1.0])).round(3).tolist()
+    >>> linear_to_lab(np.array([1.0, 1.0, 1.0])).round(1).tolist()
     [100.0, 0.0, 0.0]
     """
     import colour  # colour-science: imported on first use (about a second)
