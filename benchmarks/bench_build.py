@@ -35,6 +35,7 @@ from scipy import ndimage
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))  # vdb_checks
 
 from pipeline.build import build_stack  # noqa: E402
 from pipeline.build_config import BuildConfig  # noqa: E402
@@ -86,8 +87,7 @@ def accuracy(args: argparse.Namespace) -> dict[str, object]:
     import colour
     import tifffile
     import trimesh
-
-    from voxel.vdb_writer import describe_grids
+    from vdb_checks import describe_grids
 
     mesh = scaled_model(args.model, args.size_mm)
     config = _config(args)

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 import tifffile
 import trimesh
+from vdb_checks import describe_grids
 
 from pipeline.build import build_stack
 from pipeline.build_config import BuildConfig
 from pipeline.errors import SlabWorkerDied
 from pipeline.mesh import ColouredMesh
 from voxel.openvdb_module import load_openvdb
-from voxel.vdb_writer import describe_grids
 
 
 def _ball(radius: float = 3.0) -> ColouredMesh:

@@ -4,12 +4,13 @@ import colour
 import numpy as np
 import pytest
 import tifffile
+from vdb_checks import describe_grids
 
 from voxel.atomic import atomic_path, write_text_atomic
 from voxel.grid import GridSpec
 from voxel.openvdb_module import load_openvdb
 from voxel.tiff_writer import TiffStackWriter
-from voxel.vdb_writer import VdbStackWriter, describe_grids
+from voxel.vdb_writer import VdbStackWriter
 
 GRID = GridSpec((1.0, 2.0, 3.0), (0.0423, 0.0846, 0.027), (10, 20, 30))
 

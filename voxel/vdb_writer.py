@@ -218,19 +218,6 @@ class VdbStackWriter:
             spool.stream.close()
         self._dir.cleanup()
 
-def describe_grids(grids: Any) -> dict[str, Any]:
-    """Return ``{name: {class, value_type, active_voxels, voxel_size_mm}}`` of OpenVDB grids."""
-    return {
-        volume.name: {
-            "class": str(volume.gridClass),
-            "value_type": volume.valueTypeName,
-            "active_voxels": int(volume.activeVoxelCount()),
-            "voxel_size_mm": [float(v) for v in volume.transform.voxelSize()],
-        }
-        for volume in grids
-    }
-
-
 
 def grid_kinds(
     half_width: float, material_grid: bool
