@@ -38,8 +38,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))  # vdb_checks
 
 from pipeline.build import build_stack  # noqa: E402
-from pipeline.build_config import BuildConfig  # noqa: E402
-from pipeline.config import LoadOptions  # noqa: E402
+from pipeline.config import BuildConfig, LoadOptions  # noqa: E402
 from pipeline.loading import load_model  # noqa: E402
 from pipeline.mesh import ColouredMesh  # noqa: E402
 from pipeline.printer_profile import load_profile  # noqa: E402

@@ -26,9 +26,8 @@ from tqdm import tqdm
 
 from offset import offset_shells
 from pipeline import __version__
-from pipeline.build_config import BuildConfig
 from pipeline.children import ChildCall
-from pipeline.config import as_json
+from pipeline.config import BuildConfig, as_json
 from pipeline.errors import InputError, ResourceError, ShellvoxWarning
 from pipeline.estimate import BYTES_PER_VOXEL, check_resources, estimate_build
 from pipeline.face_thickness import FaceThickness, thickness_summary, write_thickness_ply
@@ -200,6 +199,7 @@ class _Job:
                 colour_layers=config.colour_layers,
                 sdf_half_width_mm=config.sdf_half_width_mm,
                 depth_mm=depth if by_distance else None,
+                layer_rule=config.layer_rule,
             )
             # the scan's regions, computed once here and inherited by the forked workers
             _ = model.surface.regions

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline import __version__
-from pipeline.build_config import BuildConfig
+from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.printer_profile import PrinterProfile
 from voxel.atomic import atomic_path

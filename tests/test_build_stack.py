@@ -9,7 +9,7 @@ import trimesh
 from vdb_checks import describe_grids
 
 from pipeline.build import build_stack
-from pipeline.build_config import BuildConfig
+from pipeline.config import BuildConfig
 from pipeline.errors import SlabWorkerDied
 from pipeline.mesh import ColouredMesh
 from voxel.openvdb_module import load_openvdb
