@@ -45,7 +45,9 @@ def test_outputs_and_manifest(built):
         "shells/shell_2.ply",
     }
     on_disk = json.loads((out / "manifest.json").read_text())
-    assert on_disk["grid"] == manifest["grid"]
+    assert on_disk == manifest  # returned exactly as written, files and total time included
+    assert set(on_disk["files"]) == names - {"manifest.json"}
+    assert on_disk["seconds"]["total"] > 0
     assert [layer["index"] for layer in on_disk["layers"]] == [0, 1, 2, 3]
     assert on_disk["diagnostics"]["unbalanced_rows"] == 0
     assert manifest["slab_rows"] < manifest["grid"]["shape_zyx"][0]  # really streamed
