@@ -47,10 +47,10 @@ from numpy.typing import NDArray
 
 from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.loading.combine import combine_parts
 from pipeline.loading.gltf_texcoord import primitive_uv, texture_transform
 from pipeline.loading.images import TextureRef, read_textures
 from pipeline.loading.references import check_inside
-from pipeline.loading.trimesh_formats import combine_parts
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import FilterMode, Material, WrapMode
 from voxel.srgb import encode_uint8
