@@ -66,17 +66,15 @@ import contextlib
 import xml.etree.ElementTree as ET
 import zipfile
 from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from voxel.grid import GridSpec
 from voxel.png_encode import encode_png
-from voxel.slab_thread import ClosingWriter, SlabThread
+from voxel.slab_thread import FirstRow, SliceWriter
 
 MM_PER_INCH = 25.4
 IMAGE_PREFIX = "layer_"
@@ -87,7 +85,6 @@ VOXEL_SIZE_RTOL = 1e-6
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 
 RGBA = tuple[int, int, int, int]
-FirstRow = Literal["max_y", "min_y"]
 
 
 class GcvfJobError(ValueError):
@@ -142,7 +139,7 @@ class GcvfSummary:
     voxel_counts: dict[int, int]
 
 
-class GcvfWriter(ClosingWriter):
+class GcvfWriter(SliceWriter):
     """Write a ``.gcvf`` job from ``(Zs, Y, X)`` uint8 material-index slabs (module docstring).
 
     Parameters
@@ -208,12 +205,7 @@ class GcvfWriter(ClosingWriter):
         level: int = 1,
         queue_slabs: int = 2,
     ) -> None:
-        if first_row not in ("max_y", "min_y"):
-            raise ValueError(f"first_row must be 'max_y' or 'min_y', got {first_row!r}")
-        if threads < 1:
-            raise ValueError(f"threads must be >= 1, got {threads}")
-        if not 0 <= level <= 9:
-            raise ValueError(f"level must be 0..9, got {level}")
+        super().__init__(first_row, threads, level)
         if max_materials < 1 or min_slices < 1:
             raise ValueError(
                 f"max_materials and min_slices must be >= 1, got {max_materials}, {min_slices}"
@@ -228,8 +220,6 @@ class GcvfWriter(ClosingWriter):
         _check_grid(grid, self.dpi, self.slice_thickness_nm, min_slices, tray_mm)
         n_z = grid.shape_zyx[0]
         self.n_padding_slices = max(0, min_slices - n_z)
-        self.first_row: FirstRow = first_row
-        self._level = level
         # Index -> key as one uint32 per pixel (the RGBA bytes in memory order).
         lut = np.zeros((256, 4), dtype=np.uint8)
         lut[0] = self.background
@@ -246,12 +236,7 @@ class GcvfWriter(ClosingWriter):
         self._zip: zipfile.ZipFile | None = zipfile.ZipFile(
             self.path, "w", compression=zipfile.ZIP_STORED, allowZip64=True
         )
-        self._pool = (
-            ThreadPoolExecutor(threads, thread_name_prefix="gcvf-png") if threads > 1 else None
-        )
-        self._thread: SlabThread[tuple[int, NDArray[np.uint8]]] = SlabThread(
-            f"{self.path}", self._write_slices, queue_slabs=queue_slabs
-        )
+        self._start_slices(f"{self.path}", queue_slabs)
 
     @property
     def n_slices(self) -> int:
@@ -348,8 +333,7 @@ class GcvfWriter(ClosingWriter):
 
     def abort(self) -> None:
         """Stop the threads and remove the unfinished file."""
-        self._thread.abort()
-        self._shutdown_pool()
+        self._stop_slices()
         if self._zip is not None:
             with contextlib.suppress(Exception):  # a half-written zip is removed anyway
                 self._zip.close()
@@ -358,26 +342,16 @@ class GcvfWriter(ClosingWriter):
 
     def _encode(self, plane: NDArray[np.uint8]) -> bytes:
         """One slice ``(Y, X)`` of indices -> PNG of keys, rows in the chosen order."""
-        if self.first_row == "max_y":
-            plane = plane[::-1]
+        plane = self._rows(plane)
         keys = np.take(self._lut, plane).view(np.uint8).reshape(*plane.shape, 4)
         return encode_png(keys, level=self._level)
 
-    def _write_slices(self, item: tuple[int, NDArray[np.uint8]]) -> None:
-        """In the writer thread: encode a slab's slices (in parallel) and add them in order."""
-        z0, slab = item
-        pngs = self._pool.map(self._encode, slab) if self._pool else map(self._encode, slab)
-        for z, data in enumerate(pngs, start=z0):
-            self._add(f"{IMAGE_PREFIX}{z}.png", data)
+    def _store(self, z: int, data: bytes) -> None:
+        self._add(f"{IMAGE_PREFIX}{z}.png", data)
 
     def _add(self, name: str, data: bytes) -> None:
         assert self._zip is not None
         self._zip.writestr(_zip_info(name), data)
-
-    def _shutdown_pool(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
 
     def _config_xml(self, listed: tuple[tuple[Material, int], ...]) -> bytes:
         """``ConfigFile.xml`` (element names and nesting as public writers use them)."""
