@@ -20,7 +20,8 @@ from pipeline.build_folder import BuildFolder
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.printer_profile import PrinterProfile
-from voxel.gcvf_writer import GcvfJobError, GcvfWriter
+from voxel.gcvf_job import GcvfJobError
+from voxel.gcvf_writer import GcvfWriter
 from voxel.grid import GridSpec
 from voxel.materials import MaterialPlan
 from voxel.png_slices import PngSliceWriter

@@ -21,7 +21,8 @@ from PIL import Image
 import voxel.gcvf_writer as gcvf_writer
 from pipeline.printer_profile import load_profile
 from voxel.atomic import atomic_path
-from voxel.gcvf_writer import GcvfJobError, GcvfWriter
+from voxel.gcvf_job import GcvfJobError
+from voxel.gcvf_writer import GcvfWriter
 from voxel.grid import GridSpec
 from voxel.tiff_writer import TiffStackWriter
 
