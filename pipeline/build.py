@@ -49,7 +49,7 @@ from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
 from voxel.slab import StackModel
-from voxel.vdb_writer import VdbEncoder
+from voxel.vdb_encode import VdbEncoder
 
 
 def build_stack(

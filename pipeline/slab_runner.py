@@ -39,8 +39,8 @@ from voxel.grid import GridSpec
 from voxel.layer_kernel import layer_material_counts
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.slab import SlabResult, StackModel, compute_slab
-from voxel.vdb_format import GridSpool
-from voxel.vdb_writer import VdbEncoder
+from voxel.vdb_encode import VdbEncoder
+from voxel.vdb_leaves import GridSpool
 
 _WORKER: (
     tuple[StackModel, GridSpec, MaterialPlan | None, VdbEncoder | None, SlabSlots] | None

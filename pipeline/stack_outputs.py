@@ -27,7 +27,7 @@ from voxel.materials import MaterialPlan
 from voxel.png_slices import PngSliceWriter
 from voxel.slab import SlabResult
 from voxel.tiff_writer import TiffStackWriter
-from voxel.vdb_format import GridSpool
+from voxel.vdb_leaves import GridSpool
 from voxel.vdb_writer import VdbStackWriter
 
 
@@ -141,7 +141,7 @@ class StackOutputs:
     ) -> None:
         """Write one slab (in z order) to every open writer.
 
-        `vdb`: the slab's VDB leaves already encoded (:class:`voxel.vdb_writer.VdbEncoder`).
+        `vdb`: the slab's VDB leaves already encoded (:class:`voxel.vdb_encode.VdbEncoder`).
         """
         if self.layers_tif is not None and self.colour_tif is not None:
             self.layers_tif.write_slab(slab.layers)
