@@ -85,25 +85,29 @@ def instrument() -> dict[str, list[float]]:
         stem = next(n for n in ("materials", "layers", "colour") if n in writer.path.name)
         return f"tiff thread: {stem}.tif (zlib + write)"
 
-    wrap(runner, "compute_slab", "compute_slab (voxels)")
-    wrap(runner, "materials_for_slab", "halftone: materials_for_slab (first call loads numba)")
-    wrap(build_module, "build_material_plan", "material plan build (separation table, tile)")
-    wrap(ColourCheck, "__init__", "colour report: sample_surface + rays")
-    wrap(ColourCheck, "result", "colour report: result + thickness_effect")
-    wrap(ColourReport, "add_slab", "colour report: add_slab")
-    wrap(Tally, "add", "tally (Tally.add, + materials bincount in B)")
-    wrap(LayerSampler, "add", "layer sampler")
-    wrap(TiffStackWriter, "write_slab", "tiff write_slab (queue)")
-    wrap(TiffStackWriter, "_write", tiff_name)
-    wrap(VdbStackWriter, "write_slab", "vdb write_slab (leaves; + material grid in B)")
-    wrap(VdbStackWriter, "write", "vdb write (file)")
-    wrap(GcvfWriter, "write_slab", "gcvf write_slab (key counts)")
-    wrap(GcvfWriter, "_encode", "gcvf PNG encode (pool threads)")
-    wrap(GcvfWriter, "_add", "gcvf zip write")
-    wrap(GcvfWriter, "close", "gcvf close (padding, xml)")
-    wrap(StackOutputs, "colour_slices", "png: colour_slices")
-    wrap(PngSliceWriter, "_encode", "png PNG encode (pool threads)")
-    wrap(OutputFolder, "commit", "output commit (sha256 of every file)")
+    parts: list[tuple[Any, str, str | Callable[[Any], str]]] = [
+        (runner, "compute_slab", "compute_slab (voxels)"),
+        (runner, "materials_for_slab", "halftone: materials_for_slab (first call loads numba)"),
+        (build_module, "build_material_plan", "material plan build (separation table, tile)"),
+        (ColourCheck, "__init__", "colour report: sample_surface + rays"),
+        (ColourCheck, "result", "colour report: result + thickness_effect"),
+        (ColourReport, "add_slab", "colour report: add_slab"),
+        (Tally, "add", "tally (Tally.add, + materials bincount in B)"),
+        (LayerSampler, "add", "layer sampler"),
+        (TiffStackWriter, "write_slab", "tiff write_slab (queue)"),
+        (TiffStackWriter, "_write", tiff_name),
+        (VdbStackWriter, "write_slab", "vdb write_slab (leaves; + material grid in B)"),
+        (VdbStackWriter, "write", "vdb write (file)"),
+        (GcvfWriter, "write_slab", "gcvf write_slab (key counts)"),
+        (GcvfWriter, "_encode", "gcvf PNG encode (pool threads)"),
+        (GcvfWriter, "_add", "gcvf zip write"),
+        (GcvfWriter, "close", "gcvf close (padding, xml)"),
+        (StackOutputs, "colour_slices", "png: colour_slices"),
+        (PngSliceWriter, "_encode", "png PNG encode (pool threads)"),
+        (OutputFolder, "commit", "output commit (sha256 of every file)"),
+    ]
+    for owner, name, label in parts:
+        wrap(owner, name, label)
     return totals
 
 

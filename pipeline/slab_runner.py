@@ -24,7 +24,6 @@ import os
 from collections.abc import Iterator
 from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
-from types import TracebackType
 from typing import NamedTuple
 
 import numpy as np
@@ -177,15 +176,10 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
             slot = self._slots.take()
             self._pending.append(self._pool.submit(_worker_slab, *job, slot))
 
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        trace: TracebackType | None,
-    ) -> None:
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
         global _WORKER
         if self._pool is not None:
-            self._pool.__exit__(kind, error, trace)  # kills the workers on an error
+            self._pool.__exit__(kind, *exc)  # kills the workers on an error
             _WORKER = None
 
     def __iter__(self) -> Iterator[StackSlab]:
