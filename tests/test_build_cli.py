@@ -2,6 +2,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 import trimesh
 from PIL import Image
@@ -44,15 +45,42 @@ def test_build_then_inspect(tmp_path, model, capsys):
     assert main(["inspect", str(out)]) == 0
     text = capsys.readouterr().out
     assert "layer 1 colour_1" in text
-    for name in ("xy_mid.png", "xz_mid.png", "yz_mid.png", "layer_depth_histogram.png"):
-        with Image.open(out / "preview" / name) as image:
-            assert image.size[0] > 10
-    # XZ section at true aspect: a ball is as tall as it is wide
-    with Image.open(out / "preview" / "xz_mid.png") as image:
-        width, height = image.size
-    extent = manifest["grid"]["shape_zyx"]
-    size = manifest["grid"]["voxel_size_mm"]
-    assert width / height == pytest.approx(extent[2] * size[0] / (extent[0] * size[2]), rel=0.01)
+    for name, axes in (("xy_mid.png", (0, 1)), ("xz_mid.png", (0, 2)), ("yz_mid.png", (1, 2))):
+        _check_ball_section(out / "preview" / name, manifest["grid"], axes)
+    with Image.open(out / "preview" / "layer_depth_histogram.png") as image:
+        assert len(image.convert("RGB").getcolors(2**16)) > 2  # drawn, not blank
+
+
+def _check_ball_section(path, grid, axes):
+    """A mid-grid section of the ball of radius 2 about the origin (the analytic truth).
+
+    Pictures are at true aspect, the plane's first axis to the right and its second up;
+    the 0.3 mm colour layer in the surface colour (200, 30, 30) lies within a voxel
+    diagonal of the 2 mm sphere's shell from 1.7 to 2 mm, outside is white.
+    """
+    origin, voxel, shape = (np.asarray(grid[k], float) for k in ("origin_mm", "voxel_size_mm",
+                                                                  "shape_zyx"))
+    shape = shape[::-1].astype(int)  # (x, y, z)
+    with Image.open(path) as image:
+        pixels = np.asarray(image.convert("RGB"))
+    height, width = pixels.shape[:2]
+    u, v = axes
+    extent = shape * voxel
+    assert width / height == pytest.approx(extent[u] / extent[v], rel=0.01)
+    cols, rows = np.meshgrid(np.arange(width), np.arange(height))
+    point = np.zeros((height, width, 3))
+    point[..., u] = origin[u] - voxel[u] / 2 + (cols + 0.5) * extent[u] / width
+    point[..., v] = origin[v] - voxel[v] / 2 + extent[v] - (rows + 0.5) * extent[v] / height
+    fixed = 3 - u - v
+    point[..., fixed] = origin[fixed] + (shape[fixed] // 2) * voxel[fixed]
+    radius = np.linalg.norm(point, axis=2)
+    slack = float(np.linalg.norm(voxel)) + float(np.max(extent[[u, v]] / (width, height)))
+    red = np.all(pixels == (200, 30, 30), axis=2)
+    white = np.all(pixels == 255, axis=2)
+    assert red.any()
+    assert radius[red].min() >= 2.0 - 0.3 - slack and radius[red].max() <= 2.0 + slack
+    assert white[radius > 2.0 + slack].all()
+    assert not (white | red)[radius < 2.0 - 0.3 - slack].any()
 
 
 @pytest.mark.parametrize(

@@ -139,5 +139,13 @@ def test_vdb_skips_empty_slabs_and_crops_to_content(tmp_path):
         "sdf": 1,
     }
     grids, _ = vdb.readAll(str(tmp_path / "v.vdb"))
-    color = {grid.name: grid for grid in grids}["color"]
+    by_name = {grid.name: grid for grid in grids}
+    color = by_name["color"]
     assert color.getConstAccessor().getValue((4, 3, 6)) == pytest.approx((0.0, 0.0, 0.0), abs=1e-6)
+    # Cropped to the content, as OpenVDB itself reads it: each grid is the one 8^3 leaf
+    # holding voxel (x, y, z) = (4, 3, 6), and its active box is that voxel; the empty
+    # first slab and the rest of the 10 x 20 x 30 grid hold no leaf and no tile.
+    for name, grid in by_name.items():
+        assert grid.leafCount() == 1, name
+        assert grid.evalActiveVoxelBoundingBox() == ((4, 3, 6), (4, 3, 6)), name
+        assert grid.evalLeafBoundingBox() == ((0, 0, 0), (7, 7, 7)), name
