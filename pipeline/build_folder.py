@@ -1,6 +1,6 @@
 """The output folder of one build: temporary names, shell and thickness files, the manifest.
 
-Every file of a build is written under a temporary name (:func:`voxel.atomic.atomic_path`)
+Every file of a build is written under a temporary name (:func:`pipeline.atomic.atomic_path`)
 entered into the build's :class:`contextlib.ExitStack`: they are renamed together when the
 stack closes after the last slab, and removed if anything fails first. Then
 :meth:`BuildFolder.commit` removes the older build's outputs, records the size and SHA-256
@@ -18,11 +18,11 @@ from pathlib import Path
 from typing import Any
 
 from offset.shells import Shell
+from pipeline.atomic import atomic_path, write_text_atomic
 from pipeline.face_thickness import FaceThickness, write_thickness_ply
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import OutputFolder
 from pipeline.shell_files import save_shells
-from voxel.atomic import atomic_path, write_text_atomic
 
 
 class BuildFolder:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.atomic import atomic_path
+from pipeline.atomic import atomic_path
 
 
 def write_face_ply(

@@ -30,8 +30,8 @@ from offset.jitter import jitter_vertices
 from offset.quality import mesh_checks
 from offset.shells import Shell
 from pipeline import __version__
+from pipeline.atomic import atomic_path
 from pipeline.errors import ShellvoxWarning
-from voxel.atomic import atomic_path
 
 #: The PLY header lines of the vertex coordinates.
 DOUBLE_XYZ = ("property double x", "property double y", "property double z")
@@ -96,7 +96,7 @@ def write_shell(path: Path, shell: Shell, *, target: Path | None = None) -> Writ
     Parameters
     ----------
     path : Path
-        File to write (e.g. a temporary name from :func:`voxel.atomic.atomic_path`).
+        File to write (e.g. a temporary name from :func:`pipeline.atomic.atomic_path`).
     shell : Shell
     target : Path, optional
         The name the file will have, for :attr:`WrittenShell.path` and messages.

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.atomic import atomic_path
+from pipeline.atomic import atomic_path
 
 
 @dataclass(frozen=True)

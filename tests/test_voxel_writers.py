@@ -6,7 +6,7 @@ import pytest
 import tifffile
 from vdb_checks import describe_grids
 
-from voxel.atomic import atomic_path, write_text_atomic
+from pipeline.atomic import atomic_path, write_text_atomic
 from voxel.grid import GridSpec
 from voxel.openvdb_module import load_openvdb
 from voxel.tiff_writer import TiffStackWriter

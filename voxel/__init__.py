@@ -37,7 +37,6 @@ Modules
   jobs, described by :mod:`voxel.gcvf_job`), :mod:`voxel.png_slices` (RGBA slice
   folders), both with PNGs from :mod:`voxel.png_encode` and a writer thread from
   :mod:`voxel.slab_thread`.
-- :mod:`voxel.atomic` files that appear atomically.
 - :mod:`voxel.separation` colour to material proportions (the mixing model's solver in
   :mod:`voxel.mixing`); :mod:`voxel.blue_noise` the
   3D threshold tile; :mod:`voxel.materials` ``materials_for_slab`` (one material per

@@ -94,7 +94,7 @@ class GcvfWriter(SliceWriter):
     Parameters
     ----------
     path : Path
-        Zip file to write (the caller may make it atomic with :func:`voxel.atomic.atomic_path`;
+        Zip file to write (the caller may write it under a temporary name and rename it;
         an aborted writer removes it).
     grid : GridSpec
         Gives the slice size ``X x Y`` and the number of slices ``Z``; its voxel size must

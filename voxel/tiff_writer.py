@@ -38,7 +38,7 @@ class TiffStackWriter(ClosingWriter):
     Parameters
     ----------
     path : Path
-        File to write (the caller makes it atomic, see :mod:`voxel.atomic`).
+        File to write (the caller may write it under a temporary name and rename it).
     grid : GridSpec
         Gives the number of pages, page shape and physical voxel size.
     samples : int

@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 import tifffile
 
+from pipeline.atomic import atomic_path
 from pipeline.errors import InputError
 from pipeline.outdir import OutputFolder, sha256
-from voxel.atomic import atomic_path
 from voxel.preview import boundary_depths, halftone_image, histogram_image, section_image
 
 #: The files inspect reads: a manifest must list (and so verify) them.
