@@ -58,9 +58,9 @@ def _check_ball_section(path, grid, axes):
     the 0.3 mm colour layer in the surface colour (200, 30, 30) lies within a voxel
     diagonal of the 2 mm sphere's shell from 1.7 to 2 mm, outside is white.
     """
-    origin, voxel, shape = (np.asarray(grid[k], float) for k in ("origin_mm", "voxel_size_mm",
-                                                                  "shape_zyx"))
-    shape = shape[::-1].astype(int)  # (x, y, z)
+    origin = np.asarray(grid["origin_mm"], float)
+    voxel = np.asarray(grid["voxel_size_mm"], float)
+    shape = np.asarray(grid["shape_zyx"])[::-1]  # (x, y, z)
     with Image.open(path) as image:
         pixels = np.asarray(image.convert("RGB"))
     height, width = pixels.shape[:2]
