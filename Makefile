@@ -1,11 +1,12 @@
-# Two entry points (see README): `make demo` runs the main job, `make test` runs the test suite.
-# Both install what is missing first (scripts/bootstrap.sh is idempotent).
+# Two entry points (see README): `make demo` runs the main job, `make test` runs the test suite
+# (`make test-fast` leaves out the slow tests). They install what is missing first
+# (scripts/bootstrap.sh is idempotent).
 VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= out/demo
 MODEL ?= data/colour_target/colour_target.obj
 
-.PHONY: setup demo test lint bench clean
+.PHONY: setup demo test test-fast lint clean
 
 setup:
 	@bash scripts/bootstrap.sh
@@ -18,8 +19,15 @@ demo: setup
 
 test: setup
 	$(BIN)/ruff check .
+# enabled after the tree is formatted: $(BIN)/ruff format --check .
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -n auto --dist loadgroup --durations=25
+
+# The quick loop: lint, types, the doctests and the tests not marked slow.
+test-fast: setup
+	$(BIN)/ruff check .
+	$(BIN)/mypy
+	$(BIN)/python -m pytest -m "not slow"
 
 lint: setup
 	$(BIN)/ruff check .

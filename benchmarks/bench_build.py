@@ -8,7 +8,7 @@ Usage (from the repository root; meshes from ../shared/meshes)::
 
 ``accuracy``: builds at the J750 grid, then checks on random voxel samples (a) the layer
 index against an independent closest-point computation (trimesh, with inside/outside from
-the generalised winding number), (b) CIEDE2000 of colour-layer voxels against the colour of
+libigl's generalised winding number), (b) CIEDE2000 of colour-layer voxels against the colour of
 the exact nearest point, (c) the TIFF / VDB round trips against manifest.json.
 ``memory``: peak RSS of the build of the model and of the model stretched 2x in z
 (separate processes). ``speed``: build time next to OpenVDB's mesh-to-level-set of the
@@ -35,14 +35,15 @@ from scipy import ndimage
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))  # vdb_checks
 
 from pipeline.build import build_stack  # noqa: E402
-from pipeline.build_config import BuildConfig  # noqa: E402
-from pipeline.config import LoadOptions  # noqa: E402
+from pipeline.config import BuildConfig, LoadOptions  # noqa: E402
 from pipeline.loading import load_model  # noqa: E402
 from pipeline.mesh import ColouredMesh  # noqa: E402
 from pipeline.printer_profile import load_profile  # noqa: E402
 from pipeline.slab_runner import resolve_workers  # noqa: E402
+from voxel.nearest import winding_numbers  # noqa: E402
 from voxel.openvdb_module import load_openvdb  # noqa: E402
 
 MESHES = ROOT.parent / "shared" / "meshes"
@@ -63,31 +64,11 @@ def scaled_model(name: str, size_mm: float, stretch_z: float = 1.0) -> ColouredM
     return dataclasses.replace(mesh, vertices=vertices)
 
 
-def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Generalised winding number (Van Oosterom-Strackee solid angles), brute force."""
-    result = np.zeros(len(points))
-    tri = vertices[faces]
-    for start in range(0, len(points), 256):
-        p = points[start : start + 256, None, None, :]
-        a, b, c = (tri[None, :, i, :] - p[:, :, 0, :] for i in range(3))
-        la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
-        det = np.einsum("pfk,pfk->pf", a, np.cross(b, c))
-        div = (
-            la * lb * lc
-            + np.einsum("pfk,pfk->pf", a, b) * lc
-            + np.einsum("pfk,pfk->pf", b, c) * la
-            + np.einsum("pfk,pfk->pf", c, a) * lb
-        )
-        result[start : start + 256] = np.arctan2(det, div).sum(axis=1) / (2 * np.pi)
-    return result
-
-
 def accuracy(args: argparse.Namespace) -> dict[str, object]:
     import colour
     import tifffile
     import trimesh
-
-    from voxel.vdb_writer import describe_grids
+    from vdb_checks import describe_grids
 
     mesh = scaled_model(args.model, args.size_mm)
     config = _config(args)

@@ -42,20 +42,16 @@ from __future__ import annotations
 import argparse
 import collections
 import fcntl
-import functools
 import gzip
 import json
 import os
-import re
 import resource
 import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
-import threading
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any, cast
 
@@ -64,180 +60,12 @@ ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(HERE))
 
-from bench_build import MODELS, _TreeRss, scaled_model  # noqa: E402
+from materials_build_child import ALL_MODELS, VARIANTS, child  # noqa: E402
+from pyspy_parts import parse_raw  # noqa: E402
 
-from pipeline.build import build_stack  # noqa: E402
-from pipeline.cli.build import add_arguments, config_from_args  # noqa: E402
-from pipeline.cli.thicknessargs import choose_thickness  # noqa: E402
-from pipeline.cli.values import parse_lengths  # noqa: E402
-from pipeline.config import LoadOptions  # noqa: E402
-from pipeline.loading import load_model  # noqa: E402
-from pipeline.printer_profile import load_profile  # noqa: E402
-
-ALL_MODELS = {**MODELS, "colour_target": ROOT / "data" / "colour_target" / "colour_target.obj"}
 RESULTS = ROOT / "benchmarks" / "results" / "bench_materials_build.json"
 PY_SPY = Path(sys.executable).parent / "py-spy"
 
-#: The build options of each variant (beside model, -o, --workers, --slab-mb).
-VARIANTS = {
-    "A": ["--no-materials", "--format", "tiff,vdb"],
-    "B": ["--format", "tiff,vdb,gcvf"],
-    "C": ["--format", "tiff,vdb,gcvf,png"],
-    "auto": [],  # the CLI's default formats (tiff, vdb and the printer's job)
-}
-
-
-# --------------------------------------------------------------------------- child
-
-
-def _instrument() -> dict[str, list[float]]:
-    """Wrap the build's parts to sum the CPU time (``time.thread_time``) of each call.
-
-    Only this benchmark process is patched, never the code: every wrapped function is a
-    leaf of the build's work (none calls another wrapped one), and a thread's CPU time is
-    that thread's alone, so the sums do not double count and are not inflated by other
-    jobs on the machine. With ``--workers 1`` every part runs in this process.
-    Returns ``{part: [cpu_s, wall_s, calls]}``, filled as the build runs.
-    """
-    import pipeline.build as build_module
-    import pipeline.slab_runner as runner
-    from pipeline.outdir import OutputFolder
-    from pipeline.stack_outputs import StackOutputs
-    from voxel.colour_report import ColourReport
-    from voxel.gcvf_writer import GcvfWriter
-    from voxel.png_slices import PngSliceWriter
-    from voxel.sampler import LayerSampler
-    from voxel.tiff_writer import TiffStackWriter
-    from voxel.vdb_writer import VdbStackWriter
-
-    totals: dict[str, list[float]] = collections.defaultdict(lambda: [0.0, 0.0, 0])
-    lock = threading.Lock()
-
-    def wrap(owner: Any, name: str, label: str | Callable[[Any], str]) -> None:
-        original = getattr(owner, name)
-
-        @functools.wraps(original)
-        def wrapper(*args: Any, **kwargs: Any) -> Any:
-            cpu, wall = time.thread_time(), time.perf_counter()
-            try:
-                return original(*args, **kwargs)
-            finally:
-                key = label if isinstance(label, str) else label(args[0])
-                with lock:
-                    entry = totals[key]
-                    entry[0] += time.thread_time() - cpu
-                    entry[1] += time.perf_counter() - wall
-                    entry[2] += 1
-
-        setattr(owner, name, wrapper)
-
-    def tiff_name(writer: Any) -> str:
-        stem = next(n for n in ("materials", "layers", "colour") if n in writer.path.name)
-        return f"tiff thread: {stem}.tif (zlib + write)"
-
-    wrap(runner, "compute_slab", "compute_slab (voxels)")
-    wrap(runner, "materials_for_slab", "halftone: materials_for_slab (first call loads numba)")
-    wrap(build_module, "build_material_plan", "material plan build (separation table, tile)")
-    wrap(build_module._Job, "_colour_report", "colour report: sample_surface + rays")
-    wrap(build_module._Job, "_report_result", "colour report: result + thickness_effect")
-    wrap(ColourReport, "add_slab", "colour report: add_slab")
-    wrap(build_module._Tally, "add", "tally (_Tally.add, + materials bincount in B)")
-    wrap(LayerSampler, "add", "layer sampler")
-    wrap(TiffStackWriter, "write_slab", "tiff write_slab (queue)")
-    wrap(TiffStackWriter, "_run", tiff_name)
-    wrap(VdbStackWriter, "write_slab", "vdb write_slab (leaves; + material grid in B)")
-    wrap(VdbStackWriter, "write", "vdb write (file)")
-    wrap(GcvfWriter, "write_slab", "gcvf write_slab (key counts)")
-    wrap(GcvfWriter, "_encode", "gcvf PNG encode (pool threads)")
-    wrap(GcvfWriter, "_add", "gcvf zip write")
-    wrap(GcvfWriter, "close", "gcvf close (padding, xml)")
-    wrap(StackOutputs, "colour_slices", "png: colour_slices")
-    wrap(PngSliceWriter, "_encode", "png PNG encode (pool threads)")
-    wrap(OutputFolder, "commit", "output commit (sha256 of every file)")
-    return totals
-
-
-def child(args: argparse.Namespace) -> dict[str, Any]:
-    """One build in this process, as ``shellvox build`` runs it; return its numbers."""
-    totals = _instrument() if args.instrument else None
-    cpu_start = time.process_time()
-    path = ALL_MODELS[args.model]
-    if args.size_mm > 0:
-        mesh = scaled_model(args.model, args.size_mm, stretch_z=args.stretch_z)
-    else:
-        mesh = load_model(path, LoadOptions())
-    with tempfile.TemporaryDirectory(prefix="shellvox-bench-", dir=args.tmp) as out:
-        argv = [
-            str(path), "-o", out, "--printer", "j750", "--workers", str(args.workers),
-            "--slab-mb", str(args.slab_mb), "--no-shell-meshes", *VARIANTS[args.variant],
-        ]  # fmt: skip
-        if args.thickness != "rule":
-            argv += ["--thickness", args.thickness]
-        parser = argparse.ArgumentParser()
-        add_arguments(parser)
-        cli = parser.parse_args(argv)
-        profile = load_profile(cli.printer)
-        constant = None if cli.thickness is None else parse_lengths("--thickness", cli.thickness)
-        tick = time.perf_counter()
-        choice = choose_thickness(cli, mesh, constant)
-        thickness_seconds = time.perf_counter() - tick
-        config = config_from_args(cli, profile, choice)
-        with _TreeRss() as tree:
-            tick = time.perf_counter()
-            manifest = build_stack(
-                choice.mesh,
-                config,
-                Path(out),
-                thickness=choice.thickness_mm,
-                faces=choice.faces,
-                profile=None if config.material is None else profile,
-                progress=False,
-            )
-            wall = time.perf_counter() - tick
-        files = {name: record["bytes"] for name, record in manifest["files"].items()}
-    png = [name for name in files if name.startswith("slices/")]
-    if png:  # one entry for the folder
-        files = {k: v for k, v in files.items() if k not in png}
-        files["slices/ (all)"] = sum(manifest["files"][n]["bytes"] for n in png)
-    main_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    result: dict[str, Any] = {
-        "model": args.model,
-        "size_mm": args.size_mm or None,
-        "stretch_z": args.stretch_z,
-        "variant": args.variant,
-        "options": argv[3:],
-        "formats": list(config.formats),
-        "grid_zyx": manifest["grid"]["shape_zyx"],
-        "slab_rows": manifest["slab_rows"],
-        "workers": args.workers,
-        "seconds_total": round(manifest["seconds"]["total"], 2),
-        "seconds": {k: round(v, 2) for k, v in manifest["seconds"].items()},
-        "build_stack_wall_s": round(wall, 2),
-        "thickness_rule_s": round(thickness_seconds, 2),
-        "peak_rss_tree_mb": round(max(main_kb, tree.peak_kb) / 1024, 1),
-        "peak_rss_main_mb": round(main_kb / 1024, 1),
-        "voxel_counts": manifest["voxel_counts"],
-        "file_bytes": files,
-    }
-    if totals is not None:
-        result["process_cpu_s"] = round(time.process_time() - cpu_start, 2)
-        result["cpu_s_by_part"] = {
-            key: {"cpu_s": round(v[0], 2), "wall_s": round(v[1], 2), "calls": int(v[2])}
-            for key, v in sorted(totals.items(), key=lambda kv: -kv[1][0])
-        }
-        result["cpu_s_parts_sum"] = round(sum(v[0] for v in totals.values()), 2)
-    if args.full:
-        layers = manifest["layers"]
-        result["thickness"] = manifest["thickness"]
-        result["layer_thickness_mm"] = {
-            entry["name"]: entry["thickness_per_face_mm"]
-            for entry in layers
-            if "thickness_per_face_mm" in entry
-        }
-        result["materials"] = {m["name"]: m["voxels"] for m in manifest.get("materials", [])}
-        result["material_voxels_per_layer"] = manifest.get("material_voxels_per_layer")
-        result["colour_report"] = manifest.get("colour_report")
-    return result
 
 
 # --------------------------------------------------------------------------- orchestration
@@ -363,79 +191,6 @@ def overhead_summary(runs: list[dict[str, Any]], variants: list[str]) -> dict[st
     return summary
 
 
-#: Parts of a build recognised in a py-spy sample, by a substring of a frame; the
-#: innermost frame that matches one decides (so "numba" inside the halftone is numba).
-CATEGORIES = (
-    ("numba compile / cache load", ("(numba/", "numba/core", "numba/")),
-    ("halftone kernel (materials_for_slab)", ("materials_for_slab (",)),
-    ("gcvf: PNG encode (keys + zlib)", ("GcvfWriter._encode (",)),
-    ("gcvf: zip write", ("GcvfWriter._add (",)),
-    ("gcvf: key counts (write_slab)", ("GcvfWriter.write_slab (",)),
-    ("gcvf: other", ("gcvf_writer.py",)),
-    ("png slices: colour_slices", ("StackOutputs.colour_slices (",)),
-    ("png slices: writer", ("png_slices.py",)),
-    ("colour report: add_slab", ("ColourReport.add_slab (",)),
-    ("colour report: result + thickness_effect", ("_Job._report_result (",)),
-    ("colour report: sample_surface + init", ("_Job._colour_report (",)),
-    ("material tally (_Tally.add)", ("_Tally.add (",)),
-    ("material plan build", ("build_material_plan (",)),
-    ("tiff writers (layers/colour/materials.tif)", ("tiff_writer.py", "tifffile")),
-    ("vdb writer", ("vdb_writer.py",)),
-    ("compute_slab (voxels)", ("compute_slab (",)),
-    ("outputs.finish other", ("StackOutputs.finish (",)),
-    ("thickness rule", ("choose_thickness (",)),
-    ("load / scale model", ("scaled_model (", "load_model (")),
-    ("imports", ("_find_and_load (",)),
-)
-
-
-def _categorise(frames: list[str]) -> str:
-    for frame in reversed(frames):  # leaf first
-        for name, patterns in CATEGORIES:
-            if any(p in frame for p in patterns):
-                return name
-    return "other: " + (frames[-1].split(" (")[0] if frames else "?")
-
-
-def _parse_raw(path: Path, rate: int) -> dict[str, Any]:
-    """Samples per category and per thread role from a py-spy raw file, as seconds.
-
-    A sample counts a thread that was running or runnable: on a machine shared with
-    other jobs that is more than its CPU time (the totals say how much more).
-    """
-    text = path.read_text()
-    per_category: collections.Counter[str] = collections.Counter()
-    roles: dict[str, collections.Counter[str]] = collections.defaultdict(collections.Counter)
-    pids: set[str] = set()
-    # 'process PID:"cmd";[process CHILD:"cmd";]thread (TID): NAME;frame;frame;... COUNT'
-    pattern = re.compile(r'^((?:process \d+:"[^"]*";)+)thread \((\d+)\)([^;]*);(.*) (\d+)$')
-    for line in text.splitlines():
-        match = pattern.match(line)
-        if match is None:
-            continue
-        chain, tid, name, stack, count = match.groups()
-        chain_pids = re.findall(r"process (\d+):", chain)
-        pids.update(chain_pids)
-        category = _categorise(stack.split(";"))
-        per_category[category] += int(count)
-        if len(chain_pids) > 1:
-            role = "slab workers"
-        elif "MainThread" in name or tid == chain_pids[0]:
-            role = "main thread"
-        else:
-            role = "main process, other threads"
-        roles[role][category] += int(count)
-    return {
-        "sampled_s_by_part": {k: round(v / rate, 1) for k, v in per_category.most_common()},
-        "sampled_s_total": round(sum(per_category.values()) / rate, 1),
-        "sampled_s_by_role": {
-            role: {k: round(v / rate, 1) for k, v in counter.most_common()}
-            for role, counter in roles.items()
-        },
-        "processes_sampled": len(pids),
-    }
-
-
 def reparse(args: argparse.Namespace) -> dict[str, Any]:
     """Parse the kept py-spy files again (after a change of the categories)."""
     stored = json.loads(RESULTS.read_text())["profile"]
@@ -444,7 +199,7 @@ def reparse(args: argparse.Namespace) -> dict[str, Any]:
         raw = Path(tempfile.mkdtemp()) / "raw.txt"
         raw.write_bytes(gzip.decompress(kept.read_bytes()))
         run = stored["runs"][variant]
-        stored["runs"][variant] = {"build": run["build"], **_parse_raw(raw, stored["rate_hz"])}
+        stored["runs"][variant] = {"build": run["build"], **parse_raw(raw, stored["rate_hz"])}
         shutil.rmtree(raw.parent)
     a = stored["runs"]["A"]["sampled_s_by_part"]
     b = stored["runs"]["B"]["sampled_s_by_part"]
@@ -470,7 +225,7 @@ def profile(args: argparse.Namespace) -> dict[str, Any]:
             "--format", "raw", "--rate", str(rate), "-o", str(raw), "--",
         ]  # fmt: skip
         run = run_child(_child_command(args, variant, workers=args.workers), prefix=prefix)
-        parsed = _parse_raw(raw, rate)
+        parsed = parse_raw(raw, rate)
         results["runs"][variant] = {"build": run, **parsed}
         print(variant, _brief(run), json.dumps(parsed["sampled_s_by_part"]), flush=True)
         kept = HERE / "results" / f"bench_materials_build_pyspy_{variant}.txt.gz"

@@ -1,7 +1,9 @@
 """Inward per-face offset surfaces (shells) of closed triangle meshes.
 
 Lengths are millimetres; points are ``(x, y, z)``; signed distance is negative inside.
-This package never imports :mod:`pipeline` or :mod:`voxel`.
+This package never imports :mod:`pipeline`; of :mod:`voxel` it uses only
+:mod:`voxel.nearest`, the one wrapper of libigl's point queries (exact nearest points and
+generalised winding numbers), which imports nothing of :mod:`offset`.
 """
 
 from offset.report import shell_report

@@ -9,7 +9,6 @@ another order of the Booleans.
 
 from __future__ import annotations
 
-import igl
 import numpy as np
 import numpy.typing as npt
 import scipy.spatial
@@ -17,6 +16,7 @@ import trimesh
 
 from offset._validate import FloatArray, IntArray
 from offset.intersections import intersecting_pairs
+from voxel.nearest import SurfaceIndex, nearest_faces
 
 #: A shell point deeper than ``(1 + DEEP_TOLERANCE) * D`` is a defect: the pieces reach
 #: at most ``5e-5 D`` deeper than asked.
@@ -34,12 +34,10 @@ class Surface:
     """
 
     def __init__(self, vertices: FloatArray, faces: IntArray) -> None:
-        #: (V, 3) float64 and (F, 3) int64, C-contiguous (as the AABB tree needs them).
-        self.vertices = np.ascontiguousarray(vertices, dtype=np.float64)
-        self.faces = np.ascontiguousarray(faces, dtype=np.int64)
-        #: libigl's bounding-box tree over the faces, for exact nearest-point queries.
-        self.tree = igl.AABB()
-        self.tree.init(self.vertices, self.faces)
+        #: The faces indexed for exact nearest-point queries (libigl's tree).
+        self.index = SurfaceIndex.build(vertices, faces)
+        #: (V, 3) float64 and (F, 3) int64 (read-only views of the index's arrays).
+        self.vertices, self.faces = self.index.vertices, self.index.faces
         crossing = intersecting_pairs(vertices, faces)
         #: (C, 3) float64 mm: corners of input faces that cross another input face.
         self.crossing_points = np.asarray(vertices[faces[np.unique(crossing)]].reshape(-1, 3))
@@ -137,11 +135,10 @@ def too_deep(
     centroid = np.ascontiguousarray(vertices[faces].mean(axis=1), dtype=np.float64)
     # Exact nearest surface point per centroid (libigl's AABB tree: O(m log F) time and
     # O(m) memory; trimesh.proximity.closest_point builds per-candidate arrays).
-    sq_dist, face, _ = surface.tree.squared_distance(surface.vertices, surface.faces, centroid)
-    dist = np.sqrt(np.asarray(sq_dist, dtype=np.float64))
+    face, dist = nearest_faces(surface.index, centroid)
     vdepth = np.zeros(len(surface.vertices))
     np.maximum.at(vdepth, surface.faces.reshape(-1), np.repeat(depth, 3))
-    allowed = vdepth[surface.faces[np.asarray(face, dtype=np.int64)]].max(axis=1)
+    allowed = vdepth[surface.faces[face]].max(axis=1)
     deep = dist > (1.0 + DEEP_TOLERANCE) * allowed
     if np.any(deep):
         idx = np.flatnonzero(deep)

@@ -3,17 +3,13 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from offset._validate import FloatArray, IntArray
 from offset.crossing_kernels import cell_pair_hits, crossing_pairs
-
-#: Boxes spanning at most this many cells of the fine grid (3 per axis) are binned there;
-#: larger ones in coarser grids (see :func:`_candidate_chunks`).
-FINE_CELLS = 27
+from offset.hash_grid import hash_grids
 
 
 def intersecting_pairs(
@@ -64,7 +60,7 @@ def intersecting_pairs(
     if not np.any(active):
         return np.zeros((0, 2), dtype=np.int64)
     hits = []
-    for grid in _grids(lo, hi):
+    for grid in hash_grids(lo, hi):
         # Leaders in sorted order, a bounded number of pairs at a time; the pairs are
         # walked and tested in one compiled loop (offset.crossing_kernels).
         for a0, a1 in grid.spans(chunk):
@@ -108,9 +104,9 @@ def _candidate_chunks(
 ) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield the pairs ``i < j`` of overlapping boxes (closed), each exactly once.
 
-    The pairs of every grid of :func:`_grids`, a bounded number at a time, so memory is
-    ``O(F + chunk)`` however many boxes crowd into one cell (fans of sliver triangles
-    put over a thousand there).
+    The pairs of every grid of :func:`offset.hash_grid.hash_grids`, a bounded number at a
+    time, so memory is ``O(F + chunk)`` however many boxes crowd into one cell (fans of
+    sliver triangles put over a thousand there).
 
     Parameters
     ----------
@@ -124,7 +120,7 @@ def _candidate_chunks(
     first, second : (p,) int64
         Overlapping pairs, ``first < second``, in no particular order.
     """
-    for grid in _grids(lo, hi):
+    for grid in hash_grids(lo, hi):
         for a0, a1 in grid.spans(chunk):
             cnt = grid.later[a0:a1]
             a = np.repeat(np.arange(a0, a1), cnt)
@@ -141,164 +137,6 @@ def _candidate_chunks(
             )
             fa, fb = fa[keep], fb[keep]
             yield np.minimum(fa, fb), np.maximum(fa, fb)
-
-
-@dataclass(frozen=True)
-class _Grid:
-    """The entries of one grid of :func:`_grids`, sorted by cell, leaders first.
-
-    Attributes
-    ----------
-    key, owner : (E,) int64
-        Cell key and binned box (an index into ``boxes``) of every entry.
-    later : (E,) int64
-        Entries after this one in its cell that it pairs with (0 for followers).
-    ends : (E,) int64
-        Cumulative sum of ``later``.
-    boxes : (B,) int64
-        Box (face) index of every binned box.
-    low_cell : (B, 3) int64
-        Cell of every binned box's low corner.
-    span : (3,) int64
-        Cells per axis; ``key = (i * span[1] + j) * span[2] + k``.
-    """
-
-    key: IntArray
-    owner: IntArray
-    later: IntArray
-    ends: IntArray
-    boxes: IntArray
-    low_cell: IntArray
-    span: IntArray
-
-    def spans(self, chunk: int) -> Iterator[tuple[int, int]]:
-        """Yield entry ranges ``a0, a1`` giving at most `chunk` pairs (at least one entry)."""
-        total = int(self.ends[-1]) if self.ends.size else 0
-        a0 = base = 0
-        while base < total:
-            a1 = max(int(np.searchsorted(self.ends, base + chunk, side="right")), a0 + 1)
-            yield a0, a1
-            a0, base = a1, int(self.ends[a1 - 1])
-
-
-def _grids(lo: FloatArray, hi: FloatArray) -> Iterator[_Grid]:
-    """Yield the grids of a hierarchical hash grid [1]_ over the boxes ``lo, hi``.
-
-    The fine grid's cell is the median box size ``s``; a box spanning at most
-    :data:`FINE_CELLS` of its cells is binned there, a larger one at the level
-    ``m >= 1`` whose cell ``S_m = s 2^(m + 1)`` is the first at least its size, where it
-    spans at most 2 cells per axis. Pairs of two fine boxes are found in the fine grid;
-    a pair whose larger level is ``m`` is found in level ``m``'s grid, where the boxes of
-    lower levels are binned too (at most 8 cells each), but only in cells that a box of
-    level ``m`` occupies, and paired only with those. A pair is kept only in the cell
-    holding the low corner of the two boxes' intersection (``max(lo_i, lo_j)``), where
-    both boxes are binned, so it is found once. Entries per box are thus bounded (27 in
-    the fine grid, 8 per coarser level) whatever the sizes: long sliver triangles among
-    tiny ones (CAD fans) no longer span billions of cells.
-
-    Parameters
-    ----------
-    lo, hi : (F, 3) float64, mm
-        Box corners.
-
-    Yields
-    ------
-    _Grid
-
-    References
-    ----------
-    .. [1] B. Mirtich, "Efficient algorithms for two-phase collision detection", in
-       Practical Motion Planning in Robotics, Wiley, 1998 (hierarchical hash tables).
-    """
-    n_box = len(lo)
-    if n_box < 2:
-        return
-    # Cells are indexed from the lowest corner (indices stay small wherever the mesh
-    # is); overlaps are tested on the boxes as given (shifting rounds).
-    origin = lo.min(axis=0)
-    lo_c = lo - origin
-    hi_c = hi - origin
-    ext = (hi_c - lo_c).max(axis=1)
-    scale = float(hi_c.max())
-    # Cells of the median box size: on offset shells (fans of slivers) half as many
-    # candidates, and twice as fast, as cells twice that size. At least 2^-20 of the
-    # extent, so that a cell key (three indices in one int64) cannot overflow.
-    size = max(float(np.median(ext)), scale * 2.0**-20) or 1.0
-    cells = np.prod(np.floor(hi_c / size) - np.floor(lo_c / size) + 1, axis=1)
-    level = np.zeros(n_box, dtype=np.int64)
-    coarse = cells > FINE_CELLS
-    level[coarse] = np.maximum(np.ceil(np.log2(ext[coarse] / size)).astype(np.int64) - 1, 1)
-    while True:  # round-off of log2: the level's cell must hold the box's extent
-        short = coarse & (ext > size * 2.0 ** (level + 1))
-        if not np.any(short):
-            break
-        level[short] += 1
-    fine = np.flatnonzero(~coarse)
-    grid = _grid(lo_c, hi_c, fine, np.ones(fine.size, dtype=bool), size)
-    if grid is not None:
-        yield grid
-    for m in np.unique(level[coarse]):
-        boxes = np.flatnonzero(level <= m)
-        grid = _grid(lo_c, hi_c, boxes, level[boxes] == m, size * 2.0 ** (m + 1))
-        if grid is not None:
-            yield grid
-
-
-def _grid(
-    lo_c: FloatArray, hi_c: FloatArray, boxes: IntArray, lead: npt.NDArray[np.bool_],
-    size: float,
-) -> _Grid | None:
-    """Bin `boxes` in cells of `size`; a pair needs at least one leader.
-
-    Parameters
-    ----------
-    lo_c, hi_c : (F, 3) float64, mm
-        Box corners shifted to be at least 0.
-    boxes : (B,) int64
-        Indices of the boxes binned.
-    lead : (B,) bool
-        Leaders: a pair is made when at least one of its boxes leads.
-    size : float, mm
-        Cell size.
-
-    Returns
-    -------
-    _Grid or None
-        None when no pair can be made.
-    """
-    if boxes.size < 2 or not np.any(lead):
-        return None
-    i0 = np.floor(lo_c[boxes] / size).astype(np.int64)
-    n = np.floor(hi_c[boxes] / size).astype(np.int64) - i0 + 1
-    per = n.prod(axis=1)
-    owner = np.repeat(np.arange(boxes.size), per)
-    rank = np.arange(owner.size) - np.repeat(np.cumsum(per) - per, per)
-    nx, ny = n[owner, 0], n[owner, 1]
-    cell = i0[owner] + np.stack([rank % nx, (rank // nx) % ny, rank // (nx * ny)], axis=1)
-    del rank, nx, ny
-    span = cell.max(axis=0) + 1
-    key = (cell[:, 0] * span[1] + cell[:, 1]) * span[2] + cell[:, 2]  # one int64 per cell
-    del cell
-    led = lead[owner]
-    if not np.all(led):
-        # Followers only matter in cells that a leader occupies.
-        keep = led | np.isin(key, key[led])
-        key, owner, led = key[keep], owner[keep], led[keep]
-    # Cells in order, and in a cell the leaders first: each pairs with all entries after it.
-    order = np.argsort(key, kind="stable") if np.all(led) else np.lexsort((~led, key))
-    key_sorted = key[order]
-    owner_sorted = owner[order]
-    led_sorted = led[order]
-    del key, owner, led, order
-    start = np.flatnonzero(np.r_[True, key_sorted[1:] != key_sorted[:-1]])
-    size_g = np.diff(np.r_[start, key_sorted.size])
-    after = np.repeat(size_g, size_g) - (np.arange(key_sorted.size) - np.repeat(start, size_g)) - 1
-    later = np.where(led_sorted, after, 0)
-    return _Grid(
-        key=np.ascontiguousarray(key_sorted), owner=np.ascontiguousarray(owner_sorted),
-        later=np.ascontiguousarray(later), ends=np.cumsum(later), boxes=boxes,
-        low_cell=np.ascontiguousarray(i0), span=np.asarray(span, dtype=np.int64),
-    )
 
 
 def coplanar_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000) -> IntArray:

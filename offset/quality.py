@@ -12,6 +12,7 @@ import trimesh
 from offset._validate import FloatArray, IntArray
 from offset.adjacency import bend_angles, edge_adjacency, face_normals
 from offset.intersections import count_self_intersections, intersecting_pairs
+from voxel.nearest import SurfaceIndex, nearest_on_surface, winding_numbers
 
 #: Barycentric coordinate below which a closest point counts as on an edge / vertex.
 FEATURE_BARY = 1e-6
@@ -54,15 +55,12 @@ def nearest_feature(
     kind : (N,) int64
         0 face interior, 1 edge, 2 vertex.
     """
-    closest, distance, face = trimesh.proximity.closest_point(  # type: ignore[no-untyped-call]
-        original, points
-    )
-    face = np.asarray(face, dtype=np.int64)
-    bary = trimesh.triangles.points_to_barycentric(  # type: ignore[no-untyped-call]
-        original.triangles[face], closest
-    )
-    kind = (np.asarray(bary) < FEATURE_BARY).sum(axis=1).astype(np.int64)
-    return np.asarray(closest), np.asarray(distance, dtype=np.float64), face, kind
+    index = SurfaceIndex.build(original.vertices, original.faces)
+    hit = nearest_on_surface(index, points)
+    triangles = index.vertices[index.faces[hit.face_ids]]
+    closest = np.einsum("nc,nck->nk", hit.barycentric, triangles)
+    kind = (hit.barycentric < FEATURE_BARY).sum(axis=1).astype(np.int64)
+    return closest, hit.distance_mm, hit.face_ids, kind
 
 
 def equidistance(
@@ -211,47 +209,10 @@ def nested_in(
     used[inner[1].reshape(-1)] = True
     _, probe = np.unique(label[used], return_index=True)
     probe_pts = inner[0][np.flatnonzero(used)[probe]]
-    if not np.all(winding_number(outer[0], outer[1], probe_pts) > 0.5):
+    if not np.all(winding_numbers(outer[0], outer[1], probe_pts) > 0.5):
         return False
     both_v = np.concatenate([outer[0], inner[0]])
     both_f = np.concatenate([outer[1], inner[1] + len(outer[0])])
     # One test of both (one tolerance): a pair of one face of each must not cross.
     pairs = intersecting_pairs(both_v, both_f)
     return not np.any((pairs[:, 0] < len(outer[1])) & (pairs[:, 1] >= len(outer[1])))
-
-
-def winding_number(
-    vertices: FloatArray, faces: IntArray, points: FloatArray, *, chunk: int = 4_000_000
-) -> FloatArray:
-    """Return the generalised winding number of `points` w.r.t. a closed mesh.
-
-    Solid angles by Van Oosterom and Strackee's formula, summed over all faces.
-
-    Parameters
-    ----------
-    vertices : (V, 3) float64, mm
-    faces : (F, 3) int64
-    points : (N, 3) float64, mm
-    chunk : int, optional
-        Point-face pairs evaluated at once.
-
-    Returns
-    -------
-    (N,) float64
-        About 1 inside, 0 outside.
-    """
-    tri = vertices[faces]
-    out = np.empty(len(points))
-    step = max(1, chunk // max(len(faces), 1))
-    for s in range(0, len(points), step):
-        r = tri[None, :, :, :] - points[s : s + step, None, None, :]
-        ln = np.linalg.norm(r, axis=3)
-        det = np.einsum("pfi,pfi->pf", r[:, :, 0], np.cross(r[:, :, 1], r[:, :, 2]))
-        dots = (
-            ln[:, :, 0] * ln[:, :, 1] * ln[:, :, 2]
-            + np.einsum("pfi,pfi->pf", r[:, :, 0], r[:, :, 1]) * ln[:, :, 2]
-            + np.einsum("pfi,pfi->pf", r[:, :, 1], r[:, :, 2]) * ln[:, :, 0]
-            + np.einsum("pfi,pfi->pf", r[:, :, 2], r[:, :, 0]) * ln[:, :, 1]
-        )
-        out[s : s + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
-    return out

@@ -24,7 +24,6 @@ from concurrent.futures import Future, ProcessPoolExecutor
 from multiprocessing import resource_tracker
 from multiprocessing.connection import Connection
 from multiprocessing.reduction import ForkingPickler
-from types import TracebackType
 from typing import Any, Generic, TypeVar
 
 from pipeline.faults import DeferredSignals
@@ -95,12 +94,7 @@ class ChildPool(contextlib.AbstractContextManager["ChildPool"]):
             with contextlib.suppress(OSError, ValueError, AssertionError):
                 process.join(timeout=5)
 
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        trace: TracebackType | None,
-    ) -> None:
+    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
         if kind is not None:  # do not wait for results nobody will use
             self.kill()
         self._executor.shutdown(wait=True, cancel_futures=True)
@@ -174,12 +168,7 @@ class ChildCall(contextlib.AbstractContextManager["ChildCall[T]"], Generic[T]):
         result: T = value
         return result
 
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        trace: TracebackType | None,
-    ) -> None:
+    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
         if self._process.is_alive():
             self._process.kill()
         self._process.join(timeout=5)

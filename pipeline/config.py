@@ -1,11 +1,21 @@
-"""Frozen configuration objects; each serialises to the manifest with :func:`as_json`."""
+"""Frozen configuration objects; each serialises to the manifest with :func:`as_json`.
+
+:class:`LoadOptions` (how a model is read, every command), :class:`ShellConfig`
+(``shellvox shells``) and :class:`BuildConfig` (``shellvox build``). Each checks its values
+once, here, and names the command-line option in the error.
+"""
 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, get_args
+
+from pipeline.errors import InputError
+from pipeline.material_plan import MaterialSettings
+from voxel.slab import LayerRule
 
 Unit = Literal["micron", "mm", "cm", "m", "inch", "foot"]
 
@@ -88,3 +98,148 @@ class ShellConfig:
     thickness_mm: tuple[float, ...] = (0.5, 0.5)
     method: Literal["robust", "paper"] = "robust"
     layer_height_mm: float = 0.027
+
+
+#: Output formats ``build`` can write (``--format``).
+FORMATS = ("tiff", "vdb", "gcvf", "png")
+
+
+@dataclass(frozen=True)
+class BuildConfig:
+    """How a layered voxel stack is built.
+
+    Parameters
+    ----------
+    voxel_mm : (3,) float, mm
+        Voxel size ``(x, y, z)``.
+    printer : str or None
+        Printer profile the voxel size came from (``"j750"``), for the manifest.
+    thickness_mm : tuple of float, mm
+        Thickness of each shell band, outside in (``K`` values).
+    thickness_source : str
+        Where the thickness came from: ``"--thickness"`` (``thickness_mm`` on every face),
+        ``"default rule"`` or a rule file (per face; ``thickness_mm`` then holds each
+        layer's median, and the per-face values are in ``thickness.ply``).
+    colour_layers : tuple of int
+        Layers (1..K+1) whose voxels take the nearest surface colour.
+    layer_rule : {"distance", "shells"}
+        How voxels get their layer: ``"distance"`` compares each voxel's exact distance
+        to the surface with the depths of its nearest face (the ideal offset, sampled
+        exactly); ``"shells"`` counts the offset shells holding the voxel centre.
+    shell_meshes : bool
+        Also compute the offset shells and write them to ``shells/`` (with the
+        ``"distance"`` rule they run beside the voxels, in another process, and the
+        manifest reports how well the two realisations agree).
+    shell_method : {"robust", "paper"}
+        Offset construction (see :mod:`offset`).
+    margin_mm : float, mm
+        Empty space around the model in the grid (at least the level-set half width).
+    sdf_half_width_voxels : float
+        Half width of the ``sdf`` level set's narrow band, in largest-voxel sizes.
+    slab_mb : float
+        Memory budget of one slab's working arrays; sets the slab height. Each worker
+        holds about one slab at a time.
+    workers : int
+        Processes computing slabs at once (0: one per core; 1: in the calling process).
+    alpha : bool
+        Write ``colour.tif`` as RGBA instead of RGB.
+    compression_level : int, optional
+        zlib level of the TIFFs (1 fast .. 9 small); None (default): a compiled run
+        encoder, several times faster, files up to twice the size (:mod:`voxel.deflate`).
+    formats : tuple of {"tiff", "vdb", "gcvf", "png"}
+        Files to write: ``tiff`` = ``layers.tif``, ``colour.tif`` and ``materials.tif``;
+        ``vdb`` = ``volume.vdb``; ``gcvf`` = ``job.gcvf`` (GrabCAD Voxel Print);
+        ``png`` = ``slices/`` (RGBA colour-and-translucency slices).
+    material : MaterialSettings or None
+        Separation and halftone of the voxels into the printer's materials (None: no
+        materials, no ``materials.tif``, job or colour report).
+    report_samples : int
+        Surface samples of the colour report (0: none).
+    optical_depth_mm : float, mm
+        Optical depth ``L`` of the colour report's model (:mod:`voxel.colour_report`).
+    """
+
+    voxel_mm: tuple[float, float, float]
+    printer: str | None = None
+    thickness_mm: tuple[float, ...] = (0.5, 0.5)
+    thickness_source: str = "--thickness"
+    colour_layers: tuple[int, ...] = (1,)
+    layer_rule: LayerRule = "distance"
+    shell_meshes: bool = True
+    shell_method: Literal["robust", "paper"] = "robust"
+    margin_mm: float = 0.5
+    sdf_half_width_voxels: float = 3.0
+    slab_mb: float = 1024.0
+    workers: int = 0
+    alpha: bool = False
+    compression_level: int | None = None
+    formats: tuple[str, ...] = ("tiff", "vdb")
+    material: MaterialSettings | None = field(default_factory=MaterialSettings)
+    report_samples: int = 20_000
+    optical_depth_mm: float = 0.25
+
+    def __post_init__(self) -> None:
+        """Check every value once, naming the command-line option that sets it."""
+        if len(self.voxel_mm) != 3 or not all(math.isfinite(v) and v > 0 for v in self.voxel_mm):
+            raise InputError(
+                "--voxel-size",
+                f"expected 3 positive lengths, got {self.voxel_mm}",
+                "pass sizes in mm such as 0.05,0.05,0.03",
+            )
+        if not self.thickness_mm or not all(t > 0 for t in self.thickness_mm):
+            raise InputError(
+                "--thickness",
+                f"expected positive lengths, got {self.thickness_mm}",
+                "pass lengths in mm such as 0.5,0.5",
+            )
+        top = len(self.thickness_mm) + 1
+        if not self.colour_layers or not all(1 <= k <= top for k in self.colour_layers):
+            raise InputError(
+                "--colour-layers",
+                f"expected layer numbers in 1..{top}, got "
+                f"{','.join(map(str, self.colour_layers))!r}",
+                "pass e.g. --colour-layers 1",
+            )
+        if self.margin_mm < 0 or self.sdf_half_width_voxels < 0:
+            raise InputError(
+                "margin_mm, sdf_half_width_voxels",
+                f"must be >= 0, got {self.margin_mm} and {self.sdf_half_width_voxels}",
+                "pass 0 or more",
+            )
+        if not 0 < self.slab_mb < math.inf:
+            raise InputError(
+                "--slab-mb", f"got {self.slab_mb}", "give a positive finite slab size in MB"
+            )
+        if self.layer_rule not in get_args(LayerRule):
+            raise InputError(
+                "--layers", f"got {self.layer_rule!r}", f"choose among {get_args(LayerRule)}"
+            )
+        if self.workers < 0:
+            raise InputError("--workers", f"got {self.workers}", "give 0 (one per core) or more")
+        if self.compression_level is not None and not 1 <= self.compression_level <= 9:
+            raise InputError(
+                "--compression-level", f"got {self.compression_level}", "use a level in 1..9"
+            )
+        unknown = sorted(set(self.formats) - set(FORMATS))
+        if unknown or not self.formats:
+            raise InputError(
+                "--format",
+                f"unknown format(s) {unknown} in {list(self.formats)}",
+                "choose among " + ",".join(FORMATS) + ", e.g. --format tiff,gcvf",
+            )
+        if self.report_samples < 0:
+            raise InputError("--report-samples", f"got {self.report_samples}", "give 0 or more")
+        if not self.optical_depth_mm > 0:
+            raise InputError(
+                "optical_depth_mm", f"got {self.optical_depth_mm}", "give a positive length"
+            )
+
+    @property
+    def write_vdb(self) -> bool:
+        """Whether ``volume.vdb`` is written."""
+        return "vdb" in self.formats
+
+    @property
+    def sdf_half_width_mm(self) -> float:
+        """Narrow-band half width of the level set, mm."""
+        return self.sdf_half_width_voxels * max(self.voxel_mm)

@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.mesh import ColouredMesh
+from voxel.srgb import srgb8_to_lab
 
 #: Samples per chunk of faces (bounds the working memory to a few hundred MB).
 CHUNK_SAMPLES = 1 << 20
@@ -75,33 +76,6 @@ class FaceColour:
         """``C*_ab = sqrt(a*^2 + b*^2)``, ``(F,) float64`` (0 for greys)."""
         chroma: NDArray[np.float64] = np.hypot(self.lab[:, 1], self.lab[:, 2])
         return chroma
-
-
-def srgb8_to_lab(rgb: NDArray[np.uint8]) -> NDArray[np.float64]:
-    """Convert sRGB colours to CIELAB (D65, 2 degree observer).
-
-    Parameters
-    ----------
-    rgb : (..., 3) uint8
-        sRGB values in ``[0, 255]``.
-
-    Returns
-    -------
-    (..., 3) float64
-        ``L*`` in ``[0, 100]``, ``a*``, ``b*``. Each distinct colour is converted once.
-    """
-    rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
-    flat = rgb.reshape(-1, 3)
-    packed = (
-        flat[:, 0].astype(np.uint32) << 16 | flat[:, 1].astype(np.uint32) << 8 | flat[:, 2]
-    )
-    unique, inverse = np.unique(packed, return_inverse=True)
-    channels = np.stack([(unique >> 16) & 255, (unique >> 8) & 255, unique & 255], axis=1)
-    lab = np.asarray(
-        colour.XYZ_to_Lab(colour.sRGB_to_XYZ(channels / 255.0)), dtype=np.float64
-    )
-    result: NDArray[np.float64] = lab[inverse.reshape(-1)].reshape(rgb.shape)
-    return result
 
 
 def stratified_barycentric(m: int) -> NDArray[np.float64]:

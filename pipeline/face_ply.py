@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.atomic import atomic_path
+from pipeline.atomic import atomic_path
 
 
 def write_face_ply(

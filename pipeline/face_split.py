@@ -28,8 +28,8 @@ from numpy.typing import NDArray
 from pipeline.errors import InputError
 from pipeline.face_colour import FaceColour, face_colour
 from pipeline.mesh import ColouredMesh
-from pipeline.texture import decode_uint8, encode_uint8
 from pipeline.thickness_rule import ThicknessRule
+from voxel.srgb import decode_uint8, encode_uint8
 
 #: Barycentric coordinates of a face's corners and edge midpoints (local points 0..5;
 #: midpoint 3 on edge 0-1, 4 on edge 1-2, 5 on edge 2-0).

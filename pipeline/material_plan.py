@@ -16,6 +16,7 @@ import numpy as np
 
 from pipeline.errors import InputError
 from pipeline.printer_profile import PrinterProfile, Role
+from pipeline.table_cache import DiskTables
 from voxel.blue_noise import DEFAULT_TILE
 from voxel.materials import HALFTONES, Halftone, MaterialPlan
 from voxel.separation import Separation, SeparationError, icc_separation, mixing_separation
@@ -123,4 +124,4 @@ def _separation(
             raise InputError(settings.icc, str(error), "give a CMYK output profile") from None
     opaque = tuple(role for role in OPAQUE_ORDER if role in roles)
     display = np.array([profile.material(role).display_srgb for role in opaque])
-    return mixing_separation(opaque, display, clear_role=clear)
+    return mixing_separation(opaque, display, clear_role=clear, store=DiskTables.default())

@@ -8,7 +8,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.texture import DECODE_LUT, Material, decode_uint8, encode_uint8
+from pipeline.texture import Material
+from voxel.srgb import decode_uint8, encode_uint8
 from voxel.surface_colour import (
     CONSTANT,
     FACE,
@@ -177,13 +178,13 @@ class ColouredMesh:
             assert self.face_rgba is not None
             rgba = np.repeat(self.face_rgba[:, None, :], 3, axis=1)
             return SurfaceColour(
-                FACE, rgba, no_uv, no_material, pixels, image, wrap, filters, factor, DECODE_LUT
+                FACE, rgba, no_uv, no_material, pixels, image, wrap, filters, factor
             )
         if self.colour_kind == "vertex":
             assert self.corner_rgba is not None
             return SurfaceColour(
                 VERTEX, np.ascontiguousarray(self.corner_rgba, dtype=np.uint8), no_uv,
-                no_material, pixels, image, wrap, filters, factor, DECODE_LUT,
+                no_material, pixels, image, wrap, filters, factor,
             )  # fmt: skip
         if self.colour_kind == "texture":
             assert self.corner_uv is not None and self.face_material is not None
@@ -209,9 +210,9 @@ class ColouredMesh:
                 TEXTURE, np.zeros((n_faces, 3, 4), np.uint8)[:0],
                 np.ascontiguousarray(self.corner_uv, dtype=np.float64),
                 np.ascontiguousarray(self.face_material, dtype=np.int64),
-                pixels, image, wrap, filters, factor, DECODE_LUT,
+                pixels, image, wrap, filters, factor,
             )  # fmt: skip
         rgba = np.asarray(self.default_rgba, dtype=np.uint8).reshape(1, 1, 4).repeat(3, axis=1)
         return SurfaceColour(
-            CONSTANT, rgba, no_uv, no_material, pixels, image, wrap, filters, factor, DECODE_LUT
+            CONSTANT, rgba, no_uv, no_material, pixels, image, wrap, filters, factor
         )

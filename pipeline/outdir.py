@@ -32,7 +32,6 @@ import os
 import shutil
 from collections.abc import Iterable
 from pathlib import Path
-from types import TracebackType
 from typing import Any
 
 from pipeline.errors import InputError, OutputBusy
@@ -109,12 +108,7 @@ class OutputFolder:
             raise
         return self
 
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        trace: TracebackType | None,
-    ) -> None:
+    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
         try:
             if kind is not None:  # one complete run or none: the old outputs go too
                 remove_leftovers(self.path)

@@ -27,8 +27,8 @@ import tifffile
 from numpy.typing import NDArray
 from PIL import Image
 
+from pipeline.atomic import atomic_path
 from pipeline.viewer.stacks import Axis, TiffStack
-from voxel.atomic import atomic_path
 from voxel.preview import (
     boundary_depths,
     halftone_image,

@@ -14,6 +14,7 @@ reported is what the file holds.
 
 from __future__ import annotations
 
+import contextlib
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -29,8 +30,8 @@ from offset.jitter import jitter_vertices
 from offset.quality import mesh_checks
 from offset.shells import Shell
 from pipeline import __version__
+from pipeline.atomic import atomic_path
 from pipeline.errors import ShellvoxWarning
-from voxel.atomic import atomic_path
 
 #: The PLY header lines of the vertex coordinates.
 DOUBLE_XYZ = ("property double x", "property double y", "property double z")
@@ -62,7 +63,9 @@ class WrittenShell:
     checks: dict[str, Any]
 
 
-def save_shells(out_dir: Path, shells: Sequence[Shell]) -> list[WrittenShell]:
+def save_shells(
+    out_dir: Path, shells: Sequence[Shell], *, stack: contextlib.ExitStack | None = None
+) -> list[WrittenShell]:
     """Write every shell to ``out_dir/shell_<layer>.ply``, each file atomically.
 
     Parameters
@@ -70,6 +73,9 @@ def save_shells(out_dir: Path, shells: Sequence[Shell]) -> list[WrittenShell]:
     out_dir : Path
         Existing folder.
     shells : sequence of Shell
+    stack : contextlib.ExitStack, optional
+        Holds the files under their temporary names until it closes (a build renames all
+        its files together); without it each file is renamed once written.
 
     Returns
     -------
@@ -78,7 +84,8 @@ def save_shells(out_dir: Path, shells: Sequence[Shell]) -> list[WrittenShell]:
     written = []
     for shell in shells:
         target = Path(out_dir) / f"shell_{shell.layer}.ply"
-        with atomic_path(target) as temporary:
+        with contextlib.ExitStack() as own:
+            temporary = (stack or own).enter_context(atomic_path(target))
             written.append(write_shell(temporary, shell, target=target))
     return written
 
@@ -89,7 +96,7 @@ def write_shell(path: Path, shell: Shell, *, target: Path | None = None) -> Writ
     Parameters
     ----------
     path : Path
-        File to write (e.g. a temporary name from :func:`voxel.atomic.atomic_path`).
+        File to write (e.g. a temporary name from :func:`pipeline.atomic.atomic_path`).
     shell : Shell
     target : Path, optional
         The name the file will have, for :attr:`WrittenShell.path` and messages.

@@ -24,7 +24,6 @@ import os
 from collections.abc import Iterator
 from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
-from types import TracebackType
 from typing import NamedTuple
 
 import numpy as np
@@ -39,8 +38,8 @@ from voxel.grid import GridSpec
 from voxel.layer_kernel import layer_material_counts
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.slab import SlabResult, StackModel, compute_slab
-from voxel.vdb_format import GridSpool
-from voxel.vdb_writer import VdbEncoder
+from voxel.vdb_encode import VdbEncoder
+from voxel.vdb_leaves import GridSpool
 
 _WORKER: (
     tuple[StackModel, GridSpec, MaterialPlan | None, VdbEncoder | None, SlabSlots] | None
@@ -177,15 +176,10 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
             slot = self._slots.take()
             self._pending.append(self._pool.submit(_worker_slab, *job, slot))
 
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        trace: TracebackType | None,
-    ) -> None:
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
         global _WORKER
         if self._pool is not None:
-            self._pool.__exit__(kind, error, trace)  # kills the workers on an error
+            self._pool.__exit__(kind, *exc)  # kills the workers on an error
             _WORKER = None
 
     def __iter__(self) -> Iterator[StackSlab]:

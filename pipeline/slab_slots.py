@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from voxel.slab import SlabResult
-from voxel.vdb_format import GridSpool
+from voxel.vdb_leaves import GridSpool
 
 #: Byte alignment of each array in a slot.
 _ALIGN = 64

@@ -3,43 +3,42 @@
 ``layers.tif``, ``colour.tif`` and ``materials.tif`` (ImageJ stacks), ``volume.vdb``
 (density, layer, color, sdf and material grids), ``job.gcvf`` (GrabCAD Voxel Print) and
 ``slices/`` (RGBA colour-and-translucency PNGs), as ``BuildConfig.formats``
-chooses. Each file is written under a temporary name (:func:`voxel.atomic.atomic_path`)
-and appears only when the whole build succeeded; the writers only serialise.
+chooses. Each file is written under a temporary name of the build's folder
+(:meth:`pipeline.build_folder.BuildFolder.temporary`) and appears only when the whole build
+succeeded; the writers only serialise.
 """
 
 from __future__ import annotations
 
-import contextlib
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline import __version__
-from pipeline.build_config import BuildConfig
+from pipeline.build_folder import BuildFolder
+from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.printer_profile import PrinterProfile
-from voxel.atomic import atomic_path
-from voxel.gcvf_writer import GcvfJobError, GcvfWriter
+from voxel.gcvf_job import GcvfJobError
+from voxel.gcvf_writer import GcvfWriter
 from voxel.grid import GridSpec
 from voxel.materials import MaterialPlan
 from voxel.png_slices import PngSliceWriter
 from voxel.slab import SlabResult
 from voxel.tiff_writer import TiffStackWriter
-from voxel.vdb_format import GridSpool
+from voxel.vdb_leaves import GridSpool
 from voxel.vdb_writer import VdbStackWriter
 
 
 class StackOutputs:
-    """Open the chosen writers inside `stack`; :meth:`write` feeds them a slab.
+    """Open the chosen writers in the build's folder; :meth:`write` feeds them a slab.
 
     Parameters
     ----------
-    stack : contextlib.ExitStack
-        Owns the writers and the temporary files (closed or removed with it).
-    out_dir : Path
-        Output folder.
+    folder : BuildFolder
+        The output folder: its stack owns the writers and the temporary files (closed or
+        removed with it).
     grid : GridSpec
         The voxel grid.
     config : BuildConfig
@@ -52,16 +51,15 @@ class StackOutputs:
 
     def __init__(
         self,
-        stack: contextlib.ExitStack,
-        out_dir: Path,
+        folder: BuildFolder,
         grid: GridSpec,
         config: BuildConfig,
         profile: PrinterProfile | None,
         plan: MaterialPlan | None,
     ) -> None:
-        self.out_dir = out_dir
+        self.folder = folder
         self.grid = grid
-        self.written: list[Path] = []
+        stack = folder.stack
         self.samples = 4 if config.alpha else 3
         self._is_colour = np.zeros(256, dtype=bool)
         self._is_colour[list(config.colour_layers)] = True
@@ -70,24 +68,23 @@ class StackOutputs:
         level = config.compression_level
         self.layers_tif = self.colour_tif = self.materials_tif = None
         if "tiff" in formats:
-            self.layers_tif = self._tiff(stack, "layers.tif", 0, level)
-            self.colour_tif = self._tiff(stack, "colour.tif", self.samples, level)
+            self.layers_tif = self._tiff("layers.tif", 0, level)
+            self.colour_tif = self._tiff("colour.tif", self.samples, level)
             if with_materials:
                 # halftoned materials are no runs: zlib (level 1 unless asked) packs them
                 # 6 times smaller than the run encoder
-                self.materials_tif = self._tiff(stack, "materials.tif", 0, level or 1)
+                self.materials_tif = self._tiff("materials.tif", 0, level or 1)
         self.vdb: VdbStackWriter | None = None
-        self._vdb_path: Path | None = None
+        self._vdb_path = None
         if "vdb" in formats:
             self.vdb = VdbStackWriter(
                 grid,
                 sdf_half_width_mm=config.sdf_half_width_mm,
-                spool_dir=out_dir,
+                spool_dir=folder.path,
                 material_grid=with_materials,
             )
             stack.callback(self.vdb.close)  # the leaf spools go, whatever happens
-            self._vdb_path = stack.enter_context(atomic_path(out_dir / "volume.vdb"))
-            self.written.append(out_dir / "volume.vdb")
+            self._vdb_path = folder.temporary("volume.vdb")
         self.gcvf: GcvfWriter | None = None
         self.png: PngSliceWriter | None = None
         self._display = np.zeros((256, 4), dtype=np.uint8)
@@ -96,28 +93,23 @@ class StackOutputs:
             for material in profile.materials[1:]:
                 self._display[material.index] = (*material.display_srgb, 255)
             if "gcvf" in formats:
-                self.gcvf = self._gcvf(stack, profile, plan)
+                self.gcvf = self._gcvf(profile, plan)
             if "png" in formats:
                 self.png = stack.enter_context(
                     PngSliceWriter(
-                        out_dir / "slices",
+                        folder.path / "slices",
                         grid,
                         metadata={"creator": f"shellvox {__version__}", "printer": profile.name},
                     )
                 )
 
-    def _tiff(
-        self, stack: contextlib.ExitStack, name: str, samples: int, level: int | None
-    ) -> TiffStackWriter:
-        path = stack.enter_context(atomic_path(self.out_dir / name))
-        self.written.append(self.out_dir / name)
-        return stack.enter_context(
+    def _tiff(self, name: str, samples: int, level: int | None) -> TiffStackWriter:
+        path = self.folder.temporary(name)
+        return self.folder.stack.enter_context(
             TiffStackWriter(path, self.grid, samples=samples, compression_level=level)
         )
 
-    def _gcvf(
-        self, stack: contextlib.ExitStack, profile: PrinterProfile, plan: MaterialPlan
-    ) -> GcvfWriter:
+    def _gcvf(self, profile: PrinterProfile, plan: MaterialPlan) -> GcvfWriter:
         used = sorted({*plan.column_materials, plan.backing_material, plan.core_material})
         table = [
             (index, profile.materials[index].name, profile.materials[index].rgba_key)
@@ -125,7 +117,7 @@ class StackOutputs:
         ]
         try:
             writer = GcvfWriter(
-                stack.enter_context(atomic_path(self.out_dir / "job.gcvf")),
+                self.folder.temporary("job.gcvf"),
                 self.grid,
                 table,
                 background_rgba=profile.materials[0].rgba_key,
@@ -139,8 +131,7 @@ class StackOutputs:
             raise InputError(
                 f"--printer {profile.name}", f"cannot make a .gcvf job: {error.problem}", error.fix
             ) from None
-        self.written.append(self.out_dir / "job.gcvf")
-        return stack.enter_context(writer)
+        return self.folder.stack.enter_context(writer)
 
     def write(
         self,
@@ -150,7 +141,7 @@ class StackOutputs:
     ) -> None:
         """Write one slab (in z order) to every open writer.
 
-        `vdb`: the slab's VDB leaves already encoded (:class:`voxel.vdb_writer.VdbEncoder`).
+        `vdb`: the slab's VDB leaves already encoded (:class:`voxel.vdb_encode.VdbEncoder`).
         """
         if self.layers_tif is not None and self.colour_tif is not None:
             self.layers_tif.write_slab(slab.layers)
@@ -213,7 +204,7 @@ class StackOutputs:
             }
         if self.png is not None:
             self.png.close()
-            folder = self.out_dir / "slices"
-            self.written.extend(sorted(p for p in folder.iterdir() if p.is_file()))
-            summary["png_slices"] = {"folder": "slices", "files": len(list(folder.iterdir()))}
+            slices = self.folder.path / "slices"
+            self.folder.add(sorted(p for p in slices.iterdir() if p.is_file()))
+            summary["png_slices"] = {"folder": "slices", "files": len(list(slices.iterdir()))}
         return summary

@@ -1,4 +1,4 @@
-"""Materials and texture sampling: sRGB transfer, wrap rules, bilinear filtering.
+"""Materials and texture sampling: wrap rules, bilinear filtering.
 
 UV convention used everywhere in shellvox (OpenGL's, also OBJ's, PLY's and 3MF's):
 ``u`` grows to the right and ``v`` grows *up*, ``(0, 0)`` is the bottom-left corner of
@@ -7,53 +7,22 @@ the image and texel ``(row, col)`` has its centre at ``u = (col + 0.5) / W``,
 to this convention once, when they read the file.
 
 Filtering happens in linear light (decode sRGB, weight, encode), as GPUs do for sRGB
-textures, so a bilinear blend of two texels never darkens their mid-point.
+textures, so a bilinear blend of two texels never darkens their mid-point (the sRGB
+transfer is :mod:`voxel.srgb`'s).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel.srgb import decode_uint8
+
 WrapMode = Literal["repeat", "clamp", "mirror"]
 FilterMode = Literal["linear", "nearest"]
-
-
-def srgb_to_linear(srgb: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
-    """Decode sRGB-encoded values in ``[0, 1]`` to linear light in ``[0, 1]`` (IEC 61966-2-1)."""
-    srgb = np.asarray(srgb, dtype=np.float64)
-    return np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
-
-
-def linear_to_srgb(linear: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
-    """Encode linear light in ``[0, 1]`` to sRGB values in ``[0, 1]`` (IEC 61966-2-1)."""
-    linear = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
-    return np.where(linear <= 0.0031308, linear * 12.92, 1.055 * linear ** (1.0 / 2.4) - 0.055)
-
-
-#: Linear value of each 8-bit sRGB code (also handed to the compiled colour kernel).
-DECODE_LUT = srgb_to_linear(np.arange(256) / 255.0)
-
-
-def decode_uint8(rgba: NDArray[np.uint8]) -> NDArray[np.float64]:
-    """Convert ``(..., 4) uint8`` sRGB + alpha to ``(..., 4) float64`` linear RGB + alpha."""
-    out = np.empty(rgba.shape, dtype=np.float64)
-    out[..., :3] = DECODE_LUT[rgba[..., :3]]
-    out[..., 3] = rgba[..., 3] / 255.0
-    return out
-
-
-def encode_uint8(linear_rgba: NDArray[np.floating[Any]]) -> NDArray[np.uint8]:
-    """Convert ``(..., 4)`` linear RGB + alpha in ``[0, 1]`` to ``(..., 4) uint8`` sRGB + alpha."""
-    linear_rgba = np.asarray(linear_rgba, dtype=np.float64)
-    out = np.empty(linear_rgba.shape, dtype=np.float64)
-    out[..., :3] = linear_to_srgb(linear_rgba[..., :3])
-    out[..., 3] = np.clip(linear_rgba[..., 3], 0.0, 1.0)
-    encoded: NDArray[np.uint8] = np.rint(out * 255.0).astype(np.uint8)
-    return encoded
 
 
 @dataclass(frozen=True, eq=False)

@@ -62,51 +62,16 @@ file):
 - **Splitting** (``--max-edge``): faces whose colour spread (p90 CIEDE2000 from their
   median) is 5 or more are split; a CIEDE2000 of about 5 is a clearly visible difference.
 
-TOML layout (every key optional; missing keys keep the default)::
-
-    [colour_layer]
-    min_mm = 0.3
-    max_mm = 1.2
-    lightness_weight = 0.6
-    neutral_weight = 0.2
-    transparency_weight = 0.2
-    full_chroma = 100.0
-
-    [orientation]
-    upper_factor = 1.0
-    side_factor = 1.1
-    lower_factor = 1.2
-    upper_min_normal_z = 0.5
-    lower_max_normal_z = -0.05
-
-    [curvature]
-    max_depth_per_radius = 0.5   # 0 turns the cap off
-    radius_mm = 1.0
-
-    [smoothing]
-    iterations = 3
-
-    [layers]
-    colour = [1]                 # which shell layers (1..K) are colour layers
-    backing_mm = [0.5]           # the other layers, outside in; K = len(colour) + len(backing_mm)
-
-    [split]
-    min_spread_de00 = 5.0
+The rule file (``--thickness-rule FILE``, TOML) is read by :mod:`pipeline.rule_file`.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
-import tomllib
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-
-from pipeline.errors import InputError
 
 #: Orientation class codes of :func:`orientation_class`.
 UPPER, SIDE, LOWER = 0, 1, 2
@@ -130,6 +95,13 @@ def _require(ok: bool, key: str, problem: str, fix: str) -> None:
 
 def _finite(value: float) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _number(key: str, value: float, *, positive: bool, fix: str) -> None:
+    """Refuse a value that is not a finite number ``> 0`` (`positive`) or ``>= 0``."""
+    ok = _finite(value) and (value > 0 if positive else value >= 0)
+    what = "a positive number" if positive else "a number >= 0"
+    _require(ok, key, f"must be {what}, got {value!r}", fix)
 
 
 @dataclass(frozen=True)
@@ -159,13 +131,10 @@ class ColourLayerRule:
 
     def __post_init__(self) -> None:
         for name in ("min_mm", "max_mm", "full_chroma"):
-            value = getattr(self, name)
-            _require(
-                _finite(value) and value > 0,
-                f"colour_layer.{name}",
-                f"must be a positive number, got {value!r}",
-                f"set e.g. {name} = {getattr(ColourLayerRule, name)}",
-            )
+            _number(
+                f"colour_layer.{name}", getattr(self, name), positive=True,
+                fix=f"set e.g. {name} = {getattr(ColourLayerRule, name)}",
+            )  # fmt: skip
         _require(
             self.min_mm <= self.max_mm,
             "colour_layer.min_mm",
@@ -174,13 +143,10 @@ class ColourLayerRule:
         )
         weights = ("lightness_weight", "neutral_weight", "transparency_weight")
         for name in weights:
-            value = getattr(self, name)
-            _require(
-                _finite(value) and value >= 0,
-                f"colour_layer.{name}",
-                f"must be a number >= 0, got {value!r}",
-                f"set e.g. {name} = {getattr(ColourLayerRule, name)}",
-            )
+            _number(
+                f"colour_layer.{name}", getattr(self, name), positive=False,
+                fix=f"set e.g. {name} = {getattr(ColourLayerRule, name)}",
+            )  # fmt: skip
         _require(
             sum(getattr(self, name) for name in weights) > 0,
             "colour_layer.lightness_weight",
@@ -212,13 +178,10 @@ class OrientationRule:
 
     def __post_init__(self) -> None:
         for name in ("upper_factor", "side_factor", "lower_factor"):
-            value = getattr(self, name)
-            _require(
-                _finite(value) and value > 0,
-                f"orientation.{name}",
-                f"must be a positive number, got {value!r}",
-                f"set e.g. {name} = 1.0",
-            )
+            _number(
+                f"orientation.{name}", getattr(self, name), positive=True,
+                fix=f"set e.g. {name} = 1.0",
+            )  # fmt: skip
         lo, hi = self.lower_max_normal_z, self.upper_min_normal_z
         _require(
             _finite(lo) and _finite(hi) and -1 <= lo <= hi <= 1,
@@ -246,13 +209,10 @@ class CurvatureRule:
     radius_mm: float = 1.0
 
     def __post_init__(self) -> None:
-        value = self.max_depth_per_radius
-        _require(
-            _finite(value) and value >= 0,
-            "curvature.max_depth_per_radius",
-            f"must be a number >= 0, got {value!r}",
-            "set e.g. max_depth_per_radius = 0.5 (0 turns the cap off)",
-        )
+        _number(
+            "curvature.max_depth_per_radius", self.max_depth_per_radius, positive=False,
+            fix="set e.g. max_depth_per_radius = 0.5 (0 turns the cap off)",
+        )  # fmt: skip
         _require(
             _finite(self.radius_mm) and self.radius_mm > 0,
             "curvature.radius_mm",
@@ -337,13 +297,10 @@ class SplitRule:
     min_spread_de00: float = 5.0
 
     def __post_init__(self) -> None:
-        value = self.min_spread_de00
-        _require(
-            _finite(value) and value >= 0,
-            "split.min_spread_de00",
-            f"must be a number >= 0, got {value!r}",
-            "set e.g. min_spread_de00 = 5.0",
-        )
+        _number(
+            "split.min_spread_de00", self.min_spread_de00, positive=False,
+            fix="set e.g. min_spread_de00 = 5.0",
+        )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -364,93 +321,6 @@ class ThicknessRule:
 
 #: The documented default rule (see the module docstring).
 DEFAULT_RULE = ThicknessRule()
-
-#: TOML table name -> the dataclass it fills.
-_TABLES: dict[str, type[Any]] = {
-    "colour_layer": ColourLayerRule,
-    "orientation": OrientationRule,
-    "curvature": CurvatureRule,
-    "smoothing": SmoothingRule,
-    "layers": LayersRule,
-    "split": SplitRule,
-}
-
-
-def load_rule(path: str | Path) -> ThicknessRule:
-    """Read a thickness rule from a TOML file; missing keys keep the default.
-
-    Parameters
-    ----------
-    path : str or Path
-        TOML file with the tables of the module docstring.
-
-    Returns
-    -------
-    ThicknessRule
-
-    Raises
-    ------
-    InputError
-        Unreadable file, TOML syntax error, unknown table or key, wrong type or value out
-        of range; the message names the file and the key and says what to write.
-    """
-    path = Path(path)
-    try:
-        document = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(path, "thickness rule file not found", "check the path") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise InputError(
-            path, f"cannot read the thickness rule ({error})", "check the file"
-        ) from None
-    except tomllib.TOMLDecodeError as error:
-        raise InputError(
-            path, f"is not valid TOML ({error})", "fix the syntax (see https://toml.io)"
-        ) from None
-    return rule_from_dict(document, path)
-
-
-def rule_from_dict(document: dict[str, Any], path: str | Path | None = None) -> ThicknessRule:
-    """Build a rule from a parsed TOML document (see :func:`load_rule`)."""
-    where = path if path is not None else "thickness rule"
-    parts: dict[str, Any] = {}
-    for table, values in document.items():
-        if table not in _TABLES:
-            raise InputError(
-                where,
-                f"unknown table [{table}]",
-                f"use only {', '.join(f'[{name}]' for name in _TABLES)}",
-            )
-        if not isinstance(values, dict):
-            raise InputError(where, f"{table} must be a table, got {values!r}", f"write [{table}]")
-        kind = _TABLES[table]
-        known = {f.name: f for f in dataclasses.fields(kind)}
-        converted: dict[str, Any] = {}
-        for key, value in values.items():
-            if key not in known:
-                raise InputError(
-                    where,
-                    f"unknown key {table}.{key}",
-                    f"use only {', '.join(f'{table}.{name}' for name in known)}",
-                )
-            default = getattr(kind(), key)
-            if isinstance(default, tuple):
-                if not isinstance(value, list):
-                    raise InputError(
-                        where,
-                        f"{table}.{key} must be a list, got {value!r}",
-                        f"write e.g. {key} = {list(default)!r}",
-                    )
-                value = tuple(value)
-            elif isinstance(default, float) and isinstance(value, int):
-                value = float(value) if not isinstance(value, bool) else value
-            converted[key] = value
-        try:
-            parts[table] = kind(**converted)
-        except RuleError as error:
-            raise InputError(where, f"{error.key} {error.problem}", error.fix) from None
-    return ThicknessRule(**parts)
-
 
 def orientation_class(normal_z: NDArray[np.float64], rule: OrientationRule) -> NDArray[np.int8]:
     """Return the orientation class of every face.

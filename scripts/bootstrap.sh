@@ -35,8 +35,9 @@ if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && [ -x .venv/bin/python ]
     exit 0
 fi
 [ -x .venv/bin/python ] || "$PYTHON" -m venv .venv
-.venv/bin/python -m pip install -q --upgrade pip >/dev/null
-.venv/bin/python -m pip install -q -r requirements.lock
+.venv/bin/python -m pip install -q pip==26.3 >/dev/null
+# Every package pinned with its hashes (scripts/lock.sh writes the lock with uv).
+.venv/bin/python -m pip install -q --require-hashes -r requirements.lock
 .venv/bin/python -m pip install -q --no-deps -e . >/dev/null 2>&1 || .venv/bin/python -m pip install --no-deps -e .
 .venv/bin/python -c "import voxel.openvdb_module as m; m.load_openvdb()" \
     || { echo "shellvox set-up: OpenVDB's Python module does not load in .venv" >&2; exit 1; }

@@ -7,6 +7,7 @@ import io
 import json
 import struct
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,8 @@ from PIL import Image
 # every face can carry its own UVs and colours and the loader must merge the seams.
 TET_VERTICES = np.array([[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]], dtype=np.float64)
 TET_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], dtype=np.int64)
+# Per-corner UVs of the tetrahedron's 12 unshared corners (v up, OBJ convention).
+CORNER_UV = np.tile(np.array([[0.05, 0.05], [0.95, 0.05], [0.05, 0.95]]), (4, 1, 1))
 
 
 def marker_image(width: int, height: int, row: int, col: int) -> np.ndarray:
@@ -68,30 +71,54 @@ def write_glb(
     factor: list[float] | None = None,
     corner_colour_linear: np.ndarray | None = None,
 ) -> None:
-    """Tetrahedron GLB (12 unshared vertices) with a base-colour texture.
+    """Tetrahedron GLB (12 unshared vertices) with a base-colour texture in its buffer.
 
     ``corner_uv_gltf`` is in glTF's convention: origin at the top-left of the image.
+    Without UVs and image: ``corner_colour_linear`` as ``COLOR_0`` (linear RGBA floats).
+    """
+    if corner_uv_gltf is not None and image is not None:
+        document, binary = gltf_parts(factor=factor, uv_gltf=corner_uv_gltf.reshape(-1, 2))
+        data = png_bytes(image, "P" if palette else "RGBA")
+        document, binary = embed_image(data)(document, binary)
+        document["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
+        document["textures"] = [{"source": 0}]
+    else:
+        assert corner_colour_linear is not None
+        document, binary = gltf_parts(colour_linear=corner_colour_linear.reshape(-1, 4))
+    path.write_bytes(glb_bytes(document, binary))
+
+
+def gltf_parts(
+    *,
+    image: dict | None = None,
+    factor: list | None = None,
+    tex_coord: int = 0,
+    texture_extensions: dict | None = None,
+    uv_gltf: np.ndarray | None = None,
+    colour_linear: np.ndarray | None = None,
+) -> tuple[dict, bytes]:
+    """glTF document and binary buffer of the tetrahedron (12 corners), UVs, one material.
+
+    ``image`` is the glTF image object (``{"uri": ...}``), or None for no texture;
+    ``uv_gltf`` the corners' UVs in glTF's convention (origin at the top-left; default
+    :data:`CORNER_UV` flipped); ``colour_linear`` ``(12, 4)`` gives ``COLOR_0`` instead of
+    UVs and no material.
     """
     positions = TET_VERTICES[TET_FACES].reshape(-1, 3).astype(np.float32)
+    if uv_gltf is None:
+        uv_gltf = CORNER_UV.reshape(-1, 2).copy()
+        uv_gltf[:, 1] = 1.0 - uv_gltf[:, 1]  # glTF: v grows down from the top-left
+    second = np.asarray(uv_gltf if colour_linear is None else colour_linear, np.float32)
     indices = np.arange(12, dtype=np.uint32)
-    if corner_uv_gltf is not None and image is not None:
-        second = corner_uv_gltf.reshape(-1, 2).astype(np.float32).tobytes()
-        last = png_bytes(image, "P" if palette else "RGBA")
-    else:  # COLOR_0: linear RGBA floats per vertex, no texture
-        assert corner_colour_linear is not None
-        second = corner_colour_linear.reshape(-1, 4).astype(np.float32).tobytes()
-        last = b""
-    blobs = [positions.tobytes(), second, indices.tobytes(), last]
-    views, offset, binary = [], 0, b""
+    blobs = [positions.tobytes(), second.reshape(12, -1).tobytes(), indices.tobytes()]
+    views, binary = [], b""
     for blob in blobs:
-        views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(blob)})
-        padded = blob + b"\0" * (-len(blob) % 4)
-        binary += padded
-        offset += len(padded)
-    material: dict[str, object] = {"baseColorTexture": {"index": 0}}
+        views.append({"buffer": 0, "byteOffset": len(binary), "byteLength": len(blob)})
+        binary += blob + b"\0" * (-len(blob) % 4)
+    pbr: dict = {}
     if factor is not None:
-        material["baseColorFactor"] = factor
-    document = {
+        pbr["baseColorFactor"] = factor
+    document: dict = {
         "asset": {"version": "2.0"},
         "buffers": [{"byteLength": len(binary)}],
         "bufferViews": views,
@@ -107,10 +134,7 @@ def write_glb(
             {"bufferView": 1, "componentType": 5126, "count": 12, "type": "VEC2"},
             {"bufferView": 2, "componentType": 5125, "count": 12, "type": "SCALAR"},
         ],
-        "images": [{"bufferView": 3, "mimeType": "image/png"}],
-        "samplers": [{"wrapS": 10497, "wrapT": 10497}],
-        "textures": [{"source": 0, "sampler": 0}],
-        "materials": [{"name": "painted", "pbrMetallicRoughness": material}],
+        "materials": [{"name": "painted", "pbrMetallicRoughness": pbr}],
         "meshes": [
             {
                 "primitives": [
@@ -122,23 +146,43 @@ def write_glb(
         "scenes": [{"nodes": [0]}],
         "scene": 0,
     }
-    if corner_uv_gltf is None:
-        document["accessors"][1] = {
-            "bufferView": 1,
-            "componentType": 5126,
-            "count": 12,
-            "type": "VEC4",
-        }
-        for key in ("images", "samplers", "textures", "materials"):
-            del document[key]
+    if colour_linear is not None:
+        document["accessors"][1]["type"] = "VEC4"
+        del document["materials"]
         document["meshes"] = [
             {"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1}, "indices": 2}]}
         ]
+    if image is not None:
+        info: dict = {"index": 0, "texCoord": tex_coord}
+        if texture_extensions:
+            info["extensions"] = texture_extensions
+        pbr["baseColorTexture"] = info
+        document["images"] = [image]
+        document["textures"] = [{"source": 0}]
+    return document, binary
+
+
+def glb_bytes(document: dict, binary: bytes) -> bytes:
     text = json.dumps(document).encode()
     text += b" " * (-len(text) % 4)
     body = struct.pack("<I4s", len(text), b"JSON") + text
     body += struct.pack("<I4s", len(binary), b"BIN\0") + binary
-    path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+    return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+
+
+def embed_image(data: bytes) -> Callable[[dict, bytes], tuple[dict, bytes]]:
+    """Edit: append ``data`` to the buffer as the material's image."""
+
+    def edit(document: dict, binary: bytes) -> tuple[dict, bytes]:
+        document["bufferViews"].append(
+            {"buffer": 0, "byteOffset": len(binary), "byteLength": len(data)}
+        )
+        binary += data + b"\0" * (-len(data) % 4)
+        document["buffers"][0]["byteLength"] = len(binary)
+        document["images"] = [{"bufferView": 3, "mimeType": "image/png"}]
+        return document, binary
+
+    return edit
 
 
 CORE_NS = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"

@@ -1,25 +1,48 @@
-"""Shared fixtures: the read-only real meshes in ../shared/meshes (skipped when absent)."""
+"""Shared fixtures: the read-only real meshes in ../shared/meshes.
+
+Where they are absent the tests that need them skip, and the summary says so in one
+line; with the environment variable ``CI`` set (any value but empty) they fail instead,
+so CI always runs the real-mesh tests (CI has ``shared/`` beside the checkout).
+"""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
 SHARED_MESHES = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
+#: The skip reason of every test whose real mesh is absent (one summary line for all).
+ABSENT = "the real test meshes are absent (../shared/meshes beside the checkout)"
+
+
+def shared_path(relative: str) -> Path:
+    """Return ``../shared/meshes/relative``; skip the test if it is absent (fail in CI)."""
+    path = SHARED_MESHES / relative
+    if not path.is_file():
+        where = ABSENT if not SHARED_MESHES.is_dir() else f"{ABSENT}: {relative} is missing"
+        if os.environ.get("CI"):
+            pytest.fail(f"{where}; CI must run the real-mesh tests", pytrace=False)
+        pytest.skip(where)
+    return path
 
 
 @pytest.fixture
 def shared_mesh():
     """Return a function mapping a path inside ../shared/meshes to a Path, or skip."""
+    return shared_path
 
-    def get(relative: str) -> Path:
-        path = SHARED_MESHES / relative
-        if not path.is_file():
-            pytest.skip(f"{path} is absent: the real test meshes live in ../shared/meshes")
-        return path
 
-    return get
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    """Say once how many tests skipped for want of the real meshes."""
+    skipped = terminalreporter.stats.get("skipped", [])
+    absent = [r for r in skipped if ABSENT in str(getattr(r, "longrepr", ""))]
+    if absent:
+        terminalreporter.write_line(
+            f"shellvox: {len(absent)} tests skipped: {ABSENT}; set CI=1 to make them fail",
+            yellow=True,
+        )
 
 
 @pytest.fixture(scope="session")
@@ -43,10 +66,7 @@ def real_mesh_shells():
     def get(relative: str, size_mm: float):
         key = (relative, size_mm)
         if key not in cache:
-            path = SHARED_MESHES / relative
-            if not path.is_file():
-                pytest.skip(f"{path} is absent: the real test meshes live in ../shared/meshes")
-            raw = trimesh.load(path, force="mesh")
+            raw = trimesh.load(shared_path(relative), force="mesh")
             mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
             mesh.merge_vertices(merge_tex=True, merge_norm=True)
             mesh.apply_scale(size_mm / mesh.extents.max())

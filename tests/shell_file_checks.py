@@ -11,11 +11,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 import trimesh
 
 from offset.intersections import count_self_intersections
 
 HAVE_PYMESHLAB = importlib.util.find_spec("pymeshlab") is not None
+needs_meshlab = pytest.mark.skipif(not HAVE_PYMESHLAB, reason="pymeshlab is not installed")
 
 
 def header(path: Path) -> list[str]:

@@ -20,8 +20,8 @@ import trimesh
 from PIL import Image
 
 from pipeline.build import build_stack
-from pipeline.build_config import BuildConfig
 from pipeline.cli import main
+from pipeline.config import BuildConfig
 from pipeline.face_thickness import face_thickness
 from pipeline.material_plan import MaterialSettings, build_material_plan
 from pipeline.mesh import ColouredMesh

@@ -8,7 +8,7 @@ import tifffile
 import trimesh
 
 from pipeline.build import build_stack
-from pipeline.build_config import BuildConfig
+from pipeline.config import BuildConfig
 from pipeline.loading import load_model
 from pipeline.printer_profile import load_profile
 

@@ -6,13 +6,14 @@ import numpy as np
 import pytest
 import tifffile
 import trimesh
+from skimage import measure
+from vdb_checks import describe_grids
 
 from pipeline.build import build_stack
-from pipeline.build_config import BuildConfig
+from pipeline.config import BuildConfig
 from pipeline.errors import SlabWorkerDied
 from pipeline.mesh import ColouredMesh
 from voxel.openvdb_module import load_openvdb
-from voxel.vdb_writer import describe_grids
 
 
 def _ball(radius: float = 3.0) -> ColouredMesh:
@@ -45,7 +46,9 @@ def test_outputs_and_manifest(built):
         "shells/shell_2.ply",
     }
     on_disk = json.loads((out / "manifest.json").read_text())
-    assert on_disk["grid"] == manifest["grid"]
+    assert on_disk == manifest  # returned exactly as written, files and total time included
+    assert set(on_disk["files"]) == names - {"manifest.json"}
+    assert on_disk["seconds"]["total"] > 0
     assert [layer["index"] for layer in on_disk["layers"]] == [0, 1, 2, 3]
     assert on_disk["diagnostics"]["unbalanced_rows"] == 0
     assert manifest["slab_rows"] < manifest["grid"]["shape_zyx"][0]  # really streamed
@@ -66,6 +69,29 @@ def test_tiff_round_trip_matches_manifest(built):
     assert np.all(colour[layers != 1] == 0)
     reds = set(map(tuple, colour[layers == 1].reshape(-1, 3)))
     assert reds <= {(250, 0, 0), (0, 0, 0)}  # never averaged
+
+
+def test_layers_are_nested_connected_shells(built):
+    # A ball's layers are the outside (one component, no cavity), the colour shell, the
+    # backing shell and the core, each one connected piece, and the backing everywhere
+    # separates the colour layer from the core (no face shared): labelled by
+    # scikit-image's connected components, an implementation independent of the build.
+    out, _, _ = built
+    layers = tifffile.imread(out / "layers.tif")
+    for index in range(4):
+        _, n_parts = measure.label(layers == index, connectivity=3, return_num=True)
+        assert n_parts == 1, index
+    colour, core = layers == 1, layers == 3
+    for axis in range(3):
+        assert not (colour[_cut(axis, 1)] & core[_cut(axis, -1)]).any()
+        assert not (colour[_cut(axis, -1)] & core[_cut(axis, 1)]).any()
+
+
+def _cut(axis: int, side: int) -> tuple[slice, ...]:
+    """The slice dropping the first (side 1) or last (side -1) plane along `axis`."""
+    cut = [slice(None)] * 3
+    cut[axis] = slice(1, None) if side == 1 else slice(None, -1)
+    return tuple(cut)
 
 
 def test_layers_follow_depth(built):

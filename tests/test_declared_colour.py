@@ -13,8 +13,17 @@ import warnings
 import colour
 import numpy as np
 import pytest
-from builders import TET_FACES, TET_VERTICES, locate, marker_image, png_bytes
-from corpus import CORNER_UV, glb_bytes, gltf_parts, obj_text, write_gltf
+from builders import (
+    CORNER_UV,
+    TET_FACES,
+    TET_VERTICES,
+    glb_bytes,
+    gltf_parts,
+    locate,
+    marker_image,
+    png_bytes,
+)
+from corpus_files import obj_text, write_gltf
 
 from pipeline.config import LoadOptions
 from pipeline.errors import ShellvoxWarning

@@ -76,27 +76,25 @@ def test_signal_during_slabs(tmp_path, signum, seed):
     assert holds_nothing(out), (delay, sorted(out.rglob("*")))
 
 
-def test_ctrl_c_to_the_process_group_with_shell_process(tmp_path):
-    # A terminal's Ctrl-C reaches every process of the group: workers, the shell process
-    # and multiprocessing's resource tracker must print nothing.
+@pytest.mark.parametrize(
+    ("signum", "status", "message"),
+    [
+        # A terminal's Ctrl-C reaches every process of the group: workers, the shell
+        # process and multiprocessing's resource tracker must print nothing.
+        (signal.SIGINT, 130, "interrupted"),
+        # kill -TERM -PGID (a service manager stopping the job): the workers die at once,
+        # the main process reports the signal, not a dead worker.
+        (signal.SIGTERM, 143, "interrupted (SIGTERM)"),
+    ],
+    ids=["INT", "TERM"],
+)
+def test_signal_to_the_process_group_with_shell_process(tmp_path, signum, status, message):
     out = tmp_path / "out"
     command = Command(build_argv(out, "--shell-meshes"), tmp_path / "run")
     wait_for(lambda: len(command.children()) >= 4, what="workers, shell process, tracker")
-    os.killpg(command.pid, signal.SIGINT)
+    os.killpg(command.pid, signum)
     result = command.finish(timeout=60)
-    assert_failed(result, 130, "interrupted", folder=out)
-    assert holds_nothing(out)
-
-
-def test_sigterm_to_the_process_group(tmp_path):
-    # kill -TERM -PGID (a service manager stopping the job): the workers die at once, the
-    # main process reports the signal, not a dead worker.
-    out = tmp_path / "out"
-    command = Command(build_argv(out, "--shell-meshes"), tmp_path / "run")
-    wait_for(lambda: len(command.children()) >= 4, what="workers, shell process, tracker")
-    os.killpg(command.pid, signal.SIGTERM)
-    result = command.finish(timeout=60)
-    assert_failed(result, 143, "interrupted (SIGTERM)", folder=out)
+    assert_failed(result, status, message, folder=out)
     assert holds_nothing(out)
 
 

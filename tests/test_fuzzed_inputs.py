@@ -11,8 +11,8 @@ import warnings
 
 import numpy as np
 import pytest
-from builders import write_3mf
-from corpus import CORNER_UV, IMAGE, TEX, glb_bytes, gltf_parts, obj_text, ply_text, write_gltf
+from builders import CORNER_UV, glb_bytes, gltf_parts, write_3mf
+from corpus_files import IMAGE, TEX, obj_text, ply_text, write_gltf
 
 from pipeline.errors import InputError
 from pipeline.loading import load_model

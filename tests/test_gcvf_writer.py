@@ -19,9 +19,10 @@ import tifffile
 from PIL import Image
 
 import voxel.gcvf_writer as gcvf_writer
+from pipeline.atomic import atomic_path
 from pipeline.printer_profile import load_profile
-from voxel.atomic import atomic_path
-from voxel.gcvf_writer import GcvfJobError, GcvfWriter
+from voxel.gcvf_job import GcvfJobError
+from voxel.gcvf_writer import GcvfWriter
 from voxel.grid import GridSpec
 from voxel.tiff_writer import TiffStackWriter
 

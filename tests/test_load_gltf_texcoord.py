@@ -13,8 +13,16 @@ import math
 
 import numpy as np
 import pytest
-from builders import TET_FACES, TET_VERTICES, locate, marker_image, png_bytes
-from corpus import embed_image, glb_bytes, gltf_parts
+from builders import (
+    TET_FACES,
+    TET_VERTICES,
+    embed_image,
+    glb_bytes,
+    gltf_parts,
+    locate,
+    marker_image,
+    png_bytes,
+)
 
 from pipeline.cli import main
 from pipeline.loading import load_model

@@ -19,11 +19,8 @@ def _polytope(seed: int, n_points: int) -> trimesh.Trimesh:
     return trimesh.convex.convex_hull(pts)
 
 
-def _moved_halfspace_polytope(mesh: trimesh.Trimesh, depth: np.ndarray) -> np.ndarray:
-    normals = np.asarray(mesh.face_normals)
-    offsets = np.einsum("ij,ij->i", normals, mesh.triangles[:, 0]) - depth
-    halfspaces = np.hstack([normals, -offsets[:, None]])  # n . x - c <= 0
-    # An interior point: the Chebyshev centre (largest inscribed ball) by linear programming.
+def _chebyshev(normals: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre and radius of the largest ball in ``n . x <= c`` (linear programming)."""
     norm = np.linalg.norm(normals, axis=1)
     lp = linprog(
         c=[0, 0, 0, -1],
@@ -32,9 +29,16 @@ def _moved_halfspace_polytope(mesh: trimesh.Trimesh, depth: np.ndarray) -> np.nd
         bounds=[(None, None)] * 3 + [(0, None)],
     )
     assert lp.status == 0
-    if lp.x[3] < 1e-3:
-        pytest.skip("moved half-spaces leave (almost) nothing")
-    return HalfspaceIntersection(halfspaces, lp.x[:3]).intersections
+    return lp.x[:3], float(lp.x[3])
+
+
+def _moved_halfspace_polytope(mesh: trimesh.Trimesh, depth: np.ndarray) -> np.ndarray:
+    normals = np.asarray(mesh.face_normals)
+    offsets = np.einsum("ij,ij->i", normals, mesh.triangles[:, 0]) - depth
+    halfspaces = np.hstack([normals, -offsets[:, None]])  # n . x - c <= 0
+    centre, radius = _chebyshev(normals, offsets)  # an interior point
+    assert radius > 1e-3, "the moved half-spaces must leave a solid"
+    return HalfspaceIntersection(halfspaces, centre).intersections
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -43,6 +47,12 @@ def test_random_convex_polytope_offset_is_moved_halfspaces(seed, n_points, frac)
     mesh = _polytope(seed, n_points)
     inradius = float(trimesh.proximity.signed_distance(mesh, [mesh.centroid])[0])
     d = frac * abs(inradius)
+    # Moving every unit-normal half-space in by d shrinks the largest inscribed ball by d,
+    # so d <= 0.6 * (a distance from the centroid) always leaves a solid.
+    normals = np.asarray(mesh.face_normals)
+    plane = np.einsum("ij,ij->i", normals, mesh.triangles[:, 0])
+    radius = _chebyshev(normals, plane)[1]
+    assert _chebyshev(normals, plane - d)[1] == pytest.approx(radius - d, rel=1e-6)
     (shell,) = offset_shells(mesh.vertices, mesh.faces, [d])
     corners = _moved_halfspace_polytope(mesh, np.full(len(mesh.faces), d))
     expected = ConvexHull(corners)
@@ -53,9 +63,7 @@ def test_random_convex_polytope_offset_is_moved_halfspaces(seed, n_points, frac)
     # Every expected corner is a shell vertex; every shell vertex is on the moved hull.
     gap, _ = cKDTree(shell.vertices).query(corners)
     assert gap.max() <= 1e-9 * mesh.scale
-    normals = np.asarray(mesh.face_normals)
-    offsets = np.einsum("ij,ij->i", normals, mesh.triangles[:, 0]) - d
-    slack = (shell.vertices @ normals.T - offsets).max(axis=1)
+    slack = (shell.vertices @ normals.T - (plane - d)).max(axis=1)
     assert np.abs(slack).max() <= 1e-9 * mesh.scale
 
 

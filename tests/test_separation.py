@@ -11,11 +11,12 @@ from scipy import ndimage, optimize
 from pipeline.errors import InputError
 from pipeline.material_plan import MaterialSettings, build_material_plan
 from pipeline.printer_profile import load_profile
+from pipeline.table_cache import DiskTables
+from voxel.mixing import mix_proportions
 from voxel.separation import (
     SeparationError,
     cmyk_to_proportions,
     icc_separation,
-    mix_proportions,
     mixing_separation,
 )
 
@@ -192,12 +193,21 @@ def test_mixing_table_disk_cache_round_trip(tmp_path, monkeypatch):
     from voxel import separation
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    store = DiskTables.default()
+    assert store.folder == tmp_path / "shellvox"
     colours = ((0, 89, 158), (161, 35, 99), (213, 178, 0), (30, 30, 30), (220, 222, 216))
     separation._mixing_table.cache_clear()
-    first = separation._mixing_table(colours, 51)  # solved, then written
-    assert len(list((tmp_path / "shellvox").glob("mixing-*.npy"))) == 1
+    first = separation._mixing_table(colours, 51, store)  # solved, then written
+    assert len(list(store.folder.glob("mixing-*.npy"))) == 1
     separation._mixing_table.cache_clear()
-    again = separation._mixing_table(colours, 51)  # read from disk
+    again = separation._mixing_table(colours, 51, store)  # read from disk
     assert np.array_equal(again, separation._solve_mixing_table(colours, 51))
     assert np.array_equal(first, again)
     separation._mixing_table.cache_clear()
+    (tmp_path / "shellvox").chmod(0o500)  # an unwritable cache only costs the solve
+    try:
+        assert np.array_equal(separation._mixing_table(colours, 15, store),
+                              separation._solve_mixing_table(colours, 15))
+    finally:
+        (tmp_path / "shellvox").chmod(0o700)
+        separation._mixing_table.cache_clear()

@@ -23,6 +23,7 @@ from pipeline.face_thickness import (
     thickness_summary,
 )
 from pipeline.mesh import ColouredMesh
+from pipeline.rule_file import load_rule
 from pipeline.texture import Material
 from pipeline.thickness_rule import (
     DEFAULT_RULE,
@@ -31,7 +32,6 @@ from pipeline.thickness_rule import (
     LayersRule,
     SmoothingRule,
     ThicknessRule,
-    load_rule,
 )
 from pipeline.topology import face_areas
 

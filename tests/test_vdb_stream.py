@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from vdb_checks import describe_grids
 
-from voxel.colour import srgb_to_linear
 from voxel.grid import GridSpec
 from voxel.openvdb_module import load_openvdb
-from voxel.vdb_writer import GRID_NAMES, MATERIAL_GRID, VdbStackWriter, describe_grids
+from voxel.srgb import codes_to_linear
+from voxel.vdb_encode import GRID_NAMES, MATERIAL_GRID
+from voxel.vdb_writer import VdbStackWriter
 
 # 150 voxels in x: two 128^3 internal nodes; y and the last leaf row are partial.
 GRID = GridSpec((-1.0, 2.0, 0.5), (0.05, 0.08, 0.03), (45, 37, 150))
@@ -42,7 +44,7 @@ def _reference(layers, rgb, coloured, sdf):
     density.copyFromArray(np.ascontiguousarray((layers > 0).transpose(xyz), np.float32))
     layer = vdb.FloatGrid(0.0)
     layer.copyFromArray(np.ascontiguousarray(layers.transpose(xyz), np.float32))
-    linear = srgb_to_linear(rgb)
+    linear = codes_to_linear(rgb)
     linear[coloured] = np.maximum(linear[coloured], np.float32(1e-7))
     color = vdb.Vec3SGrid((0.0, 0.0, 0.0))
     color.copyFromArray(np.ascontiguousarray(linear.transpose(2, 1, 0, 3), np.float32))

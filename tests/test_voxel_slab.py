@@ -118,6 +118,7 @@ def _box_model(depth_per_face: np.ndarray, colour_layers=(1,)):
         colour_at,
         colour_layers=colour_layers,
         depth_mm=depth_per_face,
+        layer_rule="distance",
     ), box
 
 
@@ -158,6 +159,7 @@ def test_distance_and_shell_realisations_agree(nested):
         colour_layers=(1,),
         sdf_half_width_mm=0.3,
         depth_mm=np.tile([[0.5], [1.0]], (1, len(model.surfaces[0][1]))),
+        layer_rule="distance",
     )
     result = compute_slab(by_distance, grid, 0, grid.shape_zyx[0])
     idx = np.stack(np.nonzero(np.ones(grid.shape_zyx, bool)), axis=1)
@@ -191,4 +193,11 @@ def test_bad_depth(nested):
     n_faces = len(model.surfaces[0][1])
     for bad in (np.ones((2, n_faces - 1)), np.array([[1.0] * n_faces, [0.5] * n_faces])):
         with pytest.raises(ValueError, match="depth_mm must be"):
-            StackModel(model.surfaces[:1], model.surface, model.colour_at, depth_mm=bad)
+            StackModel(
+                model.surfaces[:1], model.surface, model.colour_at, depth_mm=bad,
+                layer_rule="distance",
+            )
+    with pytest.raises(ValueError, match="depth_mm must be given with layer_rule 'distance'"):
+        StackModel(model.surfaces[:1], model.surface, model.colour_at, layer_rule="distance")
+    with pytest.raises(ValueError, match="depth_mm must be given with layer_rule 'distance'"):
+        StackModel(model.surfaces, model.surface, model.colour_at, depth_mm=np.ones((2, n_faces)))

@@ -4,12 +4,13 @@ import colour
 import numpy as np
 import pytest
 import tifffile
+from vdb_checks import describe_grids
 
-from voxel.atomic import atomic_path, write_text_atomic
+from pipeline.atomic import atomic_path, write_text_atomic
 from voxel.grid import GridSpec
 from voxel.openvdb_module import load_openvdb
 from voxel.tiff_writer import TiffStackWriter
-from voxel.vdb_writer import VdbStackWriter, describe_grids
+from voxel.vdb_writer import VdbStackWriter
 
 GRID = GridSpec((1.0, 2.0, 3.0), (0.0423, 0.0846, 0.027), (10, 20, 30))
 
@@ -138,15 +139,13 @@ def test_vdb_skips_empty_slabs_and_crops_to_content(tmp_path):
         "sdf": 1,
     }
     grids, _ = vdb.readAll(str(tmp_path / "v.vdb"))
-    color = {grid.name: grid for grid in grids}["color"]
+    by_name = {grid.name: grid for grid in grids}
+    color = by_name["color"]
     assert color.getConstAccessor().getValue((4, 3, 6)) == pytest.approx((0.0, 0.0, 0.0), abs=1e-6)
-
-
-def test_srgb_decoding_matches_colour_science():
-    from voxel.colour import srgb_to_linear
-
-    codes = np.arange(256, dtype=np.uint8)
-    expected = colour.models.eotf_sRGB(codes / 255.0)
-    np.testing.assert_allclose(srgb_to_linear(codes), expected, atol=2e-7)
-    with pytest.raises(ValueError, match="uint8"):
-        srgb_to_linear(np.array([0.5]))
+    # Cropped to the content, as OpenVDB itself reads it: each grid is the one 8^3 leaf
+    # holding voxel (x, y, z) = (4, 3, 6), and its active box is that voxel; the empty
+    # first slab and the rest of the 10 x 20 x 30 grid hold no leaf and no tile.
+    for name, grid in by_name.items():
+        assert grid.leafCount() == 1, name
+        assert grid.evalActiveVoxelBoundingBox() == ((4, 3, 6), (4, 3, 6)), name
+        assert grid.evalLeafBoundingBox() == ((0, 0, 0), (7, 7, 7)), name

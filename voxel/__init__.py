@@ -10,7 +10,7 @@ Conventions (stated once, used everywhere in this package)
 - Signed distance is negative inside, as in OpenVDB.
 - Layer index: 0 outside, 1..K the shell bands from the outside in, K + 1 the core.
 
-This package never imports :mod:`pipeline`; colour reaches it as a callable
+This package never imports :mod:`pipeline` or :mod:`offset`; colour reaches it as a callable
 ``colour_at(face_ids, barycentric) -> (N, 4) uint8``.
 
 Modules
@@ -24,16 +24,21 @@ Modules
 - :mod:`voxel.layer_kernel` the per-voxel pass: layers, SDF band, colour voxels, tallies.
 - :mod:`voxel.surface_colour` compiled colour of the nearest points (face, vertex,
   texture), with the numpy path's arithmetic; :mod:`voxel.nearest` exact nearest points
-  by libigl's tree (queries beyond the reach); :mod:`voxel.colour` colour helpers.
+  by libigl's tree (queries beyond the reach; also generalised winding numbers of points,
+  for :mod:`offset` and the shell agreement); :mod:`voxel.colour` colour helpers;
+  :mod:`voxel.srgb` the sRGB transfer curve and CIELAB (the only place colours change
+  encoding; the loaders in :mod:`pipeline` use it too).
 - :mod:`voxel.slab` ``compute_slab``: the pure per-slab function (layers, colours, SDF band).
 - :mod:`voxel.deflate` a compiled run-length deflate (zlib) encoder for slices.
-- :mod:`voxel.tiff_writer`, :mod:`voxel.vdb_writer` (with :mod:`voxel.vdb_format`),
-  :mod:`voxel.preview`: serialisation only.
+- :mod:`voxel.tiff_writer`, :mod:`voxel.vdb_writer` (grids cut into leaves by
+  :mod:`voxel.vdb_encode`, encoded and spooled by :mod:`voxel.vdb_leaves`, the file and
+  its tree by :mod:`voxel.vdb_format`), :mod:`voxel.preview`: serialisation only.
 - Printer slices, serialisation only: :mod:`voxel.gcvf_writer` (GrabCAD Voxel Print
-  jobs), :mod:`voxel.png_slices` (RGBA slice folders), both with PNGs from
-  :mod:`voxel.png_encode` and a writer thread from :mod:`voxel.slab_thread`.
-- :mod:`voxel.atomic` files that appear atomically.
-- :mod:`voxel.separation` colour to material proportions; :mod:`voxel.blue_noise` the
+  jobs, described by :mod:`voxel.gcvf_job`), :mod:`voxel.png_slices` (RGBA slice
+  folders), both with PNGs from :mod:`voxel.png_encode` and a writer thread from
+  :mod:`voxel.slab_thread`.
+- :mod:`voxel.separation` colour to material proportions (the mixing model's solver in
+  :mod:`voxel.mixing`); :mod:`voxel.blue_noise` the
   3D threshold tile; :mod:`voxel.materials` ``materials_for_slab`` (one material per
   voxel); :mod:`voxel.material_kernels` their compiled per-voxel loops (numba).
 """

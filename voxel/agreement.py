@@ -4,23 +4,17 @@ The voxel stack takes its layers from exact nearest-surface distances
 (:mod:`voxel.slab`); the offset shells (:mod:`offset`) are a second, independent
 realisation of the same bands. On sampled voxels, the shell realisation's layer is one plus
 the number of shells whose generalised winding number at the voxel centre exceeds 1/2
-(libigl's exact ``winding_number``) [1]_.
-
-References
-----------
-.. [1] A. Jacobson, L. Kavan, O. Sorkine-Hornung, "Robust inside-outside segmentation
-   using generalized winding numbers", ACM TOG 32(4), 2013.
+(:func:`voxel.nearest.winding_numbers`).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-import igl
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.nearest import SurfaceIndex, nearest_faces
+from voxel.nearest import SurfaceIndex, nearest_faces, winding_numbers
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
 
@@ -67,12 +61,7 @@ def shell_agreement(
     by_shells = np.ones(len(points), dtype=np.int64)
     for vertices, faces in shells:
         if len(faces):
-            winding = igl.winding_number(
-                np.ascontiguousarray(vertices, dtype=np.float64),
-                np.ascontiguousarray(faces, dtype=np.int64),
-                np.ascontiguousarray(points),
-            )
-            by_shells += np.asarray(winding) > 0.5
+            by_shells += winding_numbers(vertices, faces, points) > 0.5
     same = by_shells == layers
     per_layer = {
         str(k): float(same[clear & (layers == k)].mean())

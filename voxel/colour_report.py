@@ -28,8 +28,9 @@ import colour
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour import ColourAt, srgb_to_linear
+from voxel.colour import ColourAt
 from voxel.grid import GridSpec
+from voxel.srgb import codes_to_linear, linear_to_srgb, srgb_to_lab
 
 #: CIELAB hue angles (degrees) where each named hue sector starts, for the colour regions
 #: (sRGB red lies near 40, yellow near 103, green near 136, blue near 306 degrees).
@@ -129,7 +130,7 @@ class ColourReport:
         self.grid = grid
         self.optical_depth_mm = float(optical_depth_mm)
         self.lateral_rays = int(lateral_rays)
-        self._display_linear = srgb_to_linear(np.asarray(display_srgb, np.uint8)).astype(
+        self._display_linear = codes_to_linear(np.asarray(display_srgb, np.uint8)).astype(
             np.float64
         )
         step = min(grid.voxel_mm)
@@ -175,8 +176,7 @@ class ColourReport:
         """Return the predicted sRGB ``(N, 3)`` in ``[0, 1]`` (NaN where no voxel was seen)."""
         with np.errstate(invalid="ignore", divide="ignore"):
             linear = self._sums / self._weights[:, None]
-        encoded = colour.cctf_encoding(np.clip(linear, 0, 1), "sRGB")
-        return np.asarray(encoded, dtype=np.float64)
+        return linear_to_srgb(linear)
 
     def result(self) -> dict[str, Any]:
         """Return CIEDE2000 statistics of predicted against target colour (JSON-ready)."""
@@ -230,15 +230,6 @@ def delta_e_2000(srgb_a: NDArray[np.float64], srgb_b: NDArray[np.float64]) -> ND
     lab_b = srgb_to_lab(srgb_b)
     result: NDArray[np.float64] = np.asarray(colour.delta_E(lab_a, lab_b, method="CIE 2000"))
     return result
-
-
-def srgb_to_lab(srgb: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Return CIELAB (D65) of sRGB ``(N, 3)`` in ``[0, 1]``."""
-    xyz = colour.sRGB_to_XYZ(np.asarray(srgb, dtype=np.float64))
-    lab = colour.XYZ_to_Lab(
-        xyz, colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
-    )
-    return np.asarray(lab, dtype=np.float64)
 
 
 def colour_regions(srgb: NDArray[np.uint8]) -> NDArray[np.str_]:

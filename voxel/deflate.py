@@ -114,7 +114,7 @@ def zlib_compress(data: bytes | NDArray[np.uint8], period: int = 1) -> bytes:
     >>> import zlib
     >>> raw = bytes(1000) + b"abcabcabc" + bytes(500)
     >>> packed = zlib_compress(raw)
-    >>> zlib.decompress(packed) == raw, len(packed) < 40
+    >>> zlib.decompress(packed) == raw, len(packed) < len(raw) // 10
     (True, True)
     """
     if not 1 <= period <= 4:

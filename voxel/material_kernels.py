@@ -154,6 +154,7 @@ def _diffuse_py(zyx, proportions, mask, error, neighbours, chosen):  # type: ign
     n_slab, n_y, n_x = mask.shape
     n_columns = proportions.shape[1]
     value = np.empty(n_columns, dtype=np.float32)
+    taken = np.empty(neighbours.shape[0], dtype=neighbours.dtype)
     plane = 0
     for i in range(zyx.shape[0]):
         z = zyx[i, 0]
@@ -170,28 +171,22 @@ def _diffuse_py(zyx, proportions, mask, error, neighbours, chosen):  # type: ign
         chosen[i] = best
         value[best] -= np.float32(1.0)
         total = 0
-        for j in range(neighbours.shape[0]):
+        for j in range(neighbours.shape[0]):  # the weights of the neighbours that take it
             nz = z + neighbours[j, 0]
             ny = y + neighbours[j, 1]
             nx = x + neighbours[j, 2]
-            if ny < 0 or ny >= n_y or nx < 0 or nx >= n_x:
-                continue
-            if nz < n_slab and not mask[nz, ny, nx]:
-                continue
-            total += neighbours[j, 3]
+            inside = 0 <= ny < n_y and 0 <= nx < n_x
+            taken[j] = neighbours[j, 3] if inside and (nz >= n_slab or mask[nz, ny, nx]) else 0
+            total += taken[j]
         if total == 0:
             continue
         for j in range(neighbours.shape[0]):
+            if taken[j] == 0:
+                continue
+            share = np.float32(taken[j] / total)
             nz = z + neighbours[j, 0]
-            ny = y + neighbours[j, 1]
-            nx = x + neighbours[j, 2]
-            if ny < 0 or ny >= n_y or nx < 0 or nx >= n_x:
-                continue
-            if nz < n_slab and not mask[nz, ny, nx]:
-                continue
-            share = np.float32(neighbours[j, 3] / total)
             for k in range(n_columns):
-                error[nz % 3, ny, nx, k] += value[k] * share
+                error[nz % 3, y + neighbours[j, 1], x + neighbours[j, 2], k] += value[k] * share
     while plane < n_slab:
         error[plane % 3] = 0
         plane += 1

@@ -1,15 +1,21 @@
-"""Exact nearest points on a triangle mesh for many query points.
+"""Point queries on a triangle mesh: exact nearest points and generalised winding numbers.
 
-The search runs in libigl's axis-aligned bounding-box tree [1]_ (compiled, exact point-
+The one wrapper of libigl's queries in shellvox (:mod:`offset` uses it too). The nearest-
+point search runs in libigl's axis-aligned bounding-box tree [1]_ (compiled, exact point-
 triangle distances, threaded over the query points); the barycentric coordinates of the
 answer are then recomputed in numpy with Ericson's Voronoi-region test [2]_, so the
 returned point, its face and its distance are mutually consistent to rounding.
+:func:`winding_numbers` is libigl's exact generalised winding number [3]_ (solid angles
+summed over the faces, hierarchically). Inside tests on a whole voxel grid use
+:mod:`voxel.winding` instead (signed crossings along grid rows, exact and much faster).
 
 References
 ----------
 .. [1] A. Jacobson et al., *libigl: a simple C++ geometry processing library*,
    https://libigl.github.io (``igl::AABB::squared_distance``).
 .. [2] C. Ericson, *Real-Time Collision Detection*, Morgan Kaufmann 2005, section 5.1.5.
+.. [3] A. Jacobson, L. Kavan, O. Sorkine-Hornung, "Robust inside-outside segmentation
+   using generalized winding numbers", ACM TOG 32(4), 2013.
 """
 
 from __future__ import annotations
@@ -87,7 +93,8 @@ class SurfaceIndex:
             raise ValueError(f"faces must be (F, 3) with F >= 1, got shape {faces.shape}")
         if faces.min() < 0 or faces.max() >= len(vertices):
             raise ValueError(f"faces must index 0..{len(vertices) - 1}")
-        vertices.setflags(write=False)
+        vertices, faces = vertices.view(), faces.view()  # read-only views: the caller's
+        vertices.setflags(write=False)  # arrays stay writable
         faces.setflags(write=False)
         tree = igl.AABB()
         tree.init(vertices, faces)
@@ -196,6 +203,43 @@ def on_faces(
         barycentric[part] = bary
         distance[part] = np.linalg.norm(points[part] - closest, axis=1)
     return Nearest(face_ids, barycentric, distance)
+
+
+def winding_numbers(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], points_mm: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Return the generalised winding number of points with respect to a mesh.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64, mm
+        Vertex positions.
+    faces : (F, 3) int64
+        Triangles, counter-clockwise seen from outside.
+    points_mm : (N, 3) float64, mm
+        Query points ``(x, y, z)``.
+
+    Returns
+    -------
+    (N,) float64
+        1 inside a closed outward-oriented mesh, 0 outside (fractional near open parts).
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    >>> f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    >>> winding_numbers(v, f, np.array([[0.1, 0.1, 0.1], [1.0, 1.0, 1.0]])).round(6).tolist()
+    [1.0, 0.0]
+    """
+    points = _points(points_mm)
+    if len(faces) == 0 or len(points) == 0:
+        return np.zeros(len(points))
+    winding = igl.winding_number(
+        np.ascontiguousarray(vertices, dtype=np.float64),
+        np.ascontiguousarray(faces, dtype=np.int64),
+        np.ascontiguousarray(points),
+    )
+    return np.asarray(winding, dtype=np.float64).reshape(len(points))
 
 
 def _points(points_mm: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -23,23 +23,22 @@ import os
 import shutil
 import tempfile
 from collections.abc import Mapping
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from voxel.grid import GridSpec
 from voxel.png_encode import encode_png
-from voxel.slab_thread import ClosingWriter, SlabThread
+from voxel.slab_thread import FirstRow, SliceWriter
 
 SIDECAR_NAME = "slices.json"
 MM_PER_METRE = 1000.0
 MM_PER_INCH = 25.4
 
 
-class PngSliceWriter(ClosingWriter):
+class PngSliceWriter(SliceWriter):
     """Write ``(Zs, Y, X, 4)`` uint8 RGBA slabs as a folder of PNG slices.
 
     Parameters
@@ -65,28 +64,21 @@ class PngSliceWriter(ClosingWriter):
         folder: str | Path,
         grid: GridSpec,
         *,
-        first_row: Literal["max_y", "min_y"] = "max_y",
+        first_row: FirstRow = "max_y",
         metadata: Mapping[str, Any] | None = None,
         threads: int = 2,
         level: int = 1,
         queue_slabs: int = 2,
     ) -> None:
-        if first_row not in ("max_y", "min_y"):
-            raise ValueError(f"first_row must be 'max_y' or 'min_y', got {first_row!r}")
-        if threads < 1:
-            raise ValueError(f"threads must be >= 1, got {threads}")
-        if not 0 <= level <= 9:
-            raise ValueError(f"level must be 0..9, got {level}")
+        super().__init__(first_row, threads, level)
         self.folder = Path(folder)
         self.grid = grid
-        self.first_row = first_row
         self.metadata = dict(metadata or {})
         json.dumps(self.metadata)  # refuse what the sidecar could not hold, before writing
         n_z = grid.shape_zyx[0]
         self.digits = max(5, len(str(n_z - 1)))
         vx, vy, _ = grid.voxel_mm
         self._ppm = (round(MM_PER_METRE / vx), round(MM_PER_METRE / vy))
-        self._level = level
         self._next_z = 0
         self._done = False
         self._temporary: Path | None = Path(
@@ -96,12 +88,7 @@ class PngSliceWriter(ClosingWriter):
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(self._temporary, 0o777 & ~umask)  # mkdtemp makes 0700; the usual mode
-        self._pool = (
-            ThreadPoolExecutor(threads, thread_name_prefix="png-slices") if threads > 1 else None
-        )
-        self._thread: SlabThread[tuple[int, NDArray[np.uint8]]] = SlabThread(
-            str(self.folder), self._write_slices, queue_slabs=queue_slabs
-        )
+        self._start_slices(str(self.folder), queue_slabs)
 
     def name(self, z: int) -> str:
         """File name of slice `z`."""
@@ -157,29 +144,17 @@ class PngSliceWriter(ClosingWriter):
 
     def abort(self) -> None:
         """Stop the threads and remove the temporary folder."""
-        self._thread.abort()
-        self._shutdown_pool()
+        self._stop_slices()
         if self._temporary is not None:
             shutil.rmtree(self._temporary, ignore_errors=True)
             self._temporary = None
 
     def _encode(self, plane: NDArray[np.uint8]) -> bytes:
-        if self.first_row == "max_y":
-            plane = plane[::-1]
-        return encode_png(plane, level=self._level, pixels_per_metre=self._ppm)
+        return encode_png(self._rows(plane), level=self._level, pixels_per_metre=self._ppm)
 
-    def _write_slices(self, item: tuple[int, NDArray[np.uint8]]) -> None:
-        """In the writer thread: encode a slab's slices (in parallel) and write them."""
-        z0, slab = item
+    def _store(self, z: int, data: bytes) -> None:
         assert self._temporary is not None
-        pngs = self._pool.map(self._encode, slab) if self._pool else map(self._encode, slab)
-        for z, data in enumerate(pngs, start=z0):
-            (self._temporary / self.name(z)).write_bytes(data)
-
-    def _shutdown_pool(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+        (self._temporary / self.name(z)).write_bytes(data)
 
     def _sidecar(self) -> dict[str, Any]:
         n_z, n_y, n_x = self.grid.shape_zyx

@@ -57,30 +57,23 @@ halftones", Proc. SPIE 3648 (1999).
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import hashlib
-import itertools
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.atomic import atomic_path
-from voxel.colour import srgb_to_linear
 from voxel.material_kernels import proportions_kernel
+from voxel.mixing import mix_proportions
+from voxel.srgb import codes_to_linear
 
 SeparationMethod = Literal["mixing", "icc"]
 
 #: Default table step in sRGB codes: 52 nodes per channel (255 = 51 * 5).
 DEFAULT_STEP = 5
-#: Projections closer than this (linear RGB) to the nearest count as equally near.
-_DISTANCE_TIE = 1e-9
-#: Barycentric coordinates down to this count as non-negative.
-_INSIDE_TOL = 1e-9
 
 
 class SeparationError(ValueError):
@@ -181,6 +174,7 @@ def mixing_separation(
     *,
     clear_role: str | None = None,
     step: int = DEFAULT_STEP,
+    store: TableStore | None = None,
 ) -> Separation:
     """Return the linear-light mixing separation of opaque materials (see the module).
 
@@ -194,6 +188,8 @@ def mixing_separation(
         Role of a clear material (last column, takes ``1 - alpha``), or none.
     step : int
         Table spacing in sRGB codes (divides 255).
+    store : TableStore, optional
+        Keeps the solved table between runs.
 
     Raises
     ------
@@ -207,45 +203,48 @@ def mixing_separation(
         )
     if np.any(colours < 0) or np.any(colours > 255):
         raise SeparationError(f"display_srgb must lie in 0..255, got {colours.tolist()}")
-    table = _mixing_table(tuple(map(tuple, colours.astype(int).tolist())), step)
+    table = _mixing_table(tuple(map(tuple, colours.astype(int).tolist())), step, store)
     all_roles = roles + ((clear_role,) if clear_role else ())
     return Separation(all_roles, step, table, clear_role is not None, "mixing")
 
 
-#: Bump when the mixing model changes: cached tables of another version are not read.
+#: Bump when the mixing model changes: stored tables of another version are not read.
 _TABLE_VERSION = 1
 
 
-def _cache_dir() -> Path:
-    """Where solved tables are kept between runs (``$XDG_CACHE_HOME/shellvox``)."""
-    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(root) / "shellvox"
+class TableStore(Protocol):
+    """Where solved tables are kept between runs (``pipeline.table_cache.DiskTables``)."""
+
+    def __hash__(self) -> int: ...  # a key of the in-memory cache
+
+    def load(self, key: str) -> NDArray[np.float32] | None:
+        """Return the table saved under `key`, or None."""
+        ...
+
+    def save(self, key: str, table: NDArray[np.float32]) -> None:
+        """Keep `table` under `key`."""
+        ...
 
 
 @functools.lru_cache(maxsize=4)
-def _mixing_table(colours: tuple[tuple[int, ...], ...], step: int) -> NDArray[np.float32]:
+def _mixing_table(
+    colours: tuple[tuple[int, ...], ...], step: int, store: TableStore | None = None
+) -> NDArray[np.float32]:
     """Return the mixing table ``(G, G, G, P) float32``.
 
-    Solving it takes about two seconds, so it is cached in memory and on disk (keyed by
-    the colours, the step, the model's version and numpy's); an unreadable or unwritable
-    cache only costs the solve.
+    Solving it takes about two seconds, so it is kept in memory and, with a `store`, between
+    runs (keyed by the colours, the step, the model's version and numpy's).
     """
-    key = hashlib.sha256(
+    key = "mixing-" + hashlib.sha256(
         repr((colours, step, _TABLE_VERSION, np.__version__)).encode()
     ).hexdigest()[:24]
-    path = _cache_dir() / f"mixing-{key}.npy"
-    try:
-        cached: NDArray[np.float32] = np.load(path, allow_pickle=False)
-        if cached.dtype == np.float32 and cached.shape[-1] == len(colours):
-            cached.setflags(write=False)
-            return cached
-    except (OSError, ValueError):
-        pass
+    cached = None if store is None else store.load(key)
+    if cached is not None and cached.shape[-1] == len(colours):
+        cached.setflags(write=False)
+        return cached
     table = _solve_mixing_table(colours, step)
-    with contextlib.suppress(OSError):
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(path) as temporary, open(temporary, "wb") as stream:
-            np.save(stream, table, allow_pickle=False)
+    if store is not None:
+        store.save(key, table)
     return table
 
 
@@ -256,94 +255,13 @@ def _solve_mixing_table(
     codes = node_codes(step)
     grid = np.stack(np.meshgrid(codes, codes, codes, indexing="ij"), axis=-1).reshape(-1, 3)
     proportions = mix_proportions(
-        srgb_to_linear(grid).astype(np.float64),
-        srgb_to_linear(np.asarray(colours, dtype=np.uint8)).astype(np.float64),
+        codes_to_linear(grid).astype(np.float64),
+        codes_to_linear(np.asarray(colours, dtype=np.uint8)).astype(np.float64),
     )
     n_nodes = len(codes)
     table = proportions.astype(np.float32).reshape(n_nodes, n_nodes, n_nodes, len(colours))
     table.setflags(write=False)
     return table
-
-
-def mix_proportions(
-    targets: NDArray[np.float64], materials: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Return the mixing-model proportions of linear-RGB targets (see the module).
-
-    Parameters
-    ----------
-    targets : (N, 3) float64
-        Linear RGB in ``[0, 1]``.
-    materials : (P, 3) float64
-        Linear RGB of the opaque materials.
-
-    Returns
-    -------
-    (N, P) float64
-        Non-negative proportions summing to 1: the nearest mix in linear RGB, and among
-        equally near mixes the one of least ``sum_i p_i |Lab_i - Lab_target|^2``.
-    """
-    n_materials = len(materials)
-    cost = _lab_cost(targets, materials)
-    best = np.zeros((len(targets), n_materials))
-    best_distance = np.full(len(targets), np.inf)
-    best_cost = np.full(len(targets), np.inf)
-    for size in range(1, min(n_materials, 4) + 1):
-        for subset in itertools.combinations(range(n_materials), size):
-            found = _project_on_subset(targets, materials[list(subset)])
-            if found is None:
-                continue
-            weights, distance = found
-            inside = np.all(weights >= -_INSIDE_TOL, axis=1)
-            subset_cost = (weights * cost[:, list(subset)]).sum(axis=1)
-            nearer = distance < best_distance - _DISTANCE_TIE
-            as_near = np.abs(distance - best_distance) <= _DISTANCE_TIE
-            take = inside & (nearer | (as_near & (subset_cost < best_cost)))
-            if not np.any(take):
-                continue
-            clean = np.clip(weights[take], 0.0, None)
-            clean /= clean.sum(axis=1, keepdims=True)
-            best[take] = 0.0
-            best[np.ix_(take, list(subset))] = clean
-            best_distance[take] = np.minimum(distance[take], best_distance[take])
-            best_cost[take] = subset_cost[take]
-    return best
-
-
-def _project_on_subset(
-    targets: NDArray[np.float64], points: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-    """Project the targets on the affine hull of ``points`` (k, 3).
-
-    Returns barycentric coordinates ``(N, k)`` and distances ``(N,)``, or None when the
-    points are affinely dependent.
-    """
-    origin = points[0]
-    edges = (points[1:] - origin).T  # (3, k - 1)
-    if edges.shape[1] > 0 and np.linalg.matrix_rank(edges, tol=1e-10) < edges.shape[1]:
-        return None
-    if edges.shape[1] == 0:
-        local = np.zeros((len(targets), 0))
-    else:
-        local = (targets - origin) @ np.linalg.pinv(edges).T  # (N, k - 1)
-    weights = np.concatenate([1.0 - local.sum(axis=1, keepdims=True), local], axis=1)
-    distance = np.linalg.norm(weights @ points - targets, axis=1)
-    return weights, distance
-
-
-def _lab_cost(targets: NDArray[np.float64], materials: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Return ``|Lab(material) - Lab(target)|^2`` (N, P), colours in linear sRGB."""
-    import colour  # colour-science: imported here, only where a table is built
-
-    space = colour.RGB_COLOURSPACES["sRGB"]
-
-    def lab(linear: NDArray[np.float64]) -> NDArray[np.float64]:
-        xyz = colour.RGB_to_XYZ(linear, space)
-        return np.asarray(colour.XYZ_to_Lab(xyz, space.whitepoint), dtype=np.float64)
-
-    difference = lab(materials)[None, :, :] - lab(targets)[:, None, :]
-    cost: NDArray[np.float64] = (difference**2).sum(axis=2)
-    return cost
 
 
 def icc_separation(
@@ -412,7 +330,7 @@ def _cell_weights(step: int) -> tuple[NDArray[np.int64], NDArray[np.float32]]:
     """Per sRGB code: its table cell (lower node) and the linear-light weight of the upper node."""
     codes = np.arange(256)
     cell = np.minimum(codes // step, 255 // step - 1).astype(np.int64)
-    linear = srgb_to_linear(codes.astype(np.uint8)).astype(np.float64)
+    linear = codes_to_linear(codes.astype(np.uint8)).astype(np.float64)
     low = linear[cell * step]
     high = linear[(cell + 1) * step]
     weight = ((linear - low) / (high - low)).astype(np.float32)

@@ -5,21 +5,21 @@ parallel and runs can resume.
 
 Two layer realisations:
 
-* **distance** (``StackModel.depth_mm`` given): a voxel inside the outer surface lies in
-  band ``k`` when ``D_{k-1}(f) <= d < D_k(f)``, with ``d`` its exact distance to the
-  original surface and ``f`` the face of its nearest point; this is the ideal offset
-  (rounded at reflex features, collapsing in thin walls) sampled exactly at the voxel
-  centres. Every face is scan-converted into the voxels within the deepest band limit
-  (:mod:`voxel.distance_scan`, compiled), which gives each of them its exact nearest
-  face; deeper inside voxels are core by the inside test alone.
-* **shells** (``depth_mm`` None): a voxel's layer is how many of the nested closed
-  surfaces ``surfaces`` contain its centre (exact winding numbers).
+* **distance** (``StackModel.layer_rule == "distance"``, with ``depth_mm``): a voxel
+  inside the outer surface lies in band ``k`` when ``D_{k-1}(f) <= d < D_k(f)``, with
+  ``d`` its exact distance to the original surface and ``f`` the face of its nearest
+  point; this is the ideal offset (rounded at reflex features, collapsing in thin walls)
+  sampled exactly at the voxel centres. Every face is scan-converted into the voxels
+  within the deepest band limit (:mod:`voxel.distance_scan`, compiled), which gives each
+  of them its exact nearest face; deeper inside voxels are core by the inside test alone.
+* **shells** (``layer_rule == "shells"``, no ``depth_mm``): a voxel's layer is how many
+  of the nested closed surfaces ``surfaces`` contain its centre (exact winding numbers).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +33,10 @@ from voxel.surface_colour import SurfaceColour, voxel_colours
 from voxel.winding import inside_slab
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
+
+#: How a voxel gets its layer (see the module): its exact distance to the surface, or the
+#: count of offset shells holding it.
+LayerRule = Literal["distance", "shells"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,10 +58,13 @@ class StackModel:
         Half width of the narrow band of the outer surface's signed distance (0: none).
     depth_mm : (K, F) float64, mm, optional
         Cumulative depth ``D_k(f)`` of each band per original face (non-decreasing in
-        ``k``). Given: layers by distance, and ``surfaces`` needs only the original.
+        ``k``); required by the ``"distance"`` rule (``surfaces`` then needs only the
+        original), refused by ``"shells"``.
     surface_colour : SurfaceColour, optional
         The colour source as arrays: colours by the compiled kernel
         (:mod:`voxel.surface_colour`), which gives what `colour_at` gives.
+    layer_rule : {"shells", "distance"}
+        How voxels get their layer (see the module).
     """
 
     surfaces: tuple[Surface, ...]
@@ -67,10 +74,19 @@ class StackModel:
     sdf_half_width_mm: float = 0.0
     depth_mm: NDArray[np.float64] | None = None
     surface_colour: SurfaceColour | None = None
+    layer_rule: LayerRule = "shells"
 
     def __post_init__(self) -> None:
         if not self.surfaces:
             raise ValueError("surfaces must hold at least the original surface, got none")
+        if self.layer_rule not in ("distance", "shells"):
+            raise ValueError(f"layer_rule must be 'distance' or 'shells', got {self.layer_rule!r}")
+        if (self.depth_mm is None) != (self.layer_rule == "shells"):
+            raise ValueError(
+                f"depth_mm must be given with layer_rule 'distance' and only then, got "
+                f"layer_rule {self.layer_rule!r} and depth_mm "
+                f"{'None' if self.depth_mm is None else self.depth_mm.shape}"
+            )
         if self.depth_mm is not None:
             depth = self.depth_mm
             n_faces = len(self.surfaces[0][1])
@@ -90,7 +106,7 @@ class StackModel:
     @property
     def n_bands(self) -> int:
         """Number of shell bands ``K`` (the core is layer ``K + 1``)."""
-        if self.depth_mm is not None:
+        if self.layer_rule == "distance" and self.depth_mm is not None:
             return int(self.depth_mm.shape[0])
         return len(self.surfaces) - 1
 
@@ -143,7 +159,7 @@ def reach_mm(model: StackModel) -> float:
     the signed-distance band needs it out to its half width. Shell layers need the
     nearest face only for colour, which is found by a query where it lies farther.
     """
-    if model.depth_mm is not None:
+    if model.layer_rule == "distance" and model.depth_mm is not None:
         return max(float(model.depth_mm.max()), model.sdf_half_width_mm)
     return model.sdf_half_width_mm
 
@@ -179,8 +195,8 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     shape = (inside.shape[0], inside.shape[1], inside.shape[2])
     half_width = model.sdf_half_width_mm
     violations = 0
-    by_distance = model.depth_mm is not None
-    if model.depth_mm is None:
+    by_distance = model.layer_rule == "distance" and model.depth_mm is not None
+    if not by_distance:
         layers, unbalanced_shells, violations = _shell_layers(model, grid, inside, z_start)
         unbalanced += unbalanced_shells
         depth = np.zeros((0, len(faces)))

@@ -4,9 +4,9 @@ The colour layer of a printer-resolution build has 1e7 to 1e8 voxels, each needi
 barycentric coordinates of its nearest point and a colour lookup (face, vertex or
 bilinear texture colour, in linear light). :class:`SurfaceColour` holds a mesh's colour
 source as plain arrays and :func:`voxel_colours` does both steps in one compiled loop
-over the voxels, with the arithmetic of :func:`voxel.nearest.closest_barycentric` and of
-``pipeline.texture`` / ``pipeline.mesh.ColouredMesh.colour_at`` term for term, so the
-colours are those of the numpy path (tests compare them).
+over the voxels, with the arithmetic of :func:`voxel.nearest.closest_barycentric`, of
+:mod:`voxel.srgb` and of ``pipeline.texture`` / ``pipeline.mesh.ColouredMesh.colour_at``
+term for term, so the colours are those of the numpy path (tests compare them).
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from voxel.closest_point import barycentric
+from voxel.srgb import DECODE_LUT
 
 #: ``kind`` codes.
 CONSTANT, FACE, VERTEX, TEXTURE = 0, 1, 2, 3
@@ -54,9 +55,6 @@ class SurfaceColour:
         Filter codes.
     factor : (M, 4) float64
         Linear RGB + alpha factor.
-    decode : (256,) float64
-        Linear value of each 8-bit sRGB code: the colour source's own table, so texels
-        and vertex colours decode exactly as its numpy path does.
     """
 
     kind: int
@@ -68,7 +66,6 @@ class SurfaceColour:
     wrap: NDArray[np.int64]
     filter: NDArray[np.int64]
     factor: NDArray[np.float64]
-    decode: NDArray[np.float64]
 
 
 def voxel_colours(
@@ -98,7 +95,7 @@ def voxel_colours(
         np.ascontiguousarray(points_mm, dtype=np.float64),
         np.ascontiguousarray(face_ids, dtype=np.int64),
         vertices, faces, colour.kind, colour.rgba, colour.corner_uv, colour.face_material,
-        colour.pixels, colour.image, colour.wrap, colour.filter, colour.factor, colour.decode,
+        colour.pixels, colour.image, colour.wrap, colour.filter, colour.factor, DECODE_LUT,
         _THRESHOLD, _BIN_START, out,
     )  # fmt: skip
     return out
@@ -119,7 +116,7 @@ def _wrap(index: int, size: int, mode: int) -> int:
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _encode_exact(linear: float) -> int:
-    """8-bit sRGB code of a linear value (``pipeline.texture.encode_uint8``)."""
+    """8-bit sRGB code of a linear value (:func:`voxel.srgb.encode_uint8`)."""
     x = min(max(linear, 0.0), 1.0)
     srgb = x * 12.92 if x <= 0.0031308 else 1.055 * x ** (1.0 / 2.4) - 0.055
     return int(np.rint(srgb * 255.0))

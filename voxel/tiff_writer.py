@@ -14,8 +14,6 @@ zlib at a given level (smaller files, slower). Both are TIFF compression 8 (defl
 
 from __future__ import annotations
 
-import queue
-import threading
 import warnings
 import zlib
 from collections.abc import Iterator
@@ -28,12 +26,10 @@ from numpy.typing import NDArray
 
 from voxel.deflate import pixel_bytes, zlib_compress
 from voxel.grid import GridSpec
-from voxel.slab_thread import ClosingWriter
+from voxel.slab_thread import ClosingWriter, SlabThread
 
 #: Classic TIFF holds at most 4 GiB; BigTIFF is chosen when the raw data could exceed this.
 CLASSIC_TIFF_LIMIT = 2**32 - 2**26
-
-_DONE = None
 
 
 class TiffStackWriter(ClosingWriter):
@@ -42,7 +38,7 @@ class TiffStackWriter(ClosingWriter):
     Parameters
     ----------
     path : Path
-        File to write (the caller makes it atomic, see :mod:`voxel.atomic`).
+        File to write (the caller may write it under a temporary name and rename it).
     grid : GridSpec
         Gives the number of pages, page shape and physical voxel size.
     samples : int
@@ -78,11 +74,10 @@ class TiffStackWriter(ClosingWriter):
         self.page_shape: tuple[int, ...] = (n_y, n_x) if samples == 0 else (n_y, n_x, samples)
         self.bigtiff = grid.n_voxels * max(samples, 1) > CLASSIC_TIFF_LIMIT
         self._level = compression_level
-        self._queue: queue.Queue[NDArray[np.uint8] | None] = queue.Queue(maxsize=queue_slabs)
         self._pages_sent = 0
-        self._error: BaseException | None = None
-        self._thread = threading.Thread(target=self._run, name=f"tiff:{self.path.name}")
-        self._thread.start()
+        self._thread: SlabThread[NDArray[np.uint8]] = SlabThread.streaming(
+            str(self.path), self._write, queue_slabs=queue_slabs
+        )
 
     def write_slab(self, slab: NDArray[np.uint8]) -> None:
         """Queue the next ``(Zs, Y, X[, S])`` uint8 slab (pages in z order)."""
@@ -93,52 +88,24 @@ class TiffStackWriter(ClosingWriter):
             )
         if self._pages_sent + len(slab) > self.grid.shape_zyx[0]:
             raise ValueError(f"more than Z={self.grid.shape_zyx[0]} pages written")
-        self._raise_if_failed()
-        self._put(slab)
+        self._thread.put(slab)
         self._pages_sent += len(slab)
 
     def close(self) -> None:
         """Finish the file; raise if fewer than ``Z`` pages were written or writing failed."""
-        self._put(_DONE)
-        self._thread.join()
+        self._thread.stop()
         if self._pages_sent != self.grid.shape_zyx[0]:
             raise ValueError(f"{self._pages_sent} of {self.grid.shape_zyx[0]} pages written")
-        self._raise_if_failed()
+        self._thread.raise_if_failed()
 
     def abort(self) -> None:
         """Stop the writer thread without finishing the file (the caller removes it)."""
-        if self._thread.is_alive():
-            self._error = self._error or RuntimeError("aborted")
-            while self._thread.is_alive():
-                try:
-                    self._queue.put(_DONE, timeout=0.1)
-                except queue.Full:
-                    continue
-                self._thread.join(timeout=0.1)
+        self._thread.abort()
 
-    def _put(self, item: NDArray[np.uint8] | None) -> None:
-        while True:
-            try:
-                self._queue.put(item, timeout=0.5)
-                return
-            except queue.Full:
-                if not self._thread.is_alive():
-                    self._raise_if_failed()
-                    return
-
-    def _raise_if_failed(self) -> None:
-        if self._error is not None:
-            raise RuntimeError(f"writing {self.path} failed: {self._error}") from self._error
-
-    def _pages(self) -> Iterator[bytes]:
+    def _pages(self, slabs: Iterator[NDArray[np.uint8]]) -> Iterator[bytes]:
         """Compressed pages (one strip each), in order, from the queued slabs."""
         period = max(1, self.samples)
-        while True:
-            slab = self._queue.get()
-            if slab is None:
-                return
-            if self._error is not None:
-                continue
+        for slab in slabs:
             for page in slab:
                 raw = pixel_bytes(page)
                 if self._level is None:
@@ -146,7 +113,8 @@ class TiffStackWriter(ClosingWriter):
                 else:
                     yield zlib.compress(raw.tobytes(), self._level)
 
-    def _run(self) -> None:
+    def _write(self, slabs: Iterator[NDArray[np.uint8]]) -> None:
+        """In the writer thread: the whole file, its pages compressed as the slabs come."""
         vx, vy, vz = self.grid.voxel_mm
         n_z = self.grid.shape_zyx[0]
         options: dict[str, Any] = {
@@ -163,10 +131,7 @@ class TiffStackWriter(ClosingWriter):
                 options["extrasamples"] = ("unassalpha",)
         else:
             options["photometric"] = "minisblack"
-        try:
-            with warnings.catch_warnings():
-                warnings.filterwarnings("ignore", message=".*nonconformant BigTIFF ImageJ")
-                with tifffile.TiffWriter(self.path, bigtiff=self.bigtiff, imagej=True) as tiff:
-                    tiff.write(self._pages(), **options)
-        except BaseException as error:  # reported to the caller by close()/write_slab()
-            self._error = error
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*nonconformant BigTIFF ImageJ")
+            with tifffile.TiffWriter(self.path, bigtiff=self.bigtiff, imagej=True) as tiff:
+                tiff.write(self._pages(slabs), **options)

@@ -1,10 +1,11 @@
-"""OpenVDB's file format 224, written without OpenVDB: leaf buffers, spools, tree assembly.
+"""OpenVDB's file format 224, written without OpenVDB: the file, each grid and its tree.
 
 Used by :mod:`voxel.vdb_writer` to stream ``volume.vdb``: leaves are encoded as
 ``LeafNode::writeBuffers`` stores them and appended to a spool file per grid
-(:class:`GridSpool`); :func:`write_file` then writes the header, each grid's metadata and
-transform, the topology assembled from the leaf and tile lists (root, 4096^3 and 128^3
-internal nodes, leaf masks) and the spooled buffers in OpenVDB's depth-first order.
+(:class:`voxel.vdb_leaves.GridSpool`); :func:`write_file` then writes the header, each
+grid's metadata and transform, the topology assembled from the leaf and tile lists (root,
+4096^3 and 128^3 internal nodes, leaf masks) and the spooled buffers in OpenVDB's
+depth-first order.
 
 The bytes follow OpenVDB 10.0.1's ``io::Archive::write``, ``RootNode`` /
 ``InternalNode`` / ``LeafNode`` ``writeTopology`` and ``writeBuffers``,
@@ -16,164 +17,32 @@ read by OpenVDB 10 and later; the tests read them back with OpenVDB's own reader
 
 from __future__ import annotations
 
-import io
-import itertools
 import struct
 import uuid
-import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any, BinaryIO
+from typing import IO, Any
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.deflate import compress_segments
 from voxel.grid import GridSpec
+from voxel.vdb_leaves import (
+    COPY_BYTES,
+    L1,
+    L2,
+    LEAF,
+    MASK_AND_NO_INACTIVE_VALS,
+    NO_MASK_OR_INACTIVE_VALS,
+    GridSpool,
+    zipped,
+)
 
 _MAGIC = 0x56444220
 _FILE_VERSION = 224
 _LIBRARY_VERSION = (10, 0)
 _COMPRESS_ZIP = 0x1
 _COMPRESS_ACTIVE_MASK = 0x2
-#: io::writeCompressedValues metadata: inactive values are all the background; inactive
-#: values are +-background, chosen by a selection mask (on: +background).
-_NO_MASK_OR_INACTIVE_VALS = 0
-_MASK_AND_NO_INACTIVE_VALS = 3
-LEAF = 8  # leaf edge, voxels (log2 3)
-_L1 = 128  # 16 leaves (log2 4)
-_L2 = 4096  # 32 level-1 nodes (log2 5)
-#: Spooled bytes gathered at a time when copying leaf buffers in tree order (the byte
-#: index of a batch takes 16 times this).
-_COPY_BYTES = 1 << 22
-
-
-@dataclass
-class GridSpool:
-    """One grid being written: leaf buffers spooled to `stream`, tiles kept in memory."""
-
-    name: str
-    value_type: str  # "float" or "vec3s"
-    grid_class: str  # "fog volume", "level set", "unknown"
-    background: float
-    stream: BinaryIO
-    size: int = 0
-    leaf_origin: list[NDArray[np.int32]] = field(default_factory=list)
-    leaf_offset: list[NDArray[np.int64]] = field(default_factory=list)
-    leaf_length: list[NDArray[np.int64]] = field(default_factory=list)
-    tile_origin: list[NDArray[np.int32]] = field(default_factory=list)
-    tile_value: list[NDArray[np.float32]] = field(default_factory=list)
-    tile_active: list[NDArray[np.bool_]] = field(default_factory=list)
-    active_voxels: int = 0
-    #: (x, y, z) index bounds of the active voxels (OpenVDB's empty box until one comes).
-    bbox_min: NDArray[np.int64] = field(default_factory=lambda: np.full(3, 2**31 - 1))
-    bbox_max: NDArray[np.int64] = field(default_factory=lambda: np.full(3, -(2**31)))
-
-    def extend(self, low: NDArray[np.int64], high: NDArray[np.int64]) -> None:
-        """Grow the active bounding box by boxes ``(n, 3)`` (inclusive corners)."""
-        if len(low):
-            self.bbox_min = np.minimum(self.bbox_min, low.min(axis=0))
-            self.bbox_max = np.maximum(self.bbox_max, high.max(axis=0))
-
-    def absorb(self, other: GridSpool) -> None:
-        """Append the leaves and tiles of `other` (an in-memory spool of later rows)."""
-        data = other.stream.getvalue() if isinstance(other.stream, io.BytesIO) else b""
-        if len(data) != other.size:
-            raise ValueError(f"{other.name}: spool of {other.size} bytes holds {len(data)}")
-        self.stream.write(data)
-        shift = self.size
-        self.size += other.size
-        self.leaf_origin += other.leaf_origin
-        self.leaf_offset += [offset + shift for offset in other.leaf_offset]
-        self.leaf_length += other.leaf_length
-        self.tile_origin += other.tile_origin
-        self.tile_value += other.tile_value
-        self.tile_active += other.tile_active
-        self.active_voxels += other.active_voxels
-        self.bbox_min = np.minimum(self.bbox_min, other.bbox_min)
-        self.bbox_max = np.maximum(self.bbox_max, other.bbox_max)
-
-    @property
-    def channels(self) -> int:
-        """Values per voxel: 3 for Vec3s, 1 for float."""
-        return 3 if self.value_type == "vec3s" else 1
-
-    def add_tiles(
-        self, origin: NDArray[np.int32], value: NDArray[np.float32], active: bool
-    ) -> None:
-        """Record 8^3 blocks at `origin` ``(n, 3)`` as tiles of their parent node."""
-        if len(origin) == 0:
-            return
-        self.tile_origin.append(origin)
-        self.tile_value.append(np.asarray(value, dtype=np.float32))
-        self.tile_active.append(np.full(len(origin), active))
-        if active:
-            self.active_voxels += len(origin) * LEAF**3
-            self.extend(origin.astype(np.int64), origin.astype(np.int64) + LEAF - 1)
-
-    def add_leaves(
-        self,
-        origin: NDArray[np.int32],
-        values: NDArray[np.float32],
-        active: NDArray[np.bool_],
-        inside: NDArray[np.bool_] | None,
-        level: int,
-        runs: bool = False,
-    ) -> None:
-        """Encode leaves as LeafNode::writeBuffers does and append them to the spool.
-
-        Parameters
-        ----------
-        origin : (n, 3) int32
-        values : (n, 512[, 3]) float32
-        active : (n, 512) bool
-        inside : (n, 512) bool, optional
-            Level sets: where inactive values are -background.
-        level : int
-            zlib level of the values (0: stored raw).
-        runs : bool
-            Values are runs of equal numbers (density, layer): the compiled run encoder
-            packs them as well as zlib in one call; otherwise zlib per leaf.
-        """
-        if len(origin) == 0:
-            return
-        counts = active.sum(axis=1)
-        masks = np.packbits(active, axis=1, bitorder="little")  # NodeMask<3>::save
-        head = [masks, np.full((len(masks), 1), _NO_MASK_OR_INACTIVE_VALS, np.uint8)]
-        if inside is not None:
-            # Inactive values are +background outside (selection on), -background inside.
-            head[1][:] = _MASK_AND_NO_INACTIVE_VALS
-            head.append(np.packbits(~inside, axis=1, bitorder="little"))
-        head_bytes = np.concatenate(head, axis=1)
-        bounds = np.concatenate([[0], np.cumsum(counts.astype(np.int64) * 4 * self.channels)])
-        if runs and level:
-            raw = np.ascontiguousarray(values[active], dtype="<f4").reshape(-1).view(np.uint8)
-            body, body_lengths = _zipped_all(raw, bounds, level)
-        else:
-            # io::zipToStream per leaf with zlib: colours and halftoned materials need its
-            # matches at any distance.
-            packed = np.ascontiguousarray(values[active], dtype="<f4").tobytes()
-            bodies = [_zipped(packed[a:b], level) for a, b in itertools.pairwise(bounds)]
-            body_lengths = np.fromiter((len(b) for b in bodies), np.int64, len(bodies))
-            body = np.frombuffer(b"".join(bodies), np.uint8)
-        record = _interleave(head_bytes, body, body_lengths)
-        lengths = head_bytes.shape[1] + body_lengths
-        offsets = self.size + np.concatenate([[0], np.cumsum(lengths)[:-1]])
-        self.stream.write(record.tobytes())
-        self.size += int(lengths.sum())
-        self.leaf_origin.append(origin)
-        self.leaf_offset.append(offsets.astype(np.int64))
-        self.leaf_length.append(lengths)
-        self.active_voxels += int(counts.sum())
-        # Active extent of each leaf from its voxel offsets x << 6 | y << 3 | z.
-        some = counts > 0
-        offset = np.arange(LEAF**3)
-        local = np.stack([offset >> 6, (offset >> 3) & 7, offset & 7], axis=1)
-        on = active[some]
-        low = np.stack([np.where(on, local[:, a], LEAF).min(axis=1) for a in range(3)], axis=1)
-        high = np.stack([np.where(on, local[:, a], -1).max(axis=1) for a in range(3)], axis=1)
-        self.extend(origin[some].astype(np.int64) + low, origin[some].astype(np.int64) + high)
 
 
 def write_file(
@@ -251,82 +120,10 @@ def _write_grid(
     out.seek(end_pos)
 
 
-def _zipped(raw: bytes, level: int) -> bytes:
-    """Return ``raw`` as io::zipToStream writes it: int64 size, then zlib data or raw bytes.
-
-    A negative (or zero) size marks raw bytes, used when zlib does not make them smaller
-    and for ``level`` 0.
-    """
-    if raw and level:
-        packed = zlib.compress(raw, level)
-        if len(packed) < len(raw):
-            return struct.pack("<q", len(packed)) + packed
-    return struct.pack("<q", -len(raw)) + raw
-
-
-def _zipped_all(
-    raw: NDArray[np.uint8], bounds: NDArray[np.int64], level: int
-) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
-    """Each leaf's values as io::zipToStream writes them, back to back, and their lengths.
-
-    int64 size, then zlib data (:func:`voxel.deflate.compress_segments`, runs of equal
-    float32 values found 4 bytes back); a negative (or zero) size marks raw bytes, used
-    when compression does not make them smaller and for ``level`` 0.
-    """
-    sizes = np.diff(bounds)
-    if level:
-        packed, packed_lengths = compress_segments(raw, bounds, period=4)
-    else:
-        packed, packed_lengths = np.zeros(0, np.uint8), np.zeros(len(sizes), np.int64)
-    use = (packed_lengths < sizes) & (sizes > 0) & bool(level)
-    lengths = 8 + np.where(use, packed_lengths, sizes)
-    prefix = np.where(use, packed_lengths, -sizes).astype("<i8").view(np.uint8).reshape(-1, 8)
-    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
-    packed_starts = np.concatenate([[0], np.cumsum(packed_lengths)[:-1]]).astype(np.int64)
-    body = np.empty(int(lengths.sum()), dtype=np.uint8)
-    _assemble(raw, bounds, packed, packed_starts, packed_lengths, use, prefix, starts, body)
-    return body, lengths
-
-
-@numba.njit(cache=True, nogil=True)
-def _assemble(
-    raw: NDArray[np.uint8], bounds: NDArray[np.int64], packed: NDArray[np.uint8],
-    packed_starts: NDArray[np.int64], packed_lengths: NDArray[np.int64],
-    use: NDArray[np.bool_], prefix: NDArray[np.uint8], starts: NDArray[np.int64],
-    body: NDArray[np.uint8],
-) -> None:  # fmt: skip
-    """Copy each leaf's size prefix and its packed or raw bytes to ``body``."""
-    for n in range(len(starts)):
-        at = starts[n]
-        for k in range(8):
-            body[at + k] = prefix[n, k]
-        at += 8
-        if use[n]:
-            first, count, source = packed_starts[n], packed_lengths[n], packed
-        else:
-            first, count, source = bounds[n], bounds[n + 1] - bounds[n], raw
-        for k in range(count):
-            body[at + k] = source[first + k]
-
-
 def _string(out: IO[bytes], text: str) -> None:
     data = text.encode()
     out.write(struct.pack("<I", len(data)))
     out.write(data)
-
-
-def _interleave(
-    head: NDArray[np.uint8], body: NDArray[np.uint8], body_lengths: NDArray[np.int64]
-) -> NDArray[np.uint8]:
-    """Return the records ``head[i] + body_i`` back to back (``body`` holds them in order)."""
-    h = head.shape[1]
-    lengths = h + body_lengths
-    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
-    record = np.empty(int(lengths.sum()), dtype=np.uint8)
-    record[(starts[:, None] + np.arange(h)).ravel()] = head.ravel()
-    body_starts = np.concatenate([[0], np.cumsum(body_lengths)[:-1]])
-    record[np.repeat(starts + h - body_starts, body_lengths) + np.arange(len(body))] = body
-    return record
 
 
 @dataclass
@@ -361,29 +158,29 @@ class _Tree:
         value_format = "<f" if spool.channels == 1 else "<3f"
         bg = (spool.background,) * spool.channels
         out.write(struct.pack(value_format, *bg))
-        l1_leaf = _key(self.origin, _L1)
-        l1_tile = _key(self.tile_origin, _L1)
+        l1_leaf = _key(self.origin, L1)
+        l1_tile = _key(self.tile_origin, L1)
         nodes1 = np.unique(np.concatenate([l1_leaf, l1_tile]), axis=0)
         nodes1 = nodes1[_tree_order(nodes1)]
-        nodes2 = _key(nodes1, _L2)
+        nodes2 = _key(nodes1, L2)
         roots = np.unique(nodes2, axis=0)
         roots = roots[np.lexsort(roots.T[::-1])]  # root table: Coord order (x, y, z)
         out.write(struct.pack("<ii", 0, len(roots)))  # no root tiles
         spool.stream.flush()
         data = np.memmap(spool.stream.name, dtype=np.uint8, mode="r") if spool.size else None
         leaf_start = np.searchsorted(_order_key(self.origin), _order_key(nodes1), side="left")
-        leaf_stop = np.searchsorted(_order_key(self.origin), _order_key(nodes1 + _L1 - 1),
+        leaf_stop = np.searchsorted(_order_key(self.origin), _order_key(nodes1 + L1 - 1),
                                     side="right")
         tiles_by_node = _group(l1_tile, nodes1)
         for root in roots:
             out.write(struct.pack("<3i", *root))
             in_root = np.flatnonzero(np.all(nodes2 == root, axis=1))
             child = np.zeros(32**3, dtype=bool)
-            child[_local_offset(nodes1[in_root], _L1, 5)] = True
+            child[_local_offset(nodes1[in_root], L1, 5)] = True
             out.write(np.packbits(child, bitorder="little").tobytes())
             out.write(np.packbits(np.zeros_like(child), bitorder="little").tobytes())
-            out.write(bytes([_NO_MASK_OR_INACTIVE_VALS]))  # no tiles: no values
-            out.write(_zipped(b"", 0))
+            out.write(bytes([NO_MASK_OR_INACTIVE_VALS]))  # no tiles: no values
+            out.write(zipped(b"", 0))
             for n in in_root:
                 leaves = slice(leaf_start[n], leaf_stop[n])
                 self._write_node1(out, spool, nodes1[n], leaves, tiles_by_node.get(n))
@@ -408,11 +205,11 @@ class _Tree:
         out.write(np.packbits(child, bitorder="little").tobytes())
         out.write(np.packbits(value_on, bitorder="little").tobytes())
         if spool.grid_class == "level set":
-            out.write(bytes([_MASK_AND_NO_INACTIVE_VALS]))
+            out.write(bytes([MASK_AND_NO_INACTIVE_VALS]))
             out.write(np.packbits(outside, bitorder="little").tobytes())
         else:
-            out.write(bytes([_NO_MASK_OR_INACTIVE_VALS]))
-        out.write(_zipped(np.ascontiguousarray(values[value_on], dtype="<f4").tobytes(), 6))
+            out.write(bytes([NO_MASK_OR_INACTIVE_VALS]))
+        out.write(zipped(np.ascontiguousarray(values[value_on], dtype="<f4").tobytes(), 6))
 
     def write_buffers(self, out: IO[bytes], spool: GridSpool) -> None:
         """Tree::writeBuffers: every leaf's buffer, in tree order, from the spool."""
@@ -422,7 +219,7 @@ class _Tree:
         ends = np.cumsum(self.length)
         start = 0
         while start < len(self.offset):
-            stop = int(np.searchsorted(ends, ends[start] - self.length[start] + _COPY_BYTES,
+            stop = int(np.searchsorted(ends, ends[start] - self.length[start] + COPY_BYTES,
                                        side="right"))
             stop = max(stop, start + 1)
             off, length = self.offset[start:stop], self.length[start:stop]
@@ -446,8 +243,8 @@ def _local_offset(origin: NDArray[np.int32], child: int, log2: int) -> NDArray[n
 def _order_key(origin: NDArray[np.int32]) -> NDArray[np.int64]:
     """Return a sort key of OpenVDB's depth-first order (coordinates in [0, 2**20))."""
     o = origin.astype(np.int64)
-    top = ((o[:, 0] // _L2) << 16) | ((o[:, 1] // _L2) << 8) | (o[:, 2] // _L2)
-    return (top << 27) | (_local_offset(origin, _L1, 5) << 12) | _local_offset(origin, LEAF, 4)
+    top = ((o[:, 0] // L2) << 16) | ((o[:, 1] // L2) << 8) | (o[:, 2] // L2)
+    return (top << 27) | (_local_offset(origin, L1, 5) << 12) | _local_offset(origin, LEAF, 4)
 
 
 def _tree_order(origin: NDArray[np.int32]) -> NDArray[np.int64]:

@@ -13,8 +13,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from pipeline.build_manifest import read_manifest, verify_files
 from pipeline.errors import InputError
+from pipeline.manifest_check import read_manifest, verify_files
 from pipeline.outdir import OutputFolder
 from pipeline.previews import write_previews
 

@@ -11,6 +11,7 @@ from typing import Any
 
 from offset import METHODS, offset_shells, shell_report
 from pipeline import __version__
+from pipeline.atomic import write_text_atomic
 from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.thicknessargs import (
     ThicknessChoice,
@@ -24,7 +25,6 @@ from pipeline.face_thickness import thickness_summary, write_thickness_ply
 from pipeline.loading import load_model
 from pipeline.outdir import SHELL_OUTPUTS, OutputFolder, sha256
 from pipeline.shell_files import save_shells
-from voxel.atomic import write_text_atomic
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -7,13 +7,13 @@ import json
 from pathlib import Path
 from typing import Any
 
+from pipeline.atomic import atomic_path, write_text_atomic
 from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness
 from pipeline.errors import InputError
 from pipeline.face_thickness import thickness_summary, write_thickness_ply
 from pipeline.loading import load_model
 from pipeline.thickness_picture import thickness_image
-from voxel.atomic import atomic_path, write_text_atomic
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

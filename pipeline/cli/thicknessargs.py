@@ -21,7 +21,8 @@ from pipeline.face_colour import face_colour
 from pipeline.face_split import split_for_thickness
 from pipeline.face_thickness import FaceThickness, face_thickness
 from pipeline.mesh import ColouredMesh
-from pipeline.thickness_rule import DEFAULT_RULE, ThicknessRule, load_rule
+from pipeline.rule_file import load_rule
+from pipeline.thickness_rule import DEFAULT_RULE, ThicknessRule
 
 
 def add_rule_arguments(parser: argparse.ArgumentParser) -> None:

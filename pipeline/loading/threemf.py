@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 
 from pipeline.config import UNIT_MM, LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.loading.combine import corner_colour_mesh, stack_parts
 from pipeline.loading.images import MAX_TEXTURE_PIXELS
 from pipeline.loading.slicer_paint import PAINT_ATTRIBUTES, paint_parts, read_project
 from pipeline.loading.threemf_multi import Layered, bake
@@ -42,7 +43,8 @@ from pipeline.loading.threemf_properties import (
     read_properties,
 )
 from pipeline.mesh import ColouredMesh
-from pipeline.texture import Material, decode_uint8
+from pipeline.texture import Material
+from voxel.srgb import decode_uint8
 
 PRODUCTION = "{http://schemas.microsoft.com/3dmanufacturing/production/2015/06}"
 UNITS_3MF = {
@@ -369,9 +371,7 @@ def _check_index(path: Path, index: NDArray[np.int64], size: int) -> NDArray[np.
 
 
 def _combine(path: Path, parts: list[Part], materials: list[Material]) -> ColouredMesh:
-    offsets = np.cumsum([0] + [len(p["vertices"]) for p in parts[:-1]])
-    vertices = np.concatenate([p["vertices"] for p in parts]).astype(np.float64)
-    faces = np.concatenate([p["faces"] + o for p, o in zip(parts, offsets, strict=True)])
+    vertices, faces = stack_parts(parts)
     rgba = np.concatenate([p["rgba"] for p in parts]).astype(np.uint8)
     uv = np.concatenate([p["uv"] for p in parts]).astype(np.float64)
     material = np.concatenate([p["material"] for p in parts]).astype(np.int64)
@@ -394,6 +394,4 @@ def _combine(path: Path, parts: list[Part], materials: list[Material]) -> Colour
         )
     if not coloured.any():
         return ColouredMesh(vertices, faces, "none", source=source)
-    if (rgba == rgba[:, :1]).all():
-        return ColouredMesh(vertices, faces, "face", face_rgba=rgba[:, 0].copy(), source=source)
-    return ColouredMesh(vertices, faces, "vertex", corner_rgba=rgba, source=source)
+    return corner_colour_mesh(source, vertices, faces, rgba)

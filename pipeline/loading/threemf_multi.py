@@ -27,7 +27,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.texture import decode_uint8, encode_uint8
+from voxel.srgb import decode_uint8, encode_uint8
 
 Blend = Literal["mix", "multiply"]
 
@@ -88,8 +88,8 @@ def blend(
     --------
     >>> import numpy as np
     >>> red, half_blue = np.array([1.0, 0, 0, 1]), np.array([0, 0, 1.0, 0.5])
-    >>> blend([red, half_blue], ("mix",), material_first=False)
-    array([0.5, 0. , 0.5, 1. ])
+    >>> blend([red, half_blue], ("mix",), material_first=False).tolist()
+    [0.5, 0.0, 0.5, 1.0]
     """
     if len(methods) != len(layers) - 1:
         raise ValueError(f"need {len(layers) - 1} blend methods, got {len(methods)}")

@@ -29,7 +29,8 @@ from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.images import TextureRef, read_textures
 from pipeline.loading.threemf_multi import Layered, blend_methods, colour_table
 from pipeline.loading.threemf_package import read_entry
-from pipeline.texture import FilterMode, Material, WrapMode, decode_uint8, encode_uint8
+from pipeline.texture import FilterMode, Material, WrapMode
+from voxel.srgb import decode_uint8, encode_uint8
 
 CORE = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
 MATERIAL = "{http://schemas.microsoft.com/3dmanufacturing/material/2015/02}"

@@ -6,8 +6,8 @@ the path policy and pixel budget of :mod:`pipeline.loading.references` and
 :mod:`pipeline.loading.images`, not by trimesh), vertex colours, face colours, or none.
 A PLY colour that cannot be used (a ``TextureFile`` without texture coordinates, colour
 properties other than ``red green blue [alpha]``) gives a one-line warning. An STL is
-checked to be binary or ASCII STL before trimesh sees it. :func:`combine_parts` joins
-parts of any trimesh-read format (glTF too, see :mod:`pipeline.loading.gltf`).
+checked to be binary or ASCII STL before trimesh sees it; the parts are joined by
+:func:`pipeline.loading.combine.combine_parts`.
 """
 
 from __future__ import annotations
@@ -22,10 +22,11 @@ from numpy.typing import NDArray
 
 from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.loading.combine import combine_parts
 from pipeline.loading.images import TextureRef, read_textures
 from pipeline.loading.references import check_inside
 from pipeline.mesh import ColouredMesh
-from pipeline.texture import Material, decode_uint8
+from pipeline.texture import Material
 
 #: PLY properties that look like colour but are not the ``red green blue`` trimesh reads.
 PLY_COLOURISH = {
@@ -184,64 +185,3 @@ def _part(
     elif kind == "face":
         part["rgba"] = np.repeat(np.asarray(visual.face_colors, np.uint8)[:, None], 3, axis=1)
     return part
-
-
-def combine_parts(path: Path, parts: list[dict[str, Any]]) -> ColouredMesh:
-    """Join parts; the richest colour source wins (texture > vertex > face > none).
-
-    Parameters
-    ----------
-    path : Path
-        The model file, for messages.
-    parts : list of dict
-        Each with ``vertices (V, 3) float64`` and ``faces (F, 3) int64``, and either
-        ``material`` (a :class:`Material`) with ``uv (F, 3, 2) float64``, or ``rgba
-        (F, 3, 4) uint8`` per corner, or neither (no colour).
-
-    Returns
-    -------
-    ColouredMesh
-        Not yet merged. Next to textured parts a part with one colour becomes a plain
-        material; one with varying colours its mean colour, with a warning.
-    """
-    offsets = np.cumsum([0] + [len(p["vertices"]) for p in parts[:-1]])
-    vertices = np.concatenate([p["vertices"] for p in parts])
-    faces = np.concatenate([p["faces"] + o for p, o in zip(parts, offsets, strict=True)])
-    source = str(path)
-    white = np.full((1, 3, 4), 255, np.uint8)
-    if any("material" in p for p in parts):
-        materials: list[Material] = []
-        uv, index = [], []
-        for p in parts:
-            n = len(p["faces"])
-            if "material" in p:
-                uv.append(p["uv"])
-                material = p["material"]
-            else:
-                rgba = p.get("rgba", white)
-                if not (rgba == rgba.reshape(-1, 4)[0]).all():
-                    warnings.warn(
-                        f"{path}: a primitive's vertex or face colours are replaced "
-                        "by its mean colour next to textured primitives",
-                        ShellvoxWarning,
-                        stacklevel=3,
-                    )
-                material = Material("plain", factor=decode_uint8(rgba).reshape(-1, 4).mean(0))
-                uv.append(np.zeros((n, 3, 2)))
-            index.append(np.full(n, len(materials), np.int64))
-            materials.append(material)
-        return ColouredMesh(
-            vertices,
-            faces,
-            "texture",
-            corner_uv=np.concatenate(uv),
-            face_material=np.concatenate(index),
-            materials=tuple(materials),
-            source=source,
-        )
-    if any("rgba" in p for p in parts):
-        rgba = np.concatenate([p.get("rgba", np.repeat(white, len(p["faces"]), 0)) for p in parts])
-        if (rgba == rgba[:, :1]).all():
-            return ColouredMesh(vertices, faces, "face", face_rgba=rgba[:, 0].copy(), source=source)
-        return ColouredMesh(vertices, faces, "vertex", corner_rgba=rgba, source=source)
-    return ColouredMesh(vertices, faces, "none", source=source)

@@ -38,9 +38,9 @@ from numpy.typing import NDArray
 
 from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.loading.combine import combine_parts
 from pipeline.loading.images import TextureRef, read_textures
 from pipeline.loading.references import check_inside
-from pipeline.loading.trimesh_formats import combine_parts
 from pipeline.loading.vrml_parse import FIX, Node, Value, parse_vrml
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import Material, WrapMode

@@ -64,8 +64,8 @@ def parse_vrml(path: Path, text: str) -> Scene:
     Examples
     --------
     >>> scene = parse_vrml(Path("m.wrl"), "#VRML V2.0 utf8\nTransform { scale 2 2 2 }")
-    >>> scene.nodes[0].fields["scale"]
-    array([2., 2., 2.])
+    >>> scene.nodes[0].fields["scale"].tolist()
+    [2.0, 2.0, 2.0]
     """
     if not text.startswith("#VRML V2.0"):
         first = text.splitlines()[0][:40] if text else ""

@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.build_manifest import check_files, read_manifest
 from pipeline.errors import InputError
+from pipeline.manifest_check import check_files, read_manifest
 from pipeline.viewer.depth import Surface
 from pipeline.viewer.stacks import StackError, SymbolCache, TiffStack
 from voxel.grid import GridSpec
