@@ -22,9 +22,12 @@ CASES = {
 }
 
 
+#: Tests of one mesh's shells run on one worker, which computes them once (conftest).
+BY_MESH = [pytest.param(n, marks=pytest.mark.xdist_group(f"shells_{n}")) for n in CASES]
+
+
 @pytest.mark.slow
-@pytest.mark.xdist_group("real_mesh_shells")  # one worker computes them once
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("name", BY_MESH)
 def test_shells_are_valid_nested_and_equidistant(real_mesh_shells, name):
     relative, size_mm = CASES[name]
     mesh, shells, caught = real_mesh_shells(relative, size_mm)
@@ -60,7 +63,7 @@ def test_shells_are_valid_nested_and_equidistant(real_mesh_shells, name):
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("real_mesh_shells")  # one worker computes them once
+@pytest.mark.xdist_group("shells_duck")  # with the duck's shells above
 def test_duck_input_defect_is_reported(real_mesh_shells):
     """The duck's bill crosses itself: the report says so instead of hiding it."""
     duck, shells, _ = real_mesh_shells(*CASES["duck"])

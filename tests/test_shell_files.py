@@ -217,8 +217,9 @@ CASES = {
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("real_mesh_shells")  # one worker computes them once
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize(  # on the worker that computes these shells for the offset tests
+    "name", [pytest.param(n, marks=pytest.mark.xdist_group(f"shells_{n}")) for n in CASES]
+)
 def test_real_mesh_shell_files_are_valid_outside_shellvox(real_mesh_shells, tmp_path, name):
     relative, size_mm = CASES[name]
     # At 0.5 and 1.5 mm; computed once per run (shared with test_offset_real_meshes).
