@@ -19,7 +19,7 @@ demo: setup
 
 test: setup
 	$(BIN)/ruff check .
-# enabled after the tree is formatted: $(BIN)/ruff format --check .
+	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -n auto --dist loadgroup --durations=25
 

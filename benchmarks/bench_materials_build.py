@@ -67,7 +67,6 @@ RESULTS = ROOT / "benchmarks" / "results" / "bench_materials_build.json"
 PY_SPY = Path(sys.executable).parent / "py-spy"
 
 
-
 # --------------------------------------------------------------------------- orchestration
 
 

@@ -91,18 +91,20 @@ def quality_row(mesh: trimesh.Trimesh, method: str) -> dict[str, Any]:
     for layer in report["layers"]:
         shell = layer["shell"]
         eq = shell["equidistance"] or {}
-        layers.append({
-            "depth_mm": layer["depth_mm"]["max"],
-            "n_faces": shell["n_faces"],
-            "closed": shell["closed"],
-            "oriented": shell["oriented"],
-            "self_intersections": shell["self_intersections"],
-            "nested": shell["nested"],
-            "error_pct": eq.get("error_pct"),
-            "p99_by_region": {k: r["p99"] for k, r in eq.get("by_region", {}).items()},
-            "share_by_region": {k: r["share"] for k, r in eq.get("by_region", {}).items()},
-            "worst": eq.get("worst"),
-        })
+        layers.append(
+            {
+                "depth_mm": layer["depth_mm"]["max"],
+                "n_faces": shell["n_faces"],
+                "closed": shell["closed"],
+                "oriented": shell["oriented"],
+                "self_intersections": shell["self_intersections"],
+                "nested": shell["nested"],
+                "error_pct": eq.get("error_pct"),
+                "p99_by_region": {k: r["p99"] for k, r in eq.get("by_region", {}).items()},
+                "share_by_region": {k: r["share"] for k, r in eq.get("by_region", {}).items()},
+                "worst": eq.get("worst"),
+            }
+        )
     return {
         "method": method,
         "n_faces": len(f),
@@ -116,8 +118,10 @@ def quality_row(mesh: trimesh.Trimesh, method: str) -> dict[str, Any]:
 def quality(names: list[str] | None) -> dict[str, Any]:
     """Return quality rows for every input and method, printing a table as they come."""
     rows: dict[str, Any] = {}
-    print(f"{'mesh':>15} {'method':>6} {'D':>4} {'closed':>6} {'orient':>6} {'SI':>4} "
-          f"{'nested':>6} {'p50%':>8} {'p99%':>8} {'max%':>8} {'worst at':>12} {'time_s':>7}")
+    print(
+        f"{'mesh':>15} {'method':>6} {'D':>4} {'closed':>6} {'orient':>6} {'SI':>4} "
+        f"{'nested':>6} {'p50%':>8} {'p99%':>8} {'max%':>8} {'worst at':>12} {'time_s':>7}"
+    )
     for name, mesh in inputs().items():
         if names and name not in names:
             continue
@@ -125,18 +129,25 @@ def quality(names: list[str] | None) -> dict[str, Any]:
             row = quality_row(mesh, method)
             rows.setdefault(name, {})[method] = row
             for layer in row["layers"]:
-                err = layer["error_pct"] or {"p50": float("nan"), "p99": float("nan"),
-                                             "max": float("nan")}
+                err = layer["error_pct"] or {
+                    "p50": float("nan"),
+                    "p99": float("nan"),
+                    "max": float("nan"),
+                }
                 where = (layer["worst"] or {}).get("region", "-")
-                print(f"{name:>15} {method:>6} {layer['depth_mm']:4.1f} {layer['closed']!s:>6} "
-                      f"{layer['oriented']!s:>6} {layer['self_intersections']:4d} "
-                      f"{layer['nested']!s:>6} {err['p50']:8.4f} {err['p99']:8.4f} "
-                      f"{err['max']:8.3f} {where:>12} {row['time_s']:7.1f}", flush=True)
+                print(
+                    f"{name:>15} {method:>6} {layer['depth_mm']:4.1f} {layer['closed']!s:>6} "
+                    f"{layer['oriented']!s:>6} {layer['self_intersections']:4d} "
+                    f"{layer['nested']!s:>6} {err['p50']:8.4f} {err['p99']:8.4f} "
+                    f"{err['max']:8.3f} {where:>12} {row['time_s']:7.1f}",
+                    flush=True,
+                )
     return rows
 
 
-def speed(size_mm: float, voxel_mm: float, depths: list[float], subdivisions: int
-          ) -> dict[str, Any]:
+def speed(
+    size_mm: float, voxel_mm: float, depths: list[float], subdivisions: int
+) -> dict[str, Any]:
     """Time the robust offset (one layer per depth) against OpenVDB's mesh-to-level-set."""
     mesh = load_shared("spot/spot_triangulated.obj", size_mm, subdivisions)
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
@@ -145,8 +156,9 @@ def speed(size_mm: float, voxel_mm: float, depths: list[float], subdivisions: in
     transform = vdb.createLinearTransform(voxelSize=voxel_mm)
     points32 = np.ascontiguousarray(vertices, dtype=np.float32)
     tris32 = np.ascontiguousarray(faces, dtype=np.int32)
-    print(f"mesh: spot, Loop x{subdivisions}, {len(faces)} faces, {size_mm} mm, "
-          f"voxel {voxel_mm} mm")
+    print(
+        f"mesh: spot, Loop x{subdivisions}, {len(faces)} faces, {size_mm} mm, voxel {voxel_mm} mm"
+    )
     print(f"{'depth_mm':>9} {'robust_s':>9} {'openvdb_s':>10} {'ratio':>7} {'shell_faces':>12}")
     runs = []
     for depth in depths:
@@ -171,16 +183,31 @@ def speed(size_mm: float, voxel_mm: float, depths: list[float], subdivisions: in
             points32, triangles=tris32, transform=transform, halfWidth=half_width
         )
         vdb_s = time.perf_counter() - start
-        print(f"{depth:9.2f} {robust_s:9.2f} {vdb_s:10.2f} {robust_s / vdb_s:7.2f} "
-              f"{len(shell.faces):12d}   (vdb active voxels {grid.activeVoxelCount()}) {valid}",
-              flush=True)
-        runs.append({"depth_mm": depth, "robust_s": robust_s, "openvdb_s": vdb_s,
-                     "ratio": robust_s / vdb_s, "shell_faces": len(shell.faces),
-                     "openvdb_active_voxels": int(grid.activeVoxelCount()),
-                     "load_avg_1_5_15_before": list(load_before),
-                     "load_avg_1_5_15_after": list(os.getloadavg()), **valid})
-    return {"mesh": f"spot, Loop x{subdivisions}", "n_faces": len(faces),
-            "size_mm": size_mm, "voxel_mm": voxel_mm, "runs": runs}
+        print(
+            f"{depth:9.2f} {robust_s:9.2f} {vdb_s:10.2f} {robust_s / vdb_s:7.2f} "
+            f"{len(shell.faces):12d}   (vdb active voxels {grid.activeVoxelCount()}) {valid}",
+            flush=True,
+        )
+        runs.append(
+            {
+                "depth_mm": depth,
+                "robust_s": robust_s,
+                "openvdb_s": vdb_s,
+                "ratio": robust_s / vdb_s,
+                "shell_faces": len(shell.faces),
+                "openvdb_active_voxels": int(grid.activeVoxelCount()),
+                "load_avg_1_5_15_before": list(load_before),
+                "load_avg_1_5_15_after": list(os.getloadavg()),
+                **valid,
+            }
+        )
+    return {
+        "mesh": f"spot, Loop x{subdivisions}",
+        "n_faces": len(faces),
+        "size_mm": size_mm,
+        "voxel_mm": voxel_mm,
+        "runs": runs,
+    }
 
 
 def flat() -> dict[str, Any]:
@@ -221,22 +248,26 @@ def flat() -> dict[str, Any]:
             finally:
                 band.flat_patches = keep
             rows.setdefault(name, {"n_faces": len(f)})[mode] = row
-            print(name, mode, {k: row[k] for k in ("seconds", "pieces_layer_1",
-                                                   "shell_faces")}, flush=True)
+            print(
+                name,
+                mode,
+                {k: row[k] for k in ("seconds", "pieces_layer_1", "shell_faces")},
+                flush=True,
+            )
     return rows
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--part", choices=("quality", "speed", "flat", "both"),
-                        default="both")
+    parser.add_argument("--part", choices=("quality", "speed", "flat", "both"), default="both")
     parser.add_argument("--meshes", type=str, default="", help="comma list (quality part)")
     parser.add_argument("--size-mm", type=float, default=50.0)
     parser.add_argument("--voxel-mm", type=float, default=0.05)
     parser.add_argument("--depths", type=str, default="0.5,1.0,1.5")
     parser.add_argument("--subdivisions", type=int, default=2, help="Loop subdivisions")
-    parser.add_argument("--out", type=Path,
-                        default=ROOT / "benchmarks" / "results" / "bench_offset.json")
+    parser.add_argument(
+        "--out", type=Path, default=ROOT / "benchmarks" / "results" / "bench_offset.json"
+    )
     args = parser.parse_args(argv)
     if not SPOT.is_file():
         print(f"{SPOT} is absent: the benchmark needs ../shared/meshes", file=sys.stderr)

@@ -87,8 +87,9 @@ def one_slice() -> dict[str, object]:
         lut[index] = key
     rgba = lut[materials[0]]
     ours = timed(lambda: encode_png(rgba, level=1))
-    pillow = timed(lambda: Image.fromarray(rgba, "RGBA").save(io.BytesIO(), "PNG",
-                                                              compress_level=1))
+    pillow = timed(
+        lambda: Image.fromarray(rgba, "RGBA").save(io.BytesIO(), "PNG", compress_level=1)
+    )
     buffer = io.BytesIO()
     Image.fromarray(rgba, "RGBA").save(buffer, "PNG", compress_level=1)
     return {
@@ -129,9 +130,18 @@ def gcvf(n_z: int, rows: int, threads: int, folder: Path) -> dict[str, object]:
 
 def png_folder(n_z: int, rows: int, folder: Path) -> dict[str, object]:
     grid = GridSpec((0.0, 0.0, 0.0), load_profile("j750").voxel_mm, (n_z, N_Y, N_X))
-    colours = np.array([(0, 0, 0, 0), (0, 160, 200, 255), (200, 30, 120, 255),
-                        (230, 200, 0, 255), (20, 20, 20, 255), (240, 240, 240, 255),
-                        (200, 200, 200, 128)], np.uint8)
+    colours = np.array(
+        [
+            (0, 0, 0, 0),
+            (0, 160, 200, 255),
+            (200, 30, 120, 255),
+            (230, 200, 0, 255),
+            (20, 20, 20, 255),
+            (240, 240, 240, 255),
+            (200, 200, 200, 128),
+        ],
+        np.uint8,
+    )
     data = [colours[materials] for _, materials, _ in slabs(min(n_z, rows), rows)]
     start = time.perf_counter()
     with PngSliceWriter(folder / "slices", grid) as writer:
@@ -146,14 +156,16 @@ def vdb_material(n_z: int, rows: int, folder: Path) -> dict[str, object]:
     data = list(slabs(n_z, rows))
     result: dict[str, object] = {"slices": n_z}
     for with_material in (False, True):
-        writer = VdbStackWriter(grid, sdf_half_width_mm=0.1, spool_dir=folder,
-                                material_grid=with_material)
+        writer = VdbStackWriter(
+            grid, sdf_half_width_mm=0.1, spool_dir=folder, material_grid=with_material
+        )
         start = time.perf_counter()
         for z0, materials, layers in data:
             sdf = np.where(layers == 1, -0.05, np.where(layers > 0, -0.1, 0.1)).astype(np.float32)
             rgb = np.zeros((*layers.shape, 3), np.uint8)
-            writer.write_slab(z0, layers, rgb, layers == 1, sdf,
-                              materials=materials if with_material else None)
+            writer.write_slab(
+                z0, layers, rgb, layers == 1, sdf, materials=materials if with_material else None
+            )
         writer.write(folder / "v.vdb")
         key = "seconds_with_material" if with_material else "seconds_without_material"
         result[key] = round(time.perf_counter() - start, 2)

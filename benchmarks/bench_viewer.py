@@ -181,7 +181,8 @@ def main() -> None:
             times = [view(pool, server.port, mode, axis, int(extent * f), region)
                      for f in (0.3, 0.4, 0.5, 0.6, 0.7)]  # fmt: skip
             warmed.setdefault(axis, {})[mode] = {
-                "median": round(statistics.median(times), 3), "max": round(max(times), 3)
+                "median": round(statistics.median(times), 3),
+                "max": round(max(times), 3),
             }
             print("warmed", axis, mode, warmed[axis][mode], flush=True)
     result["warmed"] = {

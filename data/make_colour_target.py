@@ -118,16 +118,21 @@ def write(out: Path = OUT) -> None:
         "# shellvox default model: colour target\nnewmtl target\nKd 1 1 1\n"
         "map_Kd colour_target.png\n"
     )
-    uv_rows, uv_index = np.unique(np.round(corner_uv.reshape(-1, 2), 6), axis=0,
-                                  return_inverse=True)
+    uv_rows, uv_index = np.unique(
+        np.round(corner_uv.reshape(-1, 2), 6), axis=0, return_inverse=True
+    )
     uv_index = uv_index.reshape(-1, 3)
-    lines = ["# shellvox default model: 24 x 16 x 6 mm rounded colour target (mm)",
-             "mtllib colour_target.mtl"]
+    lines = [
+        "# shellvox default model: 24 x 16 x 6 mm rounded colour target (mm)",
+        "mtllib colour_target.mtl",
+    ]
     lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in vertices]
     lines += [f"vt {u:.6f} {v:.6f}" for u, v in uv_rows]
     lines.append("usemtl target")
-    lines += [f"f {a + 1}/{ta + 1} {b + 1}/{tb + 1} {c + 1}/{tc + 1}"
-              for (a, b, c), (ta, tb, tc) in zip(faces, uv_index, strict=True)]
+    lines += [
+        f"f {a + 1}/{ta + 1} {b + 1}/{tb + 1} {c + 1}/{tc + 1}"
+        for (a, b, c), (ta, tb, tc) in zip(faces, uv_index, strict=True)
+    ]
     (out / "colour_target.obj").write_text("\n".join(lines) + "\n")
 
 

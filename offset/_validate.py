@@ -63,9 +63,7 @@ def check_mesh(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> tuple[FloatArra
         raise ValueError(f"faces must hold integers, got dtype {f_raw.dtype}")
     f = np.ascontiguousarray(f_raw, dtype=np.int64)
     if f.min() < 0 or f.max() >= v.shape[0]:
-        raise ValueError(
-            f"faces must index [0, {v.shape[0]}), got range [{f.min()}, {f.max()}]"
-        )
+        raise ValueError(f"faces must index [0, {v.shape[0]}), got range [{f.min()}, {f.max()}]")
     return v, f
 
 

@@ -83,8 +83,9 @@ def edge_adjacency(faces: IntArray) -> EdgeAdjacency:
     order = np.argsort(key_fwd, kind="stable")
     sorted_keys = key_fwd[order]
     if np.any(sorted_keys[1:] == sorted_keys[:-1]):
-        raise ValueError("faces must be edge-manifold and consistently oriented, got a repeated "
-                         "directed edge")
+        raise ValueError(
+            "faces must be edge-manifold and consistently oriented, got a repeated directed edge"
+        )
     pos = np.searchsorted(sorted_keys, key_rev)
     pos = np.minimum(pos, len(sorted_keys) - 1)
     found = sorted_keys[pos] == key_rev

@@ -102,9 +102,13 @@ def slicer_thickness(
         if new:
             sections = mesh.section_multiplane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], heights[new])
             for i, path in zip(new, sections, strict=True):
-                regions[i] = None if path is None else shapely.union_all(
-                    list(path.polygons_full)
-                ).buffer(-width_mm, join_style="mitre", mitre_limit=10.0)
+                regions[i] = (
+                    None
+                    if path is None
+                    else shapely.union_all(list(path.polygons_full)).buffer(
+                        -width_mm, join_style="mitre", mitre_limit=10.0
+                    )
+                )
         order = np.argsort(idx, kind="stable")
         bounds = np.searchsorted(idx[order], np.r_[used, used[-1] + 1])
         result = np.zeros(len(q), dtype=bool)

@@ -31,8 +31,11 @@ SIMPLIFY_FRACTION = 2e-7
 
 
 def cut_core(
-    base: m3d.Manifold, pieces: list[tuple[FloatArray, IntArray]], d_min: float,
-    d_max: float, leaf: int
+    base: m3d.Manifold,
+    pieces: list[tuple[FloatArray, IntArray]],
+    d_min: float,
+    d_max: float,
+    leaf: int,
 ) -> tuple[FloatArray, IntArray]:
     """Return ``base`` minus the union of ``pieces``, cleaned, as vertex / face arrays.
 
@@ -69,7 +72,9 @@ def cut_core(
 
 
 def uncross(
-    vert: FloatArray, tri: IntArray, d_min: float,
+    vert: FloatArray,
+    tri: IntArray,
+    d_min: float,
     previous: tuple[FloatArray, IntArray, npt.NDArray[np.bool_]] | None = None,
 ) -> tuple[FloatArray, IntArray, npt.NDArray[np.bool_], int]:
     """Return the shell, simplified if it crosses itself, and what still crosses.
@@ -102,7 +107,8 @@ def uncross(
         crossing = np.zeros(len(tri), dtype=bool)
         crossing[pairs.reshape(-1)] = True
         s_vert, s_tri, _ = mesh_arrays(
-            to_manifold(vert, tri).simplify(SIMPLIFY_FRACTION * d_min), -1,
+            to_manifold(vert, tri).simplify(SIMPLIFY_FRACTION * d_min),
+            -1,
             SLIVER_FRACTION * d_min,
         )
         pairs = _crossing_pairs(s_vert, s_tri, (vert, tri, crossing))
@@ -113,7 +119,8 @@ def uncross(
 
 
 def _crossing_pairs(
-    vert: FloatArray, tri: IntArray,
+    vert: FloatArray,
+    tri: IntArray,
     previous: tuple[FloatArray, IntArray, npt.NDArray[np.bool_]] | None,
 ) -> IntArray:
     """Return the crossing pairs of a shell, testing only what changed since `previous`.
@@ -143,8 +150,14 @@ def _crossing_pairs(
 
 
 def patch_core(
-    base: m3d.Manifold, pieces: list[tuple[FloatArray, IntArray]], vert: FloatArray,
-    tri: IntArray, bad: npt.NDArray[np.bool_], d_min: float, pad: float, leaf: int,
+    base: m3d.Manifold,
+    pieces: list[tuple[FloatArray, IntArray]],
+    vert: FloatArray,
+    tri: IntArray,
+    bad: npt.NDArray[np.bool_],
+    d_min: float,
+    pad: float,
+    leaf: int,
 ) -> tuple[FloatArray, IntArray]:
     """Return the core recomputed inside boxes around the `bad` (deep or crossing) triangles.
 
@@ -213,8 +226,9 @@ def _boxes(tris: FloatArray, pad: float) -> tuple[FloatArray, FloatArray]:
     meet = np.all(np.abs(centre[i] - centre[j]) <= half[i] + half[j], axis=1)
     n_tri = len(tris)
     _, label = scipy.sparse.csgraph.connected_components(
-        scipy.sparse.coo_matrix((np.ones(int(meet.sum())), (i[meet], j[meet])),
-                                shape=(n_tri, n_tri)),
+        scipy.sparse.coo_matrix(
+            (np.ones(int(meet.sum())), (i[meet], j[meet])), shape=(n_tri, n_tri)
+        ),
         directed=False,
     )
     n = int(label.max()) + 1
@@ -254,9 +268,7 @@ def mesh_arrays(
     return vert, tri, tri_id[keep] == base_id
 
 
-def _near(
-    points: FloatArray, tree: scipy.spatial.cKDTree, margin: float
-) -> npt.NDArray[np.bool_]:
+def _near(points: FloatArray, tree: scipy.spatial.cKDTree, margin: float) -> npt.NDArray[np.bool_]:
     """Return which pieces ``(N, P, 3)`` come within `margin` of a point in `tree`."""
     if len(points) == 0:
         return np.zeros(0, dtype=bool)
@@ -315,5 +327,3 @@ def drop_slivers(
         np.ascontiguousarray(new_index[faces[keep]]),
         keep,
     )
-
-

@@ -106,8 +106,10 @@ def _crossing_kernel_py(a, b, eps):  # type: ignore[no-untyped-def]
     if not (straddle_a or straddle_b):
         return False
     if (
-        (db0 > 0 and db1 > 0 and db2 > 0) or (db0 < 0 and db1 < 0 and db2 < 0)
-        or (da0 > 0 and da1 > 0 and da2 > 0) or (da0 < 0 and da1 < 0 and da2 < 0)
+        (db0 > 0 and db1 > 0 and db2 > 0)
+        or (db0 < 0 and db1 < 0 and db2 < 0)
+        or (da0 > 0 and da1 > 0 and da2 > 0)
+        or (da0 < 0 and da1 < 0 and da2 < 0)
     ):
         return False  # separated
     if (db0 == 0 and db1 == 0 and db2 == 0) or (da0 == 0 and da1 == 0 and da2 == 0):
@@ -178,9 +180,12 @@ def _cell_pair_hits_py(  # type: ignore[no-untyped-def]
             if not (active[fa] or active[fb]):
                 continue
             if (
-                lo[fa, 0] > hi[fb, 0] or lo[fb, 0] > hi[fa, 0]
-                or lo[fa, 1] > hi[fb, 1] or lo[fb, 1] > hi[fa, 1]
-                or lo[fa, 2] > hi[fb, 2] or lo[fb, 2] > hi[fa, 2]
+                lo[fa, 0] > hi[fb, 0]
+                or lo[fb, 0] > hi[fa, 0]
+                or lo[fa, 1] > hi[fb, 1]
+                or lo[fb, 1] > hi[fa, 1]
+                or lo[fa, 2] > hi[fb, 2]
+                or lo[fb, 2] > hi[fa, 2]
             ):
                 continue
             low0 = max(i0[la, 0], i0[lb, 0])

@@ -122,7 +122,10 @@ def hash_grids(lo: FloatArray, hi: FloatArray) -> Iterator[HashGrid]:
 
 
 def _grid(
-    lo_c: FloatArray, hi_c: FloatArray, boxes: IntArray, lead: npt.NDArray[np.bool_],
+    lo_c: FloatArray,
+    hi_c: FloatArray,
+    boxes: IntArray,
+    lead: npt.NDArray[np.bool_],
     size: float,
 ) -> HashGrid | None:
     """Bin `boxes` in cells of `size`; a pair needs at least one leader.
@@ -172,7 +175,11 @@ def _grid(
     after = np.repeat(size_g, size_g) - (np.arange(key_sorted.size) - np.repeat(start, size_g)) - 1
     later = np.where(led_sorted, after, 0)
     return HashGrid(
-        key=np.ascontiguousarray(key_sorted), owner=np.ascontiguousarray(owner_sorted),
-        later=np.ascontiguousarray(later), ends=np.cumsum(later), boxes=boxes,
-        low_cell=np.ascontiguousarray(i0), span=np.asarray(span, dtype=np.int64),
+        key=np.ascontiguousarray(key_sorted),
+        owner=np.ascontiguousarray(owner_sorted),
+        later=np.ascontiguousarray(later),
+        ends=np.cumsum(later),
+        boxes=boxes,
+        low_cell=np.ascontiguousarray(i0),
+        span=np.asarray(span, dtype=np.int64),
     )

@@ -13,7 +13,10 @@ from offset.hash_grid import hash_grids
 
 
 def intersecting_pairs(
-    vertices: FloatArray, faces: IntArray, *, chunk: int = 200_000,
+    vertices: FloatArray,
+    faces: IntArray,
+    *,
+    chunk: int = 200_000,
     only: npt.NDArray[np.bool_] | None = None,
 ) -> IntArray:
     """Return the pairs of triangles that cross each other.
@@ -66,8 +69,20 @@ def intersecting_pairs(
         for a0, a1 in grid.spans(chunk):
             hits.append(
                 cell_pair_hits(
-                    a0, a1, grid.later, grid.key, grid.owner, grid.low_cell, grid.boxes,
-                    lo, hi, grid.span, faces, tri, eps, active,
+                    a0,
+                    a1,
+                    grid.later,
+                    grid.key,
+                    grid.owner,
+                    grid.low_cell,
+                    grid.boxes,
+                    lo,
+                    hi,
+                    grid.span,
+                    faces,
+                    tri,
+                    eps,
+                    active,
                 )
             )
     pairs = np.concatenate(hits) if hits else np.zeros((0, 2), dtype=np.int64)
@@ -201,8 +216,10 @@ def _crossing(a: FloatArray, b: FloatArray, eps: float) -> npt.NDArray[np.bool_]
     """
     out = np.zeros(len(a), dtype=np.bool_)
     crossing_pairs(
-        np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64),
-        float(eps), out,
+        np.ascontiguousarray(a, dtype=np.float64),
+        np.ascontiguousarray(b, dtype=np.float64),
+        float(eps),
+        out,
     )
     return out
 

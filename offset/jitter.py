@@ -132,7 +132,9 @@ def jitter_vertices(
         folds = folded_faces(moved, f)
         if len(pairs) <= crossing and len(folds) <= folded:
             return JitteredMesh(
-                moved, float(amplitude), int(np.count_nonzero(moves)),
+                moved,
+                float(amplitude),
+                int(np.count_nonzero(moves)),
                 int(np.count_nonzero(target & kept)),
                 len(_ambiguous(moved, f, coplanar_pairs(moved, f))),
             )

@@ -53,8 +53,11 @@ def paper_offset(
     )  # (F, 3): neighbour across edge j = (corner j, corner j + 1)
     prev_edge = np.roll(other, 1, axis=1)  # neighbour across edge (corner i - 1, corner i)
     a = np.stack(
-        [np.broadcast_to(normals[:, None, :], (len(faces), 3, 3)), normals[prev_edge],
-         normals[other]],
+        [
+            np.broadcast_to(normals[:, None, :], (len(faces), 3, 3)),
+            normals[prev_edge],
+            normals[other],
+        ],
         axis=2,
     )  # (F, 3 corners, 3 planes, 3)
     det = np.linalg.det(a)

@@ -110,9 +110,7 @@ def sectors(
             [-margin[sel, None], span[sel, None] * k, (span[sel] + margin[sel])[:, None]],
             axis=1,
         )
-        dirs = (
-            np.cos(ang)[..., None] * u0[sel, None, :] + np.sin(ang)[..., None] * w[sel, None, :]
-        )
+        dirs = np.cos(ang)[..., None] * u0[sel, None, :] + np.sin(ang)[..., None] * w[sel, None, :]
         dirs[:, 1] = u0[sel]  # exactly -n1
         exact = np.flatnonzero(good[sel])
         dirs[exact, s + 1] = target[sel[exact]]  # exactly -n2
@@ -131,7 +129,10 @@ def sectors(
 
 
 def vertex_caps(
-    centres: FloatArray, r: FloatArray, axis: FloatArray, half_angle: FloatArray,
+    centres: FloatArray,
+    r: FloatArray,
+    axis: FloatArray,
+    half_angle: FloatArray,
     max_step: float,
 ) -> list[Group]:
     """Return cones capped by spherical caps: ``hull(v, v + r * cap)`` about ``axis``.
@@ -169,8 +170,12 @@ def vertex_caps(
 
 
 def _caps(
-    centres: FloatArray, r: FloatArray, axis: FloatArray, half_angle: FloatArray,
-    rings: int, azimuths: int,
+    centres: FloatArray,
+    r: FloatArray,
+    axis: FloatArray,
+    half_angle: FloatArray,
+    rings: int,
+    azimuths: int,
 ) -> Group:
     """Return caps of one resolution, see :func:`vertex_caps`."""
     helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
@@ -224,9 +229,7 @@ def _ring_prism_topology(m: int) -> IntArray:
     top = np.stack([np.full_like(j, m), m + j, m + j + 1], axis=1)
     i = np.arange(m)
     i1 = (i + 1) % m
-    side = np.concatenate(
-        [np.stack([i, i1, m + i1], axis=1), np.stack([i, m + i1, m + i], axis=1)]
-    )
+    side = np.concatenate([np.stack([i, i1, m + i1], axis=1), np.stack([i, m + i1, m + i], axis=1)])
     return np.asarray(np.concatenate([bottom, top, side]), dtype=np.int64)
 
 
@@ -245,9 +248,7 @@ def _orient_rings(points: FloatArray, tris: IntArray, m: int) -> FloatArray:
     """
     t = points[:, tris]  # (N, T, 3, 3)
     c = points.mean(axis=1)[:, None, :]
-    vol = np.einsum(
-        "ntj,ntj->n", t[:, :, 0] - c, np.cross(t[:, :, 1] - c, t[:, :, 2] - c)
-    )
+    vol = np.einsum("ntj,ntj->n", t[:, :, 0] - c, np.cross(t[:, :, 1] - c, t[:, :, 2] - c))
     flip = vol < 0
     out = points.copy()
     out[flip] = np.concatenate([points[flip, m:], points[flip, :m]], axis=1)

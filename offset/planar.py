@@ -79,8 +79,13 @@ def coplanar_pairs(normals: FloatArray, face_left: IntArray, face_right: IntArra
 
 
 def patch_prisms(
-    vertices: FloatArray, faces: IntArray, normals: FloatArray, areas: FloatArray,
-    label: IntArray, n_patches: int, d: FloatArray,
+    vertices: FloatArray,
+    faces: IntArray,
+    normals: FloatArray,
+    areas: FloatArray,
+    label: IntArray,
+    n_patches: int,
+    d: FloatArray,
 ) -> tuple[list[Group], npt.NDArray[np.bool_]]:
     """Return one prism per patch, and which faces it covers.
 
@@ -168,10 +173,12 @@ def _prism(vertices: FloatArray, tri: IntArray, n: FloatArray, depth: float) -> 
     bottom = q - depth * n
     top = q + OUTSIDE_FRACTION * depth * n
     a0, a1 = bnd[:, 0], bnd[:, 1]
-    walls = np.concatenate([
-        np.stack([a0, a1, k + a1], axis=1),
-        np.stack([a0, k + a1, k + a0], axis=1),
-    ])
+    walls = np.concatenate(
+        [
+            np.stack([a0, a1, k + a1], axis=1),
+            np.stack([a0, k + a1, k + a0], axis=1),
+        ]
+    )
     tris = np.concatenate([local[:, ::-1], k + local, walls]).astype(np.int64)
     pts = np.concatenate([bottom, top])
     if len(intersecting_pairs(pts, tris)):

@@ -152,15 +152,24 @@ def mesh_checks(vertices: FloatArray, faces: IntArray) -> dict[str, Any]:
         and ``volume_mm3`` (``None`` unless closed).
     """
     if faces.shape[0] == 0:
-        return {"n_faces": 0, "coincident_vertices": 0, "zero_area_faces": 0,
-                "zero_length_edges": 0, "closed": True, "oriented": True,
-                "self_intersections": 0, "volume_mm3": 0.0}
+        return {
+            "n_faces": 0,
+            "coincident_vertices": 0,
+            "zero_area_faces": 0,
+            "zero_length_edges": 0,
+            "closed": True,
+            "oriented": True,
+            "self_intersections": 0,
+            "volume_mm3": 0.0,
+        }
     unique, inverse = np.unique(vertices, axis=0, return_inverse=True)
     merged = np.asarray(inverse, dtype=np.int64).reshape(-1)[faces]
     tri = unique[merged]
     area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    edges = np.unique(np.sort(np.stack([faces, np.roll(faces, -1, axis=1)], axis=2)
-                              .reshape(-1, 2), axis=1), axis=0)
+    edges = np.unique(
+        np.sort(np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2), axis=1),
+        axis=0,
+    )
     mesh = trimesh.Trimesh(unique, merged, process=False)
     closed = bool(mesh.is_watertight)
     volume = float(mesh.volume) if closed else None
@@ -168,8 +177,9 @@ def mesh_checks(vertices: FloatArray, faces: IntArray) -> dict[str, Any]:
         "n_faces": int(faces.shape[0]),
         "coincident_vertices": int(len(vertices) - len(unique)),
         "zero_area_faces": int(np.count_nonzero(area2 == 0.0)),
-        "zero_length_edges": int(np.count_nonzero(
-            np.all(vertices[edges[:, 0]] == vertices[edges[:, 1]], axis=1))),
+        "zero_length_edges": int(
+            np.count_nonzero(np.all(vertices[edges[:, 0]] == vertices[edges[:, 1]], axis=1))
+        ),
         "closed": closed,
         "oriented": bool(mesh.is_winding_consistent) and (volume is None or volume > 0),
         "self_intersections": count_self_intersections(unique, merged),
@@ -177,9 +187,7 @@ def mesh_checks(vertices: FloatArray, faces: IntArray) -> dict[str, Any]:
     }
 
 
-def nested_in(
-    inner: tuple[FloatArray, IntArray], outer: tuple[FloatArray, IntArray]
-) -> bool:
+def nested_in(inner: tuple[FloatArray, IntArray], outer: tuple[FloatArray, IntArray]) -> bool:
     """Return whether the closed mesh `inner` lies strictly inside the closed mesh `outer`.
 
     The two surfaces must not cross, and one vertex of every connected component of

@@ -74,14 +74,16 @@ def shell_report(
         entry: dict[str, Any] = {
             "layer": shell.layer,
             "depth_mm": {"min": float(depth[k].min()), "max": float(depth[k].max())},
-            "shell": _measure(original, depth[k], (shell.vertices, shell.faces), previous,
-                              n_samples, rng),
+            "shell": _measure(
+                original, depth[k], (shell.vertices, shell.faces), previous, n_samples, rng
+            ),
         }
         previous = (shell.vertices, shell.faces)
         if baselines:
             entry["baselines"] = {
-                "vertex_normal": _measure(original, depth[k], naive[k], previous_naive,
-                                          n_samples, rng),
+                "vertex_normal": _measure(
+                    original, depth[k], naive[k], previous_naive, n_samples, rng
+                ),
                 "slicer_contour": _slicer(original, depth[k], layer_height_mm, n_samples, rng),
             }
             previous_naive = naive[k]
@@ -122,9 +124,7 @@ def _slicer(
     rng: np.random.Generator,
 ) -> dict[str, Any]:
     """Return the thickness error of the slicer's contour offset at its mean width."""
-    points, face = trimesh.sample.sample_surface(
-        original, n_samples, seed=int(rng.integers(2**31))
-    )
+    points, face = trimesh.sample.sample_surface(original, n_samples, seed=int(rng.integers(2**31)))
     width = float(np.average(depth, weights=original.area_faces))
     measured = slicer_thickness(
         original,

@@ -160,18 +160,26 @@ def robust_offset(
                 # recompute the core in boxes around them from the previous core and
                 # the pieces there alone, united in another order.
                 p_vert, p_tri = patch_core(
-                    base, pieces, vert, tri, bad, d_min,
-                    (rnd + 1) * PATCH_PAD * d_max, LEAF_SIZES[rnd % len(LEAF_SIZES)],
+                    base,
+                    pieces,
+                    vert,
+                    tri,
+                    bad,
+                    d_min,
+                    (rnd + 1) * PATCH_PAD * d_max,
+                    LEAF_SIZES[rnd % len(LEAF_SIZES)],
                 )
                 p_vert, p_tri, p_cross, p_crossing = uncross(
                     p_vert, p_tri, d_min, (vert, tri, cross_tri)
                 )
                 p_deep = too_deep(surface, d, p_vert, p_tri)
-                if (p_crossing, np.count_nonzero(p_deep)) <= (
-                    crossing, np.count_nonzero(deep_tri)
-                ):
+                if (p_crossing, np.count_nonzero(p_deep)) <= (crossing, np.count_nonzero(deep_tri)):
                     vert, tri, cross_tri, crossing, deep_tri = (
-                        p_vert, p_tri, p_cross, p_crossing, p_deep
+                        p_vert,
+                        p_tri,
+                        p_cross,
+                        p_crossing,
+                        p_deep,
                     )
             deep = int(np.count_nonzero(deep_tri))
             if best is None or (crossing, deep) < best[0]:

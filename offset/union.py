@@ -43,9 +43,7 @@ def morton_order(points: FloatArray) -> IntArray:
     return np.asarray(np.argsort(code, kind="stable"), dtype=np.int64)
 
 
-def union_pieces(
-    groups: list[tuple[FloatArray, IntArray]], *, leaf: int = LEAF
-) -> m3d.Manifold:
+def union_pieces(groups: list[tuple[FloatArray, IntArray]], *, leaf: int = LEAF) -> m3d.Manifold:
     """Return the union of closed pieces given as same-topology groups.
 
     Parameters
@@ -89,8 +87,9 @@ def union_pieces(
     f_cut = np.r_[(np.cumsum(n_tri[order]) - n_tri[order])[cut], len(tris)]
     level = [
         m3d.Manifold.batch_boolean(
-            to_manifold(verts[v_cut[i] : v_cut[i + 1]], tris[f_cut[i] : f_cut[i + 1]] - v_cut[i])
-            .decompose(),
+            to_manifold(
+                verts[v_cut[i] : v_cut[i + 1]], tris[f_cut[i] : f_cut[i + 1]] - v_cut[i]
+            ).decompose(),
             m3d.OpType.Add,
         )
         for i in range(len(cut))

@@ -130,10 +130,9 @@ def estimate_build(
     band = min(voxels, int(area_mm2 * reach_mm / volume))
     slab_voxels = min(slab_rows, z) * y * x
     slots = workers + EXTRA_SLOTS if workers > 1 else 0
-    memory = (
-        slab_voxels * (BYTES_PER_VOXEL * (workers + 1) + SLOT_BYTES_PER_VOXEL * slots)
-        + n_faces * BYTES_PER_FACE * (workers + 2)
-    )
+    memory = slab_voxels * (
+        BYTES_PER_VOXEL * (workers + 1) + SLOT_BYTES_PER_VOXEL * slots
+    ) + n_faces * BYTES_PER_FACE * (workers + 2)
     disk = int(voxels * DISK_PER_VOXEL + band * DISK_PER_BAND_VOXEL)
     seconds = (voxels * SECONDS_PER_VOXEL + band * SECONDS_PER_BAND_VOXEL) / max(1, workers)
     return BuildEstimate((z, y, x), voxels, band, slab_rows, workers, memory, disk, seconds)

@@ -129,8 +129,11 @@ def face_colour(
     Examples
     --------
     >>> mesh = ColouredMesh(
-    ...     np.eye(3), np.array([[0, 1, 2]]), "face",
-    ...     face_rgba=np.array([[255, 255, 255, 128]], np.uint8))
+    ...     np.eye(3),
+    ...     np.array([[0, 1, 2]]),
+    ...     "face",
+    ...     face_rgba=np.array([[255, 255, 255, 128]], np.uint8),
+    ... )
     >>> stats = face_colour(mesh)
     >>> round(float(stats.lightness[0]), 3), round(float(stats.alpha[0]), 3)
     (100.0, 0.502)
@@ -215,9 +218,7 @@ def _statistics(rgba: NDArray[np.uint8]) -> FaceColour:
     if n_samples == 1:
         spread = np.zeros(n_faces, dtype=np.float64)
     else:
-        difference: NDArray[Any] = colour.delta_E(
-            samples, median[:, None, :], method="CIE 2000"
-        )
+        difference: NDArray[Any] = colour.delta_E(samples, median[:, None, :], method="CIE 2000")
         spread = np.percentile(difference, 90, axis=1)
     return FaceColour(
         lab=np.asarray(median, dtype=np.float64),

@@ -173,9 +173,7 @@ def _split_round(
     faces: NDArray[np.int64],
     refine: NDArray[np.bool_],
     max_edge_mm: float,
-) -> (
-    tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]] | None
-):
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]] | None:
     """One round: split every long edge of a refined face; None when there is none.
 
     Returns the new vertices, faces, the source face of every new face and the new

@@ -199,7 +199,12 @@ def mean_curvature(
     )  # M + r^2 K: symmetric positive definite
     jacobi = sparse.diags(1.0 / (areas + degree))
     solution, info = sparse_linalg.cg(
-        system, total, x0=total / np.maximum(areas, 1e-300), M=jacobi, rtol=1e-7, atol=0.0,
+        system,
+        total,
+        x0=total / np.maximum(areas, 1e-300),
+        M=jacobi,
+        rtol=1e-7,
+        atol=0.0,
         maxiter=10 * n,
     )
     if info != 0:

@@ -129,8 +129,11 @@ class ColouredMesh:
         --------
         >>> import numpy as np
         >>> mesh = ColouredMesh(
-        ...     np.eye(3), np.array([[0, 1, 2]]), "face",
-        ...     face_rgba=np.array([[200, 10, 10, 255]], np.uint8))
+        ...     np.eye(3),
+        ...     np.array([[0, 1, 2]]),
+        ...     "face",
+        ...     face_rgba=np.array([[200, 10, 10, 255]], np.uint8),
+        ... )
         >>> mesh.colour_at(np.array([0]), np.array([[0.2, 0.3, 0.5]]))
         array([[200,  10,  10, 255]], dtype=uint8)
         """

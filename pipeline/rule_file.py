@@ -23,15 +23,15 @@ TOML layout (every key optional; missing keys keep the default)::
     lower_max_normal_z = -0.05
 
     [curvature]
-    max_depth_per_radius = 0.5   # 0 turns the cap off
+    max_depth_per_radius = 0.5  # 0 turns the cap off
     radius_mm = 1.0
 
     [smoothing]
     iterations = 3
 
     [layers]
-    colour = [1]                 # which shell layers (1..K) are colour layers
-    backing_mm = [0.5]           # the other layers, outside in; K = len(colour) + len(backing_mm)
+    colour = [1]  # which shell layers (1..K) are colour layers
+    backing_mm = [0.5]  # the other layers, outside in; K = len(colour) + len(backing_mm)
 
     [split]
     min_spread_de00 = 5.0

@@ -128,8 +128,10 @@ def write_shell(path: Path, shell: Shell, *, target: Path | None = None) -> Writ
             ("not closed", not checks["closed"]),
             ("not consistently oriented", not checks["oriented"]),
             (f"{checks['zero_area_faces']} zero-area faces", checks["zero_area_faces"]),
-            (f"{checks['self_intersections']} crossing triangle pairs",
-             checks["self_intersections"]),
+            (
+                f"{checks['self_intersections']} crossing triangle pairs",
+                checks["self_intersections"],
+            ),
         )
         if bad
     ]
@@ -180,8 +182,9 @@ def write_ply(
     v = np.ascontiguousarray(vertices, dtype="<f8")
     f = np.asarray(faces, dtype=np.int64)
     if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
-        raise ValueError(f"vertices and faces must have shape (V, 3) and (F, 3), got "
-                         f"{v.shape} and {f.shape}")
+        raise ValueError(
+            f"vertices and faces must have shape (V, 3) and (F, 3), got {v.shape} and {f.shape}"
+        )
     if f.size and (f.min() < 0 or f.max() >= min(len(v), 2**31)):
         raise ValueError(f"faces must index [0, {len(v)}), got range [{f.min()}, {f.max()}]")
     header = "\n".join(

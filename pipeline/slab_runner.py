@@ -41,9 +41,9 @@ from voxel.slab import SlabResult, StackModel, compute_slab
 from voxel.vdb_encode import VdbEncoder
 from voxel.vdb_leaves import GridSpool
 
-_WORKER: (
-    tuple[StackModel, GridSpec, MaterialPlan | None, VdbEncoder | None, SlabSlots] | None
-) = None
+_WORKER: tuple[StackModel, GridSpec, MaterialPlan | None, VdbEncoder | None, SlabSlots] | None = (
+    None
+)
 
 
 class StackSlab(NamedTuple):

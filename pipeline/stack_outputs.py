@@ -187,9 +187,7 @@ class StackOutputs:
                     "samples": max(1, writer.samples),
                 }
         if self.vdb is not None and self._vdb_path is not None:
-            summary["vdb"] = self.vdb.write(
-                self._vdb_path, {"creator": f"shellvox {__version__}"}
-            )
+            summary["vdb"] = self.vdb.write(self._vdb_path, {"creator": f"shellvox {__version__}"})
         if self.gcvf is not None:
             job = self.gcvf.close()
             summary["gcvf"] = {

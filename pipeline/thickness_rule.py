@@ -322,6 +322,7 @@ class ThicknessRule:
 #: The documented default rule (see the module docstring).
 DEFAULT_RULE = ThicknessRule()
 
+
 def orientation_class(normal_z: NDArray[np.float64], rule: OrientationRule) -> NDArray[np.int8]:
     """Return the orientation class of every face.
 

@@ -136,7 +136,8 @@ def test_gcvf_parses_back_and_agrees_with_materials_tif(job):
     assert int(config.findtext("SliceDimensions/SliceHeight")) == n_y
     keys = {
         tuple(int(v) for v in m.findtext("RGBA").split()): (
-            m.findtext("Name"), int(m.findtext("VoxelCount"))
+            m.findtext("Name"),
+            int(m.findtext("VoxelCount")),
         )
         for m in config.iter("Material")
     }
@@ -172,9 +173,7 @@ def test_materials_follow_the_layers(job):
     assert {roles[i] for i in np.unique(materials[colour])} <= colour_roles | {"white"}
     assert np.all(materials[backing] == J750.material("white").index)
     assert np.all(materials[core] == J750.material("white").index)
-    assert not np.isin(
-        materials[~colour], [J750.material(r).index for r in colour_roles]
-    ).any()
+    assert not np.isin(materials[~colour], [J750.material(r).index for r in colour_roles]).any()
 
 
 def test_translucent_faces_get_clear_and_the_slices_carry_alpha(job):

@@ -157,8 +157,11 @@ def test_worker_processes_give_the_same_stack(tmp_path):
     outputs = {}
     for workers in (1, 3):
         config = BuildConfig(
-            voxel_mm=(0.1, 0.15, 0.08), thickness_mm=(0.4, 0.6), slab_mb=1.0,
-            shell_meshes=False, workers=workers,
+            voxel_mm=(0.1, 0.15, 0.08),
+            thickness_mm=(0.4, 0.6),
+            slab_mb=1.0,
+            shell_meshes=False,
+            workers=workers,
         )
         out = tmp_path / str(workers)
         manifest = build_stack(_ball(), config, out, progress=False)
@@ -181,8 +184,11 @@ def test_vdb_encoded_in_workers_equals_vdb_encoded_here(tmp_path):
     grids = {}
     for workers, slab_mb in ((3, 2.0), (1, 0.7)):
         config = BuildConfig(
-            voxel_mm=(0.1, 0.15, 0.08), thickness_mm=(0.4, 0.6), slab_mb=slab_mb,
-            shell_meshes=False, workers=workers,
+            voxel_mm=(0.1, 0.15, 0.08),
+            thickness_mm=(0.4, 0.6),
+            slab_mb=slab_mb,
+            shell_meshes=False,
+            workers=workers,
         )
         out = tmp_path / str(workers)
         manifest = build_stack(_ball(), config, out, progress=False)

@@ -68,8 +68,9 @@ def test_thickness_writes_a_readable_picture_ply_and_summary(tmp_path, two_colou
     top = int(np.argmax(expected.colour_layer_mm))
     side = int(np.argmin(expected.colour_layer_mm))
     for face in (top, side):
-        rgb = np.rint(np.asarray(colormaps[COLOUR_MAP](norm(expected.colour_layer_mm[face]))[:3])
-                      * 255)
+        rgb = np.rint(
+            np.asarray(colormaps[COLOUR_MAP](norm(expected.colour_layer_mm[face]))[:3]) * 255
+        )
         assert np.count_nonzero(np.abs(pixels - rgb).max(axis=1) <= 2) > 500
 
 
@@ -78,8 +79,17 @@ def test_thickness_with_a_rule_file_and_max_edge(tmp_path, two_colour_box, capsy
     rule.write_text("[colour_layer]\nmin_mm = 0.2\nmax_mm = 2.0\n[split]\nmin_spread_de00 = 0\n")
     out = tmp_path / "out"
     status = main(
-        ["thickness", str(two_colour_box), "--thickness-rule", str(rule), "--max-edge", "4",
-         "-o", str(out), "--json"]
+        [
+            "thickness",
+            str(two_colour_box),
+            "--thickness-rule",
+            str(rule),
+            "--max-edge",
+            "4",
+            "-o",
+            str(out),
+            "--json",
+        ]
     )
     assert status == 0
     summary = json.loads(capsys.readouterr().out.split("\n" + str(out))[0])
@@ -96,8 +106,7 @@ def test_a_bad_rule_file_is_one_line_and_exit_2(tmp_path, two_colour_box, capsys
     rule = tmp_path / "rule.toml"
     rule.write_text("[colour_layer]\nmax_mm = -1\n")
     out = tmp_path / "out"
-    status = main(["thickness", str(two_colour_box), "--thickness-rule", str(rule),
-                   "-o", str(out)])
+    status = main(["thickness", str(two_colour_box), "--thickness-rule", str(rule), "-o", str(out)])
     err = capsys.readouterr().err
     assert status == 2
     assert err.count("\n") == 1
@@ -113,8 +122,9 @@ def test_shells_uses_the_default_rule_without_thickness(tmp_path, capsys):
         box.visual.face_colors = np.tile(rgba, (12, 1))
         box.export(tmp_path / f"{name}.ply")
         out = tmp_path / name
-        assert main(["shells", str(tmp_path / f"{name}.ply"), "-o", str(out),
-                     "--no-baselines"]) == 0
+        assert (
+            main(["shells", str(tmp_path / f"{name}.ply"), "-o", str(out), "--no-baselines"]) == 0
+        )
         report = json.loads((out / "report.json").read_text())
         assert report["config"]["thickness_mm"] == []
         assert report["thickness"]["source"] == "default rule"
@@ -134,10 +144,20 @@ def test_shells_uses_the_default_rule_without_thickness(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("option", [["--thickness-rule", "r.toml"], ["--max-edge", "1"]])
-def test_shells_refuses_a_rule_option_with_constant_thickness(tmp_path, two_colour_box, capsys,
-                                                               option):
-    status = main(["shells", str(two_colour_box), "-o", str(tmp_path / "o"),
-                   "--thickness", "0.5,0.5", *option])
+def test_shells_refuses_a_rule_option_with_constant_thickness(
+    tmp_path, two_colour_box, capsys, option
+):
+    status = main(
+        [
+            "shells",
+            str(two_colour_box),
+            "-o",
+            str(tmp_path / "o"),
+            "--thickness",
+            "0.5,0.5",
+            *option,
+        ]
+    )
     err = capsys.readouterr().err
     assert status == 2
     assert option[0] in err and "--thickness" in err

@@ -19,15 +19,18 @@ def _box_case(depth_mm, optical_mm, voxel=0.05):
     depth = 2 - np.abs(centres).max(axis=1)  # distance to the box surface inside
     materials = np.where(inside, np.where(depth < depth_mm, 1, 2), 0).astype(np.uint8)
     samples = sample_surface(
-        box.vertices, box.faces.astype(np.int64),
+        box.vertices,
+        box.faces.astype(np.int64),
         lambda f, b: np.tile(np.array([200, 40, 40, 255], np.uint8), (len(f), 1)),
-        400, seed=3,
+        400,
+        seed=3,
     )
     # keep samples away from edges, where the inward ray leaves the face's own slab
     tangential = np.abs(samples.points) * (1 - np.abs(samples.normals))
     keep = tangential.max(axis=1) < 1.5
-    samples = type(samples)(*(a[keep] for a in (
-        samples.points, samples.normals, samples.face_ids, samples.target_rgba)))
+    samples = type(samples)(
+        *(a[keep] for a in (samples.points, samples.normals, samples.face_ids, samples.target_rgba))
+    )
     display = np.array([[0, 0, 0], [255, 0, 0], [255, 255, 255]], np.uint8)
     return grid, materials.reshape(grid.shape_zyx), samples, display
 

@@ -29,11 +29,17 @@ def _coloured(kind: str, shape: trimesh.Trimesh, seed: int = 0) -> ColouredMesh:
     if kind == "texture":
         images = (
             Material("a", image=rng.integers(0, 256, (16, 16, 4)).astype(np.uint8)),
-            Material("b", image=rng.integers(0, 256, (8, 32, 4)).astype(np.uint8),
-                     filter="nearest", wrap=("mirror", "clamp")),
+            Material(
+                "b",
+                image=rng.integers(0, 256, (8, 32, 4)).astype(np.uint8),
+                filter="nearest",
+                wrap=("mirror", "clamp"),
+            ),
         )
         return ColouredMesh(
-            vertices, faces, "texture",
+            vertices,
+            faces,
+            "texture",
             corner_uv=rng.uniform(-0.5, 1.5, (n, 3, 2)),
             face_material=rng.integers(0, 2, n),
             materials=images,
@@ -66,7 +72,8 @@ def test_split_keeps_the_solid_closed_oriented_and_short_edged(shape, kind):
     assert len(split.faces) > len(mesh.faces)
     assert _edge_lengths(split).max() <= 1.5
     np.testing.assert_allclose(
-        signed_volume(split.vertices, split.faces), signed_volume(mesh.vertices, mesh.faces),
+        signed_volume(split.vertices, split.faces),
+        signed_volume(mesh.vertices, mesh.faces),
         rtol=1e-12,
     )
     np.testing.assert_allclose(
@@ -107,9 +114,7 @@ def test_only_the_chosen_faces_and_their_shared_edges_are_split():
     report = edge_report(result.mesh.faces)
     assert report.closed and report.oriented
     # Faces that share no edge with face 0 are untouched.
-    shares = np.array(
-        [len(set(mesh.faces[f]) & set(mesh.faces[0])) == 2 for f in range(12)]
-    )
+    shares = np.array([len(set(mesh.faces[f]) & set(mesh.faces[0])) == 2 for f in range(12)])
     for f in np.flatnonzero(~shares & ~chosen):
         assert np.count_nonzero(result.parent == f) == 1
 
@@ -123,8 +128,11 @@ def test_split_for_thickness_splits_only_faces_of_mixed_colour():
     corner_uv = np.tile([[0.1, 0.1], [0.2, 0.1], [0.1, 0.2]], (n, 1, 1))  # white only
     corner_uv[3] = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]  # half white, half black
     mesh = ColouredMesh(
-        np.asarray(box.vertices), np.asarray(box.faces, np.int64), "texture",
-        corner_uv=corner_uv, face_material=np.zeros(n, np.int64),
+        np.asarray(box.vertices),
+        np.asarray(box.faces, np.int64),
+        "texture",
+        corner_uv=corner_uv,
+        face_material=np.zeros(n, np.int64),
         materials=(Material("two", image=image, wrap=("clamp", "clamp")),),
     )
     spread = face_colour(mesh).spread_de00

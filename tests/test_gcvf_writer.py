@@ -120,8 +120,11 @@ def test_job_reads_back_as_the_volume(tmp_path, first_row):
 
     # One Material per material used, in table order, with its count over all slices.
     listed = [
-        (m.findtext("Name"), tuple(map(int, m.findtext("RGBA").split())),
-         int(m.findtext("VoxelCount")))
+        (
+            m.findtext("Name"),
+            tuple(map(int, m.findtext("RGBA").split())),
+            int(m.findtext("VoxelCount")),
+        )
         for m in config.findall("MaterialList/Material")
     ]
     stack = np.stack([images[f"layer_{z}.png"] for z in range(n_z)])
@@ -131,7 +134,12 @@ def test_job_reads_back_as_the_volume(tmp_path, first_row):
         if index and np.any(volume == index)
     ]
     assert [name for name, _, _ in listed] == [
-        "VeroCyan-V", "VeroMagenta-V", "VeroYellow-V", "VeroBlack", "VeroPureWhite", "VeroClear"
+        "VeroCyan-V",
+        "VeroMagenta-V",
+        "VeroYellow-V",
+        "VeroBlack",
+        "VeroPureWhite",
+        "VeroClear",
     ]
     assert summary.n_slices == n_z and summary.n_padding_slices == 0
     assert summary.voxel_counts == {
@@ -149,7 +157,8 @@ def test_orientation_of_one_voxel(tmp_path):
     # Only the materials used are listed.
     listed = config.findall("MaterialList/Material")
     assert [(m.findtext("Name"), m.findtext("VoxelCount")) for m in listed] == [
-        ("VeroCyan-V", "1"), ("VeroMagenta-V", "1")
+        ("VeroCyan-V", "1"),
+        ("VeroMagenta-V", "1"),
     ]
     first, last = images["layer_0.png"], images[f"layer_{GRID.shape_zyx[0] - 1}.png"]
     assert tuple(first[-1, 0]) == KEY[1]
@@ -191,8 +200,10 @@ def test_short_jobs_are_padded_to_30_slices(tmp_path):
     for z in range(30):
         expected = volume[z, ::-1] if z < 4 else np.zeros(grid.shape_zyx[1:], np.uint8)
         np.testing.assert_array_equal(_to_indices(images[f"layer_{z}.png"]), expected)
-    counts = {m.findtext("Name"): int(m.findtext("VoxelCount"))
-              for m in config.findall("MaterialList/Material")}
+    counts = {
+        m.findtext("Name"): int(m.findtext("VoxelCount"))
+        for m in config.findall("MaterialList/Material")
+    }
     assert counts["VeroPureWhite"] == int(np.count_nonzero(volume == 5))
 
 

@@ -66,8 +66,9 @@ def test_icosphere_is_equidistant():
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=10.0)
     shells = offset_shells(sphere.vertices, sphere.faces, [0.5])
     _assert_valid(shells[0])
-    report = shell_report(sphere.vertices, sphere.faces, [0.5], shells, baselines=False,
-                          n_samples=4000)
+    report = shell_report(
+        sphere.vertices, sphere.faces, [0.5], shells, baselines=False, n_samples=4000
+    )
     layer = report["layers"][0]["shell"]
     assert layer["self_intersections"] == 0
     assert layer["nested"]
@@ -81,16 +82,20 @@ def test_thin_plate_collapses_cleanly():
     _assert_valid(shells[0])
     assert shells[0].vertices[:, 2].max() == pytest.approx(0.2, abs=1e-12)
     assert shells[1].faces.shape == (0, 3)  # 0.8 mm from both sides of a 1 mm plate
-    report = shell_report(plate.vertices, plate.faces, [0.3, 0.5], shells, baselines=False,
-                          n_samples=500)
+    report = shell_report(
+        plate.vertices, plate.faces, [0.3, 0.5], shells, baselines=False, n_samples=500
+    )
     assert report["layers"][1]["shell"]["n_faces"] == 0
     assert report["layers"][1]["shell"]["nested"]
     # The paper's planes cross instead: the top face ends up below the bottom one.
     (paper,) = offset_shells(plate.vertices, plate.faces, [0.8], method="paper")
     top = np.asarray(plate.face_normals)[:, 2] > 0.5
-    assert paper.vertices[paper.faces[top]][..., 2].max() < paper.vertices[
-        paper.faces[~top & (np.asarray(plate.face_normals)[:, 2] < -0.5)]
-    ][..., 2].min()
+    assert (
+        paper.vertices[paper.faces[top]][..., 2].max()
+        < paper.vertices[paper.faces[~top & (np.asarray(plate.face_normals)[:, 2] < -0.5)]][
+            ..., 2
+        ].min()
+    )
 
 
 def _l_block() -> trimesh.Trimesh:

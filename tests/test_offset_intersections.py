@@ -57,16 +57,20 @@ def test_candidate_pairs_are_exactly_the_overlapping_boxes(chunk):
     # spanning many cells, some sharing faces exactly (closed boxes touch): every
     # overlapping pair once, in (i, j) order, however the pairs are chunked.
     rng = np.random.default_rng(1)
-    centre = np.concatenate([
-        rng.uniform(0.0, 10.0, (300, 3)),
-        rng.uniform(4.0, 4.2, (150, 3)),
-        rng.uniform(0.0, 10.0, (10, 3)),
-    ])
-    half = np.concatenate([
-        rng.uniform(0.05, 0.5, (300, 3)),
-        rng.uniform(0.001, 0.01, (150, 3)),
-        rng.uniform(2.0, 5.0, (10, 3)),
-    ])
+    centre = np.concatenate(
+        [
+            rng.uniform(0.0, 10.0, (300, 3)),
+            rng.uniform(4.0, 4.2, (150, 3)),
+            rng.uniform(0.0, 10.0, (10, 3)),
+        ]
+    )
+    half = np.concatenate(
+        [
+            rng.uniform(0.05, 0.5, (300, 3)),
+            rng.uniform(0.001, 0.01, (150, 3)),
+            rng.uniform(2.0, 5.0, (10, 3)),
+        ]
+    )
     lo, hi = centre - half, centre + half
     lo[5], hi[5] = hi[6].copy(), hi[6] + 1.0  # touch at a corner
     order = rng.permutation(len(lo))

@@ -105,9 +105,7 @@ def test_boxes_cluster_like_the_dense_overlap_graph():
     expect_lo = np.full((n, 3), np.inf)
     np.minimum.at(expect_lo, label, t_lo)
     # Same boxes, whatever the cluster numbering.
-    np.testing.assert_array_equal(
-        lo[np.lexsort(lo.T)], expect_lo[np.lexsort(expect_lo.T)]
-    )
+    np.testing.assert_array_equal(lo[np.lexsort(lo.T)], expect_lo[np.lexsort(expect_lo.T)])
     assert np.all(hi > lo)
 
 
@@ -128,8 +126,11 @@ def test_robust_offset_repairs_a_crossing_cut_without_warning(monkeypatch):
     v, f = _box(SIZE)
     # The defect is seen (and not simplified away) before the repair.
     dirty_v, dirty_f = crossing_cut(
-        to_manifold(v, f).as_original(), layer_pieces(features(v, f), np.full(len(f), DEPTH)),
-        DEPTH, DEPTH, robust.LEAF,
+        to_manifold(v, f).as_original(),
+        layer_pieces(features(v, f), np.full(len(f), DEPTH)),
+        DEPTH,
+        DEPTH,
+        robust.LEAF,
     )
     assert core_cut.uncross(dirty_v, dirty_f, DEPTH)[3] > 0
     # pyproject turns warnings into errors: a ShellDefectWarning fails the test.

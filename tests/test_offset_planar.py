@@ -117,9 +117,7 @@ def test_patches_follow_the_plane_and_the_depth():
 
 
 def _per_face_only(monkeypatch):
-    monkeypatch.setattr(
-        band, "flat_patches", lambda pairs, n_faces, d: (np.full(n_faces, -1), 0)
-    )
+    monkeypatch.setattr(band, "flat_patches", lambda pairs, n_faces, d: (np.full(n_faces, -1), 0))
 
 
 @pytest.mark.parametrize("thickness", [[0.5], [0.3, 0.6]])

@@ -33,8 +33,9 @@ def test_shells_are_valid_nested_and_equidistant(real_mesh_shells, name):
     mesh, shells, caught = real_mesh_shells(relative, size_mm)
     thickness = [0.5, 1.0]  # depths 0.5 and 1.5 mm
     assert [str(w.message) for w in caught] == []  # e.g. no ShellDefectWarning
-    report = shell_report(mesh.vertices, mesh.faces, thickness, shells, baselines=False,
-                          n_samples=4000)
+    report = shell_report(
+        mesh.vertices, mesh.faces, thickness, shells, baselines=False, n_samples=4000
+    )
     clean_input = report["input_self_intersections"] == 0
     for layer in report["layers"]:
         shell = layer["shell"]
@@ -55,8 +56,7 @@ def test_shells_are_valid_nested_and_equidistant(real_mesh_shells, name):
     # allowance (corners grow by at most 1e-2 D, so 5e-5 D deeper).
     rng = np.random.default_rng(0)
     for shell, depth in zip(shells, [0.5, 1.5], strict=True):
-        some = rng.choice(len(shell.vertices), size=min(3000, len(shell.vertices)),
-                          replace=False)
+        some = rng.choice(len(shell.vertices), size=min(3000, len(shell.vertices)), replace=False)
         dist = trimesh.proximity.closest_point(mesh, shell.vertices[some])[1]
         assert np.all(dist <= depth * (1 + 1e-4))
         assert np.all(dist >= depth * (1 - 0.02))
@@ -67,6 +67,7 @@ def test_shells_are_valid_nested_and_equidistant(real_mesh_shells, name):
 def test_duck_input_defect_is_reported(real_mesh_shells):
     """The duck's bill crosses itself: the report says so instead of hiding it."""
     duck, shells, _ = real_mesh_shells(*CASES["duck"])
-    report = shell_report(duck.vertices, duck.faces, [0.5, 1.0], shells, baselines=False,
-                          n_samples=500)
+    report = shell_report(
+        duck.vertices, duck.faces, [0.5, 1.0], shells, baselines=False, n_samples=500
+    )
     assert report["input_self_intersections"] > 0

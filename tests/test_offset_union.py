@@ -33,9 +33,7 @@ def test_groups_of_different_topology_are_united():
     corners = np.stack(np.meshgrid(*[np.arange(4) * 2.0] * 3), axis=-1).reshape(-1, 3)
     octa = trimesh.creation.icosphere(subdivisions=0)  # 12 points, inside radius 1
     ball_pts = np.asarray(octa.vertices)[None] * 0.4 + corners[::2, None, :] + 0.5
-    union = union_pieces(
-        [_cubes(corners, 1.0), (ball_pts, np.asarray(octa.faces, dtype=np.int64))]
-    )
+    union = union_pieces([_cubes(corners, 1.0), (ball_pts, np.asarray(octa.faces, dtype=np.int64))])
     assert union.volume() == pytest.approx(len(corners), rel=1e-12)
     assert len(union.decompose()) == len(corners)
 

@@ -12,8 +12,10 @@ import voxel.png_encode as png_encode
 from voxel.png_encode import encode_png
 
 
-@pytest.mark.parametrize(("shape", "mode"), [((1, 1), "L"), ((5, 3), "L"), ((7, 4, 3), "RGB"),
-                                             ((1, 9, 4), "RGBA"), ((64, 33, 4), "RGBA")])
+@pytest.mark.parametrize(
+    ("shape", "mode"),
+    [((1, 1), "L"), ((5, 3), "L"), ((7, 4, 3), "RGB"), ((1, 9, 4), "RGBA"), ((64, 33, 4), "RGBA")],
+)
 @pytest.mark.parametrize("level", [0, 1, 9])
 def test_png_round_trip(shape, mode, level):
     rng = np.random.default_rng(level)

@@ -206,8 +206,10 @@ def test_mixing_table_disk_cache_round_trip(tmp_path, monkeypatch):
     separation._mixing_table.cache_clear()
     (tmp_path / "shellvox").chmod(0o500)  # an unwritable cache only costs the solve
     try:
-        assert np.array_equal(separation._mixing_table(colours, 15, store),
-                              separation._solve_mixing_table(colours, 15))
+        assert np.array_equal(
+            separation._mixing_table(colours, 15, store),
+            separation._solve_mixing_table(colours, 15),
+        )
     finally:
         (tmp_path / "shellvox").chmod(0o700)
         separation._mixing_table.cache_clear()

@@ -145,8 +145,20 @@ def icosphere_out(tmp_path_factory):
     ico = trimesh.creation.icosphere(subdivisions=4, radius=10.0)
     ico.export(tmp_path / "ico.obj")
     out = tmp_path / "out"
-    assert main(["shells", str(tmp_path / "ico.obj"), "-o", str(out), "--thickness",
-                 "0.5,0.5", "--no-baselines"]) == 0
+    assert (
+        main(
+            [
+                "shells",
+                str(tmp_path / "ico.obj"),
+                "-o",
+                str(out),
+                "--thickness",
+                "0.5,0.5",
+                "--no-baselines",
+            ]
+        )
+        == 0
+    )
     return out
 
 
@@ -198,14 +210,29 @@ def test_a_shell_defect_warning_reaches_the_user_as_one_line(tmp_path, capsys, m
     import pipeline.cli.shells as shells_cli
 
     def defective(*args, **kwargs):
-        warnings.warn("robust shell of layer 1: 2 crossing triangle pairs remain",
-                      ShellDefectWarning, stacklevel=2)
+        warnings.warn(
+            "robust shell of layer 1: 2 crossing triangle pairs remain",
+            ShellDefectWarning,
+            stacklevel=2,
+        )
         return offset_shells(*args, **kwargs)
 
     monkeypatch.setattr(shells_cli, "offset_shells", defective)
     trimesh.creation.box((10.0, 8.0, 6.0)).export(tmp_path / "box.stl")
-    assert main(["shells", str(tmp_path / "box.stl"), "-o", str(tmp_path / "o"),
-                 "--thickness", "0.5", "--no-baselines"]) == 0
+    assert (
+        main(
+            [
+                "shells",
+                str(tmp_path / "box.stl"),
+                "-o",
+                str(tmp_path / "o"),
+                "--thickness",
+                "0.5",
+                "--no-baselines",
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["shellvox: warning: robust shell of layer 1: 2 crossing triangle pairs remain"]
 

@@ -49,14 +49,16 @@ def _exactly_separated(t0, t1):
 
 
 # Two triangles of one face of a rotated, subdivided box (float64 as printed by numpy).
-COPLANAR_PAIR = np.array([
-    [18.72823671271265, 25.091696296856977, 37.64603039551898],
-    [17.86123647876913, 23.781861127990943, 40.10217420742079],
-    [17.050206297315256, 23.67831077590412, 38.84459424202948],
-    [20.350297075620393, 25.298797001030632, 40.161190326301586],
-    [18.672266660223, 23.88541148007777, 41.35975417281209],
-    [19.53926689416652, 25.195246648943805, 38.90361036091028],
-])
+COPLANAR_PAIR = np.array(
+    [
+        [18.72823671271265, 25.091696296856977, 37.64603039551898],
+        [17.86123647876913, 23.781861127990943, 40.10217420742079],
+        [17.050206297315256, 23.67831077590412, 38.84459424202948],
+        [20.350297075620393, 25.298797001030632, 40.161190326301586],
+        [18.672266660223, 23.88541148007777, 41.35975417281209],
+        [19.53926689416652, 25.195246648943805, 38.90361036091028],
+    ]
+)
 
 
 @needs_meshlab
@@ -158,5 +160,5 @@ def test_jitter_keeps_touching_solids_touching():
     assert np.all(moved[: len(v_touch)][np.abs(x[:, 0] - 1.0) < 1e-9] == 0)
     assert jittered.n_kept > 0 and jittered.n_moved > 0
     np.testing.assert_allclose(moved[moved > 0], amplitude, rtol=1e-6)
-    assert np.count_nonzero(moved[len(v_touch):]) == jittered.n_moved
-    assert len(coplanar_pairs(jittered.vertices[len(v_touch):], f_apart)) == 0
+    assert np.count_nonzero(moved[len(v_touch) :]) == jittered.n_moved
+    assert len(coplanar_pairs(jittered.vertices[len(v_touch) :], f_apart)) == 0

@@ -143,12 +143,14 @@ def test_material_grid_equals_openvdbs_own(tmp_path, rows):
     vdb = load_openvdb()
     layers, rgb, coloured, sdf = _volumes()
     materials = _materials(layers)
-    writer = VdbStackWriter(GRID, sdf_half_width_mm=HALF_WIDTH, spool_dir=tmp_path,
-                            material_grid=True)
+    writer = VdbStackWriter(
+        GRID, sdf_half_width_mm=HALF_WIDTH, spool_dir=tmp_path, material_grid=True
+    )
     for start in range(0, GRID.shape_zyx[0], rows):
         part = slice(start, start + rows)
-        writer.write_slab(start, layers[part], rgb[part], coloured[part], sdf[part],
-                          materials=materials[part])
+        writer.write_slab(
+            start, layers[part], rgb[part], coloured[part], sdf[part], materials=materials[part]
+        )
     summary = writer.write(tmp_path / "v.vdb")
     grids, _ = vdb.readAll(str(tmp_path / "v.vdb"))
     assert sorted(volume.name for volume in grids) == sorted([*GRID_NAMES, MATERIAL_GRID])
@@ -182,12 +184,12 @@ def test_material_grid_is_given_exactly_when_asked_for(tmp_path):
     with pytest.raises(ValueError, match="material_grid=True"):
         plain.write_slab(0, layers[:8], rgb[:8], coloured[:8], sdf[:8], materials=layers[:8])
     plain.close()
-    with_grid = VdbStackWriter(GRID, sdf_half_width_mm=HALF_WIDTH, spool_dir=tmp_path,
-                               material_grid=True)
+    with_grid = VdbStackWriter(
+        GRID, sdf_half_width_mm=HALF_WIDTH, spool_dir=tmp_path, material_grid=True
+    )
     with pytest.raises(ValueError, match="material_grid=True"):
         with_grid.write_slab(0, layers[:8], rgb[:8], coloured[:8], sdf[:8])
     with pytest.raises(ValueError, match="must have the shape of layers"):
-        with_grid.write_slab(0, layers[:8], rgb[:8], coloured[:8], sdf[:8],
-                             materials=layers[:7])
+        with_grid.write_slab(0, layers[:8], rgb[:8], coloured[:8], sdf[:8], materials=layers[:7])
     with_grid.close()
     assert list(tmp_path.iterdir()) == []

@@ -167,9 +167,10 @@ def test_the_page_and_its_files_are_served_from_the_package(server):
     status, _, body = get(server, "/")
     assert status == 200 and b'src="/static/viewer.js"' in body
     status, _, body = get(server, "/api/build")
-    assert json.loads(body)["grid"]["shape_zyx"] == json.loads(
-        get(server, "/files/manifest.json")[2]
-    )["grid"]["shape_zyx"]
+    assert (
+        json.loads(body)["grid"]["shape_zyx"]
+        == json.loads(get(server, "/files/manifest.json")[2])["grid"]["shape_zyx"]
+    )
 
 
 @pytest.mark.parametrize(

@@ -134,8 +134,17 @@ def test_distance_layers_follow_the_nearest_face_depth():
     idx = np.stack(np.nonzero(np.ones(grid.shape_zyx, bool)), axis=1)
     centres = grid.index_to_world(idx)
     # distance to each side plane: side 2a is -axis a, side 2a+1 is +axis a
-    gaps = np.stack([3.0 + centres[:, 0], 3.0 - centres[:, 0], 3.0 + centres[:, 1],
-                     3.0 - centres[:, 1], 3.0 + centres[:, 2], 3.0 - centres[:, 2]], axis=1)
+    gaps = np.stack(
+        [
+            3.0 + centres[:, 0],
+            3.0 - centres[:, 0],
+            3.0 + centres[:, 1],
+            3.0 - centres[:, 1],
+            3.0 + centres[:, 2],
+            3.0 - centres[:, 2],
+        ],
+        axis=1,
+    )
     inside = np.all(gaps > 0, axis=1)
     nearest_side = np.argmin(gaps, axis=1)
     d = gaps.min(axis=1)
@@ -194,7 +203,10 @@ def test_bad_depth(nested):
     for bad in (np.ones((2, n_faces - 1)), np.array([[1.0] * n_faces, [0.5] * n_faces])):
         with pytest.raises(ValueError, match="depth_mm must be"):
             StackModel(
-                model.surfaces[:1], model.surface, model.colour_at, depth_mm=bad,
+                model.surfaces[:1],
+                model.surface,
+                model.colour_at,
+                depth_mm=bad,
                 layer_rule="distance",
             )
     with pytest.raises(ValueError, match="depth_mm must be given with layer_rule 'distance'"):

@@ -92,8 +92,7 @@ def test_slabs_concatenate_to_whole():
     whole = winding_slab(mesh.vertices, faces, grid, 0, grid.shape_zyx[0]).winding
     cuts = [0, 5, 6, 31, grid.shape_zyx[0]]
     parts = [
-        winding_slab(mesh.vertices, faces, grid, a, b).winding
-        for a, b in itertools.pairwise(cuts)
+        winding_slab(mesh.vertices, faces, grid, a, b).winding for a, b in itertools.pairwise(cuts)
     ]
     np.testing.assert_array_equal(np.concatenate(parts), whole)
 

@@ -203,9 +203,7 @@ class ColourReport:
         }
 
 
-def _disc(
-    normals: NDArray[np.float64], radius: float, count: int
-) -> NDArray[np.float64]:
+def _disc(normals: NDArray[np.float64], radius: float, count: int) -> NDArray[np.float64]:
     """Return offsets ``(N, count, 3)`` on a disc of `radius` in each point's tangent plane.
 
     A golden-angle spiral (even density); one point is the centre when ``count == 1``.

@@ -172,9 +172,7 @@ def material_table(
         )
     keys = [m.rgba for m in materials]
     if len(set(keys)) != len(keys):
-        raise GcvfJobError(
-            f"material keys repeat: {keys}", "give each material its own RGBA key"
-        )
+        raise GcvfJobError(f"material keys repeat: {keys}", "give each material its own RGBA key")
     clash = [m.name for m in materials if m.rgba == background]
     if clash:
         raise GcvfJobError(
@@ -222,4 +220,3 @@ def check_grid(
                 f"printer's tray {tray_mm[0]:g} x {tray_mm[1]:g} x {tray_mm[2]:g} mm",
                 "scale the model down or split it",
             )
-

@@ -131,10 +131,10 @@ class GcvfWriter(SliceWriter):
     Examples
     --------
     >>> table = [(1, "VeroCyan-V", (0, 255, 255, 255)), (2, "VeroPureWhite", (255,) * 4)]
-    >>> with GcvfWriter(path, grid, table) as job:   # doctest: +SKIP
+    >>> with GcvfWriter(path, grid, table) as job:  # doctest: +SKIP
     ...     for slab in slabs:
     ...         job.write_slab(slab)
-    >>> job.summary.n_slices                          # doctest: +SKIP
+    >>> job.summary.n_slices  # doctest: +SKIP
     """
 
     def __init__(
@@ -312,7 +312,6 @@ class GcvfWriter(SliceWriter):
     def _add(self, name: str, data: bytes) -> None:
         assert self._zip is not None
         self._zip.writestr(_zip_info(name), data)
-
 
 
 def _zip_info(name: str) -> zipfile.ZipInfo:

@@ -82,8 +82,9 @@ class PngSliceWriter(SliceWriter):
         self._next_z = 0
         self._done = False
         self._temporary: Path | None = Path(
-            tempfile.mkdtemp(prefix=f".{self.folder.name}.", suffix=".partial",
-                             dir=self.folder.parent)
+            tempfile.mkdtemp(
+                prefix=f".{self.folder.name}.", suffix=".partial", dir=self.folder.parent
+            )
         )
         umask = os.umask(0)
         os.umask(umask)

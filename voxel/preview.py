@@ -168,8 +168,9 @@ def halftone_image(
     width_mm = materials.shape[1] * pixel_mm[0]
     scale = max_pixels / max(height_mm, width_mm)
     size = (max(1, round(width_mm * scale)), max(1, round(height_mm * scale)))
-    full = [Image.fromarray(a, "RGB").resize(size, Image.Resampling.NEAREST)
-            for a in (target, halftone)]
+    full = [
+        Image.fromarray(a, "RGB").resize(size, Image.Resampling.NEAREST) for a in (target, halftone)
+    ]
     # inset: the window with the most non-white, non-void voxels of the target
     colourful = (materials > 0) & (np.ptp(target.astype(np.int16), axis=-1) > 24)
     side = max(1, min(inset_voxels, *materials.shape))
@@ -183,8 +184,12 @@ def halftone_image(
         max(1, round(side * block * pixel_mm[0] / min(pixel_mm))),
         max(1, round(side * block * pixel_mm[1] / min(pixel_mm))),
     )
-    insets = [Image.fromarray(np.ascontiguousarray(a[crop]), "RGB").resize(
-        inset_size, Image.Resampling.NEAREST) for a in (target, halftone)]
+    insets = [
+        Image.fromarray(np.ascontiguousarray(a[crop]), "RGB").resize(
+            inset_size, Image.Resampling.NEAREST
+        )
+        for a in (target, halftone)
+    ]
     gap = 8
     width = max(2 * size[0], 2 * inset_size[0]) + gap
     height = size[1] + inset_size[1] + gap + 20
@@ -194,8 +199,11 @@ def halftone_image(
     canvas.paste(insets[0], (0, size[1] + gap))
     canvas.paste(insets[1], (inset_size[0] + gap, size[1] + gap))
     draw = ImageDraw.Draw(canvas)
-    draw.text((4, height - 16), f"target colour | halftoned materials; inset: {side} x {side} "
-              f"voxels at ({x0}, {y0})", fill=(0, 0, 0))
+    draw.text(
+        (4, height - 16),
+        f"target colour | halftoned materials; inset: {side} x {side} voxels at ({x0}, {y0})",
+        fill=(0, 0, 0),
+    )
     return canvas
 
 
@@ -287,9 +295,7 @@ def section_pair_image(
         ``[colour | layers]`` at true aspect (nearest resampling: every drawn colour is a
         voxel's), above ``[colour inset | layer inset]``.
     """
-    colour, layer = colour_and_layers(
-        layers, rgb, colour_layers=colour_layers, n_bands=n_bands
-    )
+    colour, layer = colour_and_layers(layers, rgb, colour_layers=colour_layers, n_bands=n_bands)
     height_mm = layers.shape[0] * pixel_mm[1]
     width_mm = layers.shape[1] * pixel_mm[0]
     scale = max_pixels / max(height_mm, width_mm)

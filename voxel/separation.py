@@ -235,9 +235,12 @@ def _mixing_table(
     Solving it takes about two seconds, so it is kept in memory and, with a `store`, between
     runs (keyed by the colours, the step, the model's version and numpy's).
     """
-    key = "mixing-" + hashlib.sha256(
-        repr((colours, step, _TABLE_VERSION, np.__version__)).encode()
-    ).hexdigest()[:24]
+    key = (
+        "mixing-"
+        + hashlib.sha256(
+            repr((colours, step, _TABLE_VERSION, np.__version__)).encode()
+        ).hexdigest()[:24]
+    )
     cached = None if store is None else store.load(key)
     if cached is not None and cached.shape[-1] == len(colours):
         cached.setflags(write=False)
@@ -248,9 +251,7 @@ def _mixing_table(
     return table
 
 
-def _solve_mixing_table(
-    colours: tuple[tuple[int, ...], ...], step: int
-) -> NDArray[np.float32]:
+def _solve_mixing_table(colours: tuple[tuple[int, ...], ...], step: int) -> NDArray[np.float32]:
     """Solve the mixing table at every node (see :func:`mix_proportions`)."""
     codes = node_codes(step)
     grid = np.stack(np.meshgrid(codes, codes, codes, indexing="ij"), axis=-1).reshape(-1, 3)

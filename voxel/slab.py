@@ -268,9 +268,7 @@ def _beyond_reach(
     distance = nearest_faces(surface, points[far])[1]
     wanted = np.zeros(shape)
     wanted.reshape(-1)[flat[far]] = (distance * (1 + 1e-9) + 1e-12) ** 2
-    again = nearest_within(
-        surface.vertices, surface.faces, grid, z_start, wanted, surface.regions
-    )
+    again = nearest_within(surface.vertices, surface.faces, grid, z_start, wanted, surface.regions)
     face_ids = face_ids.copy()
     face_ids[far] = again.face.reshape(-1)[flat[far]]
     return face_ids

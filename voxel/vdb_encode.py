@@ -24,9 +24,7 @@ RUN_GRIDS = ("density", "layer")
 MATERIAL_GRID = "material"
 
 
-def grid_kinds(
-    half_width: float, material_grid: bool
-) -> list[tuple[str, tuple[str, str, float]]]:
+def grid_kinds(half_width: float, material_grid: bool) -> list[tuple[str, tuple[str, str, float]]]:
     """Names and ``(value type, class, background)`` of the grids written."""
     kinds = [
         ("float", "fog volume", 0.0),
@@ -166,13 +164,20 @@ class VdbEncoder:
             self._leaves(spools[4], blocks, any_on & ~tile, materials, solid)
 
     def _leaves(
-        self, spool: GridSpool, blocks: _Blocks, which: NDArray[np.bool_],
-        values: NDArray[Any], active: NDArray[np.bool_],
+        self,
+        spool: GridSpool,
+        blocks: _Blocks,
+        which: NDArray[np.bool_],
+        values: NDArray[Any],
+        active: NDArray[np.bool_],
     ) -> None:
         """Spool the blocks `which` of a grid whose inactive values are its background."""
         spool.add_leaves(
-            blocks.origins(which), blocks.gather(values, which).astype(np.float32),
-            blocks.gather(active, which), None, self._level,
+            blocks.origins(which),
+            blocks.gather(values, which).astype(np.float32),
+            blocks.gather(active, which),
+            None,
+            self._level,
             spool.name in RUN_GRIDS,
         )
 
@@ -190,8 +195,11 @@ class _Blocks:
     @staticmethod
     def pad(volume: NDArray[Any], fill: Any) -> NDArray[Any]:
         """Pad ``(Zs <= 8, Ys, Xs[, 3])`` to whole blocks with `fill`."""
-        pads = [(0, LEAF - volume.shape[0]), (0, -volume.shape[1] % LEAF),
-                (0, -volume.shape[2] % LEAF)] + [(0, 0)] * (volume.ndim - 3)
+        pads = [
+            (0, LEAF - volume.shape[0]),
+            (0, -volume.shape[1] % LEAF),
+            (0, -volume.shape[2] % LEAF),
+        ] + [(0, 0)] * (volume.ndim - 3)
         if any(after for _, after in pads):
             return np.pad(volume, pads, constant_values=fill)
         return volume

@@ -69,9 +69,7 @@ def write_file(
             _write_grid(out, spool, grid, metadata)
 
 
-def _write_grid(
-    out: IO[bytes], spool: GridSpool, grid: GridSpec, metadata: dict[str, str]
-) -> None:
+def _write_grid(out: IO[bytes], spool: GridSpool, grid: GridSpec, metadata: dict[str, str]) -> None:
     """Archive::writeGrid: descriptor, compression, metadata, transform, tree."""
     type_name = "Tree_float_5_4_3" if spool.channels == 1 else "Tree_vec3s_5_4_3"
     for text in (spool.name, type_name, ""):  # GridDescriptor::writeHeader
@@ -106,8 +104,14 @@ def _write_grid(
     # the voxel size and the derived 1 / s, 1 / s^2 and 1 / 2s (Vec3d each).
     _string(out, "ScaleTranslateMap")
     scale = np.asarray(grid.voxel_mm, dtype=np.float64)
-    for vec in (np.asarray(grid.origin_mm, np.float64), scale, scale, 1.0 / scale,
-                1.0 / scale**2, 0.5 / scale):
+    for vec in (
+        np.asarray(grid.origin_mm, np.float64),
+        scale,
+        scale,
+        1.0 / scale,
+        1.0 / scale**2,
+        0.5 / scale,
+    ):
         out.write(struct.pack("<3d", *vec))
     tree = _Tree.assemble(spool)
     out.write(struct.pack("<i", 1))  # one buffer per leaf
@@ -169,8 +173,9 @@ class _Tree:
         spool.stream.flush()
         data = np.memmap(spool.stream.name, dtype=np.uint8, mode="r") if spool.size else None
         leaf_start = np.searchsorted(_order_key(self.origin), _order_key(nodes1), side="left")
-        leaf_stop = np.searchsorted(_order_key(self.origin), _order_key(nodes1 + L1 - 1),
-                                    side="right")
+        leaf_stop = np.searchsorted(
+            _order_key(self.origin), _order_key(nodes1 + L1 - 1), side="right"
+        )
         tiles_by_node = _group(l1_tile, nodes1)
         for root in roots:
             out.write(struct.pack("<3i", *root))
@@ -188,7 +193,11 @@ class _Tree:
                     out.write(np.asarray(data[self.offset[leaves, None] + np.arange(64)]).tobytes())
 
     def _write_node1(
-        self, out: IO[bytes], spool: GridSpool, node: NDArray[np.int32], leaves: slice,
+        self,
+        out: IO[bytes],
+        spool: GridSpool,
+        node: NDArray[np.int32],
+        leaves: slice,
         tiles: NDArray[np.int64] | None,
     ) -> None:
         """InternalNode<Leaf, 4>::writeTopology without its children's part."""
@@ -219,8 +228,9 @@ class _Tree:
         ends = np.cumsum(self.length)
         start = 0
         while start < len(self.offset):
-            stop = int(np.searchsorted(ends, ends[start] - self.length[start] + COPY_BYTES,
-                                       side="right"))
+            stop = int(
+                np.searchsorted(ends, ends[start] - self.length[start] + COPY_BYTES, side="right")
+            )
             stop = max(stop, start + 1)
             off, length = self.offset[start:stop], self.length[start:stop]
             before = np.concatenate([[0], np.cumsum(length)[:-1]])
@@ -261,7 +271,4 @@ def _group(keys: NDArray[np.int32], nodes: NDArray[np.int32]) -> dict[int, NDArr
     where = np.searchsorted(node_key, key_key)
     order = np.argsort(where, kind="stable")
     bounds = np.flatnonzero(np.diff(where[order])) + 1
-    return {
-        int(where[group[0]]): group
-        for group in np.split(order, bounds)
-    }
+    return {int(where[group[0]]): group for group in np.split(order, bounds)}

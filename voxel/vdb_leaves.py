@@ -231,5 +231,3 @@ def _interleave(
     body_starts = np.concatenate([[0], np.cumsum(body_lengths)[:-1]])
     record[np.repeat(starts + h - body_starts, body_lengths) + np.arange(len(body))] = body
     return record
-
-

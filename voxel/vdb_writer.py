@@ -69,9 +69,9 @@ class VdbStackWriter:
 
     Examples
     --------
-    >>> writer = VdbStackWriter(grid, sdf_half_width_mm=0.1)   # doctest: +SKIP
-    >>> writer.write_slab(0, layers, rgb, coloured, sdf)       # doctest: +SKIP
-    >>> summary = writer.write(Path("volume.vdb"))             # doctest: +SKIP
+    >>> writer = VdbStackWriter(grid, sdf_half_width_mm=0.1)  # doctest: +SKIP
+    >>> writer.write_slab(0, layers, rgb, coloured, sdf)  # doctest: +SKIP
+    >>> summary = writer.write(Path("volume.vdb"))  # doctest: +SKIP
     """
 
     def __init__(
@@ -90,8 +90,13 @@ class VdbStackWriter:
         self.material_grid = material_grid
         self._kinds = grid_kinds(float(self._half_width), material_grid)
         self._spools = [
-            GridSpool(name, value_type, grid_class, background,
-                       open(os.path.join(self._dir.name, name), "w+b"))  # noqa: SIM115
+            GridSpool(
+                name,
+                value_type,
+                grid_class,
+                background,
+                open(os.path.join(self._dir.name, name), "w+b"),  # noqa: SIM115
+            )
             for name, (value_type, grid_class, background) in self._kinds
         ]
         self._pending: list[tuple[NDArray[Any], ...]] = []  # rows of an unfinished leaf row
@@ -108,8 +113,9 @@ class VdbStackWriter:
         and end at a multiple of 8 or at the top of the grid.
         """
         if z_start != self._next_z or self._pending:
-            raise ValueError(f"slabs must arrive in order: expected row {self._next_z}, "
-                             f"got {z_start}")
+            raise ValueError(
+                f"slabs must arrive in order: expected row {self._next_z}, got {z_start}"
+            )
         stop = z_start + n_rows
         if z_start % LEAF or (stop % LEAF and stop != self.grid.shape_zyx[0]):
             raise ValueError(f"encoded rows {z_start}..{stop} are not whole leaf rows")
@@ -154,8 +160,9 @@ class VdbStackWriter:
                 f"materials must have the shape of layers {layers.shape}, got {materials.shape}"
             )
         if z_start != self._next_z:
-            raise ValueError(f"slabs must arrive in order: expected row {self._next_z}, "
-                             f"got {z_start}")
+            raise ValueError(
+                f"slabs must arrive in order: expected row {self._next_z}, got {z_start}"
+            )
         self._next_z = z_start + len(layers)
         arrays = (layers, rgb, coloured, sdf) + (() if materials is None else (materials,))
         self._pending.append(arrays)
@@ -168,7 +175,8 @@ class VdbStackWriter:
         if ready <= 0:
             return
         parts = (
-            list(self._pending[0]) if len(self._pending) == 1
+            list(self._pending[0])
+            if len(self._pending) == 1
             else [np.concatenate(arrays) for arrays in zip(*self._pending, strict=True)]
         )
         encoder = self.encoder()
@@ -188,8 +196,9 @@ class VdbStackWriter:
         """
         try:
             if self._next_z != self.grid.shape_zyx[0]:
-                raise ValueError(f"{path}: only {self._next_z} of {self.grid.shape_zyx[0]} "
-                                 "rows were written")
+                raise ValueError(
+                    f"{path}: only {self._next_z} of {self.grid.shape_zyx[0]} rows were written"
+                )
             write_file(path, self._spools, self.grid, metadata or {})
         finally:
             self.close()

@@ -114,16 +114,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--alpha", action="store_true", help="write colour.tif as RGBA")
     parser.add_argument("--no-vdb", action="store_true", help="skip volume.vdb (see --format)")
     parser.add_argument(
-        "--slab-mb", type=float, default=1024.0,
+        "--slab-mb",
+        type=float,
+        default=1024.0,
         help="working memory per slab and worker (default 1024)",
     )
     parser.add_argument(
-        "--compression-level", type=int, default=None,
+        "--compression-level",
+        type=int,
+        default=None,
         help="zlib level of the TIFFs, 1..9 (smaller files, slower); default: a fast "
         "run-length deflate",
     )
     parser.add_argument(
-        "--workers", type=int, default=0,
+        "--workers",
+        type=int,
+        default=0,
         help="processes computing slabs (default 0: one per core)",
     )
     parser.add_argument(
@@ -178,7 +184,9 @@ def config_from_args(
         shell_method=args.method,
         alpha=args.alpha,
         formats=_formats(args, profile, voxel),
-        material=None if args.no_materials else MaterialSettings(
+        material=None
+        if args.no_materials
+        else MaterialSettings(
             halftone=args.halftone,
             seed=args.seed,
             icc=args.icc,
@@ -196,9 +204,9 @@ def _formats(
     args: argparse.Namespace, profile: PrinterProfile, voxel: tuple[float, float, float]
 ) -> tuple[str, ...]:
     """Return the formats to write (``--format``, ``--no-vdb``, the profile's job format)."""
-    on_printer_grid = all(math.isclose(a, b, rel_tol=1e-9) for a, b in zip(
-        voxel, profile.voxel_mm, strict=True
-    ))
+    on_printer_grid = all(
+        math.isclose(a, b, rel_tol=1e-9) for a, b in zip(voxel, profile.voxel_mm, strict=True)
+    )
     if args.format == "auto":
         chosen = ["tiff", "vdb"]
         if on_printer_grid and not args.no_materials:
@@ -213,9 +221,7 @@ def _formats(
                 "drop --voxel-size or the gcvf format",
             )
         if args.no_materials and {"gcvf", "png"} & set(chosen):
-            raise InputError(
-                "--format", "printer slices need materials", "drop --no-materials"
-            )
+            raise InputError("--format", "printer slices need materials", "drop --no-materials")
     if args.no_vdb and "vdb" in chosen:
         chosen.remove("vdb")
     return tuple(dict.fromkeys(chosen))  # unknown names: refused by BuildConfig

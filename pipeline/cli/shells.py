@@ -142,7 +142,6 @@ def _write(
     return 0
 
 
-
 def _say(message: str) -> None:
     if sys.stderr.isatty():
         print(f"shellvox: {message}", file=sys.stderr)

@@ -89,8 +89,10 @@ def choose_thickness(
         ``--max-edge``; a bad rule file.
     """
     if constant_mm is not None:
-        for option, value in (("--thickness-rule", args.thickness_rule), ("--max-edge",
-                                                                            args.max_edge)):
+        for option, value in (
+            ("--thickness-rule", args.thickness_rule),
+            ("--max-edge", args.max_edge),
+        ):
             if value is not None:
                 raise InputError(
                     option,

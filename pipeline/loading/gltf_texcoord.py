@@ -51,7 +51,8 @@ def texture_transform(
     Examples
     --------
     >>> matrix, n = texture_transform(
-    ...     Path("m.glb"), "m", {"extensions": {"KHR_texture_transform": {"offset": [0.5, 0]}}})
+    ...     Path("m.glb"), "m", {"extensions": {"KHR_texture_transform": {"offset": [0.5, 0]}}}
+    ... )
     >>> (matrix @ [0.25, 0.25, 1]).tolist(), n
     ([0.75, 0.25, 1.0], 0)
     """

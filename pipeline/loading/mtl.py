@@ -80,9 +80,7 @@ def read_materials(path: Path, mtllibs: list[str], options: LoadOptions) -> dict
         what = f"material library {name!r}"
         mtl = resolve(path, path.parent, name, what, force=options.force)
         if mtl is None and len(name.split()) > 1:  # "mtllib a.mtl b.mtl"
-            parts = [
-                resolve(path, path.parent, n, what, force=options.force) for n in name.split()
-            ]
+            parts = [resolve(path, path.parent, n, what, force=options.force) for n in name.split()]
             if all(p is not None for p in parts):
                 found += [p for p in parts if p is not None]
                 continue

@@ -262,5 +262,3 @@ def _corner_indices(
     except ValueError:
         raise InputError(path, "has a malformed 'f' line", "re-export the mesh") from None
     return pos, uv
-
-
