@@ -11,8 +11,11 @@ import json
 import os
 import shutil
 import signal
+import socket
+import struct
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import colour
@@ -316,3 +319,19 @@ def test_view_command_serves_until_interrupted(small_colour_build):
         _, err = process.communicate(timeout=30)
     assert process.returncode == 0, err
     assert "stopped" in err and "Traceback" not in err
+
+
+def test_a_client_that_resets_its_connection_is_no_error(server, capsys):
+    """A page closed mid-conversation (TCP reset on a kept-alive connection) prints nothing."""
+    with socket.create_connection(("127.0.0.1", server.port), timeout=10) as sock:
+        host = f"127.0.0.1:{server.port}".encode()
+        sock.sendall(b"GET /api/build HTTP/1.1\r\nHost: " + host + b"\r\n\r\n")
+        assert sock.recv(12) == b"HTTP/1.1 200"
+        # Close with a reset (linger 0) while the server awaits the next request.
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+    time.sleep(0.5)
+    connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=10)
+    connection.request("GET", "/api/build")
+    assert connection.getresponse().status == 200  # still serving
+    connection.close()
+    assert "Traceback" not in capsys.readouterr().err

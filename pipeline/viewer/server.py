@@ -22,6 +22,7 @@ keeps other web pages from reading the build through the browser (DNS rebinding)
 from __future__ import annotations
 
 import json
+import sys
 import time
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -95,6 +96,17 @@ class ViewerServer(ThreadingHTTPServer):
         """Stop listening and close the build."""
         super().server_close()
         self.folder.close()
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """Let a browser go away quietly; print anything else (socketserver's default).
+
+        A client that closes its connection while a reply is written or the next
+        request awaited (a page closed, a slice superseded) is not an error.
+        """
+        error = sys.exc_info()[1]
+        if isinstance(error, (ConnectionResetError, BrokenPipeError, ConnectionAbortedError)):
+            return
+        super().handle_error(request, client_address)
 
 
 class _Handler(BaseHTTPRequestHandler):
