@@ -24,7 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from pipeline.build_plan import grid_for, slab_rows_for
 from pipeline.config import BuildConfig, LoadOptions
-from pipeline.errors import InputError
+from pipeline.errors import InputError, ResourceError
 from pipeline.estimate import BuildEstimate, check_resources, estimate_tray
 from pipeline.loading import load_model
 from pipeline.mesh import ColouredMesh
@@ -296,7 +296,12 @@ def plan_tray(
         slab_rows=rows,
         workers=min(workers, -(-grid.shape_zyx[0] // rows)),
     )
-    check_resources(estimate, out_dir, force=force)
+    try:
+        check_resources(estimate, out_dir, force=force)
+    except ResourceError as error:  # the whole estimate, as --dry-run would print it
+        raise ResourceError(
+            error.path, f"{error.problem} (estimate: {estimate.line()})", error.fix
+        ) from None
     return TrayPlan(
         spec, tuple(parts), placements, layout, min_gap, tray_mm, grid, rows, workers, estimate
     )

@@ -209,3 +209,14 @@ def test_rotation_is_extrinsic_xyz_before_placement(tmp_path, box, capsys):
     voxel = np.array([0.0423, 0.0847, 0.027])  # snapped to the J750 grid
     assert np.allclose(numbers[:, 0], low, atol=voxel.max())
     assert np.allclose(numbers[:, 1], high, atol=voxel.max())
+
+
+def test_a_tray_past_the_memory_is_refused_with_its_estimate(tmp_path, box, capsys):
+    # 0.5 um voxels: one row of the two boxes' tray grid is about 1e9 voxels, tens of GB
+    out = tmp_path / "out"
+    argv = ["build", str(box), "--copies", "2", "-o", str(out), "--voxel-size", "5e-4,5e-4,5e-4",
+            "--workers", "1"]  # fmt: skip
+    line = _refused(argv, capsys)
+    assert "--voxel-size" in line and "of memory" in line
+    assert "(estimate: grid" in line
+    assert not out.exists()
