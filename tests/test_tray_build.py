@@ -19,6 +19,8 @@ import trimesh
 from skimage.measure import label, regionprops
 
 from pipeline.cli import main
+from pipeline.viewer.folder import BuildFolder
+from pipeline.viewer.slices import probe
 
 DEFAULT_MODEL = Path(__file__).resolve().parents[1] / "data" / "colour_target" / "colour_target.obj"
 OPTIONS = ["--voxel-size", "0.3,0.3,0.25", "--format", "tiff", "--no-materials", "--no-progress"]
@@ -111,3 +113,27 @@ def test_tray_build_inspects(builds, capsys):
     tray, _ = builds
     assert main(["inspect", str(tray)]) == 0
     assert "layers.tif" in capsys.readouterr().out
+
+
+def test_viewer_reads_each_model_of_the_tray_as_built_alone(builds):
+    """The viewer's probe (layer, colour, depth from thickness.ply) in tray coordinates."""
+    tray, alone = builds
+    entries = json.loads((tray / "manifest.json").read_text())["tray"]["models"]
+    with BuildFolder.open(tray) as whole:
+        for entry, single in zip(entries, alone, strict=True):
+            layers, _ = _stacks(single)
+            # a colour voxel and a backing voxel of the model built alone
+            for layer in (1, 2):
+                found = np.argwhere(layers == layer)
+                index = found[len(found) // 2]
+                shifted = index + entry["grid_offset_zyx"]
+                with BuildFolder.open(single) as part:
+                    expected = probe(part, *map(int, index))
+                got = probe(whole, *map(int, shifted))
+                assert got["layer"] == expected["layer"]
+                assert got["colour"] == expected["colour"]
+                assert got["depth"]["inside"] == expected["depth"]["inside"]
+                assert got["depth"]["mm"] == pytest.approx(expected["depth"]["mm"], abs=1e-6)
+                face = got["depth"]["face"] - entry["faces"][0]  # the tray mesh's face range
+                assert face == expected["depth"]["face"]
+                assert got["depth"]["layer_limits_mm"] == expected["depth"]["layer_limits_mm"]
