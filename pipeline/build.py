@@ -144,7 +144,6 @@ class _Job:
         mesh, config, plan, stack = self.mesh, self.config, self.plan, folder.stack
         shell_job = ShellJob(mesh, plan.thickness, config, self.seconds)
         model = self._model(shell_job.shells)
-        _ = model.surface.regions  # the scan's regions, computed once, inherited by workers
         # Before any other thread (shell process, writers, progress bar) starts: the slab
         # workers are forked.
         setup = stack.enter_context(DeferredSignals())  # no signal until all is registered
@@ -199,7 +198,7 @@ class _Job:
         """Return what every slab needs (the shells only with the "shells" rule)."""
         mesh, config = self.mesh, self.config
         by_distance = config.layer_rule == "distance"
-        return StackModel(
+        model = StackModel(
             surfaces=(
                 (mesh.vertices, mesh.faces),
                 *(((s.vertices, s.faces) for s in shells) if shells is not None else ()),
@@ -212,6 +211,8 @@ class _Job:
             depth_mm=self.plan.depth if by_distance else None,
             layer_rule=config.layer_rule,
         )
+        _ = model.surface.regions  # the scan's regions, computed once, inherited by workers
+        return model
 
     def _encoder(self) -> VdbEncoder | None:
         """Return the slab workers' VDB encoder, when slabs hold whole leaf rows."""

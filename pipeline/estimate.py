@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import os
 import shutil
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -227,3 +228,36 @@ def _duration(seconds: float) -> str:
     if seconds < 7200:
         return f"{seconds / 60:.0f} min"
     return f"{seconds / 3600:.1f} h"
+
+
+def estimate_tray(
+    shape_zyx: tuple[int, int, int],
+    voxel_mm: tuple[float, float, float],
+    *,
+    bands: Sequence[tuple[float, float]],
+    n_faces: int,
+    slab_rows: int,
+    workers: int,
+) -> BuildEstimate:
+    """Estimate a tray's cost: the tray grid and the band of every model on it.
+
+    Parameters
+    ----------
+    shape_zyx : (3,) int
+        The tray grid's size ``(Z, Y, X)``.
+    voxel_mm : (3,) float, mm
+        Voxel size ``(x, y, z)``.
+    bands : sequence of (area_mm2, reach_mm)
+        Surface area (mm^2) and deepest layer or level-set half width (mm) of each model
+        on the tray, copies counted: the band voxels are their sum.
+    n_faces : int
+        Faces held by every process (each distinct model once).
+    slab_rows, workers : int
+        As :func:`estimate_build`.
+    """
+    band_mm3 = sum(area * reach for area, reach in bands)
+    # the band volume as an area times a reach of 1 mm
+    return estimate_build(
+        shape_zyx, voxel_mm, area_mm2=band_mm3, reach_mm=1.0, n_faces=n_faces,
+        slab_rows=slab_rows, workers=workers,
+    )  # fmt: skip

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
 import time
 from pathlib import Path
-from typing import get_args
+from typing import Any, get_args
 
 import numpy as np
 
@@ -22,15 +23,49 @@ from pipeline.errors import InputError
 from pipeline.loading import load_model
 from pipeline.material_plan import MaterialSettings
 from pipeline.printer_profile import PrinterProfile, load_profile, shipped_profiles
+from pipeline.tray import load_tray, tray_from_inputs
+from pipeline.tray_build import build_tray
+from pipeline.tray_layout import LayoutMode
+from pipeline.tray_plan import ThicknessSource, plan_tray
 from voxel.materials import HALFTONES
 from voxel.slab import LayerRule
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``build``'s arguments."""
-    add_load_arguments(parser)
+    add_load_arguments(parser, many=True)
     parser.add_argument(
         "-o", "--output", type=Path, required=True, metavar="DIR", help="output folder"
+    )
+    tray = parser.add_argument_group("trays (several models, one job)")
+    tray.add_argument(
+        "--tray",
+        type=Path,
+        metavar="FILE.toml",
+        help="the models of a tray: one [[model]] per model with file, position (x, y[, z] "
+        "mm), rotation (x, y, z degrees), scale, thickness or thickness_rule, copies",
+    )
+    tray.add_argument(
+        "--layout",
+        choices=("auto", "given"),
+        help="auto: pack the models into the printer's tray; given: the tray file's "
+        "positions (default with --tray); several model files are packed",
+    )
+    tray.add_argument(
+        "--gap",
+        type=float,
+        default=5.0,
+        metavar="MM",
+        help="gap between packed models (default 5; never less than the deepest layer plus "
+        "the level-set band)",
+    )
+    tray.add_argument(
+        "--copies", type=int, default=1, metavar="N", help="copies of each model file (packed)"
+    )
+    parser.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="print the layout and the estimate (grid, voxels, memory, disk, time); build nothing",
     )
     parser.add_argument(
         "--printer",
@@ -228,7 +263,14 @@ def _formats(
 
 
 def run(args: argparse.Namespace) -> int:
-    """Load the model, build the stack and print where the files are."""
+    """Load the model(s), build the stack and print where the files are."""
+    if args.tray is not None and args.model:
+        raise InputError("--tray", "was given with model files", "give model files or --tray")
+    if args.tray is None and not args.model:
+        raise InputError(None, "no model given", "give MODEL ... or --tray FILE.toml")
+    one = args.tray is None and len(args.model) == 1 and args.copies == 1
+    if not one or args.layout is not None or args.dry_run:
+        return run_tray(args)
     profile = load_profile(args.printer)
     constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
     config_from_args(args, profile)  # bad options fail before the model is read
@@ -237,7 +279,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")
     started = time.perf_counter()
     options = load_options(args)
-    mesh = load_model(args.model, options)
+    mesh = load_model(args.model[0], options)
     choice = choose_thickness(args, mesh, constant, max_faces=options.max_faces)
     config = config_from_args(args, profile, choice)
     load_seconds = time.perf_counter() - started
@@ -252,6 +294,12 @@ def run(args: argparse.Namespace) -> int:
         force=args.force,
         say=_say,
     )
+    _report(out, manifest, load_seconds)
+    return 0
+
+
+def _report(out: Path, manifest: dict[str, Any], load_seconds: float) -> None:
+    """Print where the files are, the voxel counts, the colour report and the times."""
     shape = " x ".join(str(n) for n in manifest["grid"]["shape_zyx"])
     print(f"{out}: grid {shape} (z, y, x) voxels")
     for name, record in manifest["files"].items():
@@ -265,6 +313,75 @@ def run(args: argparse.Namespace) -> int:
             f"p95 {stats['p95']:.2f} over {report['samples_seen']:,} surface samples"
         )
     print(f"loaded in {load_seconds:.1f} s, built in {manifest['seconds']['total']:.1f} s")
+
+
+def run_tray(args: argparse.Namespace) -> int:
+    """Plan a tray (several models, copies, a layout, or a dry run), then build it."""
+    profile = load_profile(args.printer)
+    if args.tray is not None and args.copies != 1:
+        raise InputError("--copies", "is for model files", "set copies in the tray file")
+    if args.layers == "shells" or args.shell_meshes:
+        raise InputError(
+            "--layers shells" if args.layers == "shells" else "--shell-meshes",
+            "a tray is built with distance layers and without shell meshes",
+            "drop it; run `shellvox shells` on each model for its shells",
+        )
+    constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
+    if constant is not None and args.thickness_rule is not None:
+        raise InputError(
+            "--thickness-rule", "cannot be combined with --thickness", "drop one of them"
+        )
+    colour_layers = None
+    if args.colour_layers is not None:
+        colour_layers = config_from_args(args, profile).colour_layers  # checked there
+    base = config_from_args(argparse.Namespace(**{**vars(args), "colour_layers": None}), profile)
+    out: Path = args.output
+    if out.exists() and not out.is_dir():
+        raise InputError(out, "exists and is not a folder", "choose another -o DIR")
+    started = time.perf_counter()
+    spec = (
+        load_tray(args.tray) if args.tray is not None else tray_from_inputs(args.model, args.copies)
+    )
+    options = load_options(args)
+    mode: LayoutMode = args.layout or (
+        "given" if args.tray is not None else "auto" if spec.n_instances > 1 else "keep"
+    )
+    plan = plan_tray(
+        spec, options, base, out, tray_mm=profile.tray_mm, mode=mode, gap_mm=args.gap,
+        default_thickness=ThicknessSource(constant, args.thickness_rule),
+        colour_layers=colour_layers, force=args.force,
+    )  # fmt: skip
+    if args.dry_run:
+        print("\n".join(plan.lines()))
+        print(f"estimate: {plan.estimate.line()}")
+        print(f"planned in {time.perf_counter() - started:.1f} s; dry run: nothing built")
+        return 0
+    print("\n".join(plan.lines()), file=sys.stderr)
+    meshes, thickness, faces = [], [], []
+    for part in plan.parts:
+        rule_args = argparse.Namespace(
+            thickness_rule=part.thickness.rule_path, max_edge=args.max_edge
+        )
+        choice = choose_thickness(
+            rule_args, part.mesh, part.thickness.constant_mm, max_faces=options.max_faces
+        )
+        meshes.append(choice.mesh)
+        thickness.append(choice.thickness_mm)
+        faces.append(choice.faces)
+    n_layers = plan.parts[0].n_layers
+    config = dataclasses.replace(
+        base,
+        thickness_mm=(1.0,) * n_layers,  # set per face by build_tray
+        colour_layers=plan.parts[0].colour_layers,
+        shell_meshes=False,
+    )
+    load_seconds = time.perf_counter() - started
+    manifest = build_tray(
+        plan, config, out, meshes=meshes, thickness=thickness, faces=faces,
+        profile=None if config.material is None else profile, progress=args.progress,
+        force=args.force, say=_say,
+    )  # fmt: skip
+    _report(out, manifest, load_seconds)
     return 0
 
 

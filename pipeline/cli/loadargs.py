@@ -9,13 +9,18 @@ from pipeline.config import UNIT_MM, LoadOptions
 from pipeline.errors import InputError
 
 
-def add_load_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add ``MODEL`` and the loader options (``--units``, ``--scale``, ...) to a parser."""
+def add_load_arguments(parser: argparse.ArgumentParser, *, many: bool = False) -> None:
+    """Add ``MODEL`` and the loader options (``--units``, ``--scale``, ...) to a parser.
+
+    With `many`, ``MODEL ...`` takes any number of files (a list, possibly empty).
+    """
     parser.add_argument(
         "model",
         type=Path,
+        nargs="*" if many else None,
         metavar="MODEL",
-        help="model file: .obj .ply .glb .gltf .3mf .stl .off .wrl",
+        help="model file: .obj .ply .glb .gltf .3mf .stl .off .wrl"
+        + (" (several: one tray, see --tray)" if many else ""),
     )
     group = parser.add_argument_group("model loading")
     group.add_argument(
