@@ -13,89 +13,26 @@ stops here.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
-from pipeline.build_plan import grid_for, slab_rows_for
+from pipeline.build_plan import slab_rows_for
 from pipeline.config import BuildConfig, LoadOptions
-from pipeline.errors import InputError, ResourceError
+from pipeline.errors import ResourceError
 from pipeline.estimate import BuildEstimate, check_resources, estimate_tray
 from pipeline.loading import load_model
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import sha256
-from pipeline.rule_file import load_rule
 from pipeline.slab_runner import resolve_workers
 from pipeline.thickness_rule import DEFAULT_RULE, ThicknessRule
-from pipeline.topology import face_areas
-from pipeline.tray import TrayModel, TraySpec
+from pipeline.tray import TraySpec
 from pipeline.tray_layout import Layout, LayoutMode, lay_out
+from pipeline.tray_parts import ThicknessSource, TrayPart, check_same_layers, extent, prepare_part
 from voxel.grid import GridSpec
-
-
-@dataclass(frozen=True)
-class ThicknessSource:
-    """Where a tray model's thickness comes from (the command line's unless it says).
-
-    Attributes
-    ----------
-    constant_mm : tuple of float, optional
-        The same thickness per layer on every face (``thickness`` / ``--thickness``).
-    rule_path : Path, optional
-        The rule file (``thickness_rule`` / ``--thickness-rule``); neither: the default
-        rule.
-    """
-
-    constant_mm: tuple[float, ...] | None = None
-    rule_path: Path | None = None
-
-    def describe(self) -> str:
-        """``"--thickness 0.5,0.5"``-like text for messages and the manifest."""
-        if self.constant_mm is not None:
-            return "thickness " + ",".join(f"{t:g}" for t in self.constant_mm)
-        return "default rule" if self.rule_path is None else f"rule {self.rule_path}"
-
-
-@dataclass(frozen=True, eq=False)
-class TrayPart:
-    """A distinct model of a tray in its own coordinates (its copies share it).
-
-    Attributes
-    ----------
-    spec : TrayModel
-        The tray entry.
-    mesh : ColouredMesh
-        The model, scaled and turned, not moved.
-    thickness : ThicknessSource
-        Where its thickness comes from.
-    rule : ThicknessRule or None
-        Its rule (None for a constant thickness).
-    n_layers : int
-        Layers ``K``.
-    colour_layers : tuple of int
-        Layers taking the surface colour.
-    reach_mm : float, mm
-        Upper bound of its deepest layer, or the level-set half width if larger.
-    area_mm2 : float, mm^2
-        Surface area.
-    grid : GridSpec
-        Its own grid (as a build of it alone).
-    """
-
-    spec: TrayModel
-    mesh: ColouredMesh
-    thickness: ThicknessSource
-    rule: ThicknessRule | None
-    n_layers: int
-    colour_layers: tuple[int, ...]
-    reach_mm: float
-    area_mm2: float
-    grid: GridSpec
 
 
 @dataclass(frozen=True)
@@ -172,7 +109,7 @@ class TrayPlan:
         for place in self.placements:
             part = self.parts[place.part]
             low = np.asarray(place.actual_mm)
-            high = low + _extent(part.mesh)
+            high = low + extent(part.mesh)
             lines.append(
                 f"  {place.name}: x {low[0]:.2f}..{high[0]:.2f}, y {low[1]:.2f}..{high[1]:.2f},"
                 f" z {low[2]:.2f}..{high[2]:.2f} mm; {part.thickness.describe()}"
@@ -196,7 +133,7 @@ class TrayPlan:
                     "scale": part.spec.scale,
                     "requested_position_mm": list(place.requested_mm),
                     "position_mm": list(place.actual_mm),
-                    "bounds_mm": [list(low), list(low + _extent(part.mesh))],
+                    "bounds_mm": [list(low), list(low + extent(part.mesh))],
                     "shift_mm": list(place.shift_mm),
                     "grid_offset_zyx": list(place.offset_zyx),
                     "grid_shape_zyx": list(part.grid.shape_zyx),
@@ -267,10 +204,12 @@ def plan_tray(
         key = model.file.resolve()
         if key not in loaded:
             loaded[key] = load_model(model.file, options)
-        parts.append(_part(model, loaded[key], rules, config, default_thickness, colour_layers))
-    _check_same_layers(parts, spec.source or "the command line's models")
+        parts.append(
+            prepare_part(model, loaded[key], rules, config, default_thickness, colour_layers)
+        )
+    check_same_layers(parts, spec.source or "the command line's models")
     names, part_of, copies = _names(parts)
-    extents = np.array([_extent(parts[i].mesh) for i in part_of])
+    extents = np.array([extent(parts[i].mesh) for i in part_of])
     requested: list[tuple[float, float, float] | None] = [
         _triple(parts[i].mesh.vertices.min(axis=0)) if mode == "keep" else parts[i].spec.position_mm
         for i in part_of
@@ -305,70 +244,6 @@ def plan_tray(
     return TrayPlan(
         spec, tuple(parts), placements, layout, min_gap, tray_mm, grid, rows, workers, estimate
     )
-
-
-def _part(
-    model: TrayModel,
-    mesh: ColouredMesh,
-    rules: dict[Path | None, ThicknessRule],
-    config: BuildConfig,
-    default: ThicknessSource,
-    colour_layers: tuple[int, ...] | None,
-) -> TrayPart:
-    """Return a tray entry's model, scaled and turned, with its layers and grid."""
-    if model.scale != 1.0 or any(model.rotation_deg):
-        turn = Rotation.from_euler("xyz", model.rotation_deg, degrees=True).as_matrix()
-        mesh = dataclasses.replace(mesh, vertices=(mesh.vertices * model.scale) @ turn.T)
-    if model.thickness_mm is not None:
-        source = ThicknessSource(constant_mm=model.thickness_mm)
-    elif model.thickness_rule is not None:
-        source = ThicknessSource(rule_path=model.thickness_rule)
-    else:
-        source = default
-    rule = None
-    if source.constant_mm is not None:
-        n_layers = len(source.constant_mm)
-        colour = colour_layers or (1,)
-        depth = sum(source.constant_mm)
-    else:
-        if source.rule_path not in rules:
-            assert source.rule_path is not None
-            rules[source.rule_path] = load_rule(source.rule_path)
-        rule = rules[source.rule_path]
-        n_layers = rule.layers.n_layers
-        colour = colour_layers or tuple(rule.layers.colour)
-        depth = len(rule.layers.colour) * rule.colour_layer.max_mm + sum(rule.layers.backing_mm)
-    return TrayPart(
-        spec=model,
-        mesh=mesh,
-        thickness=source,
-        rule=rule,
-        n_layers=n_layers,
-        colour_layers=colour,
-        reach_mm=max(depth, config.sdf_half_width_mm),
-        area_mm2=float(face_areas(mesh.vertices, mesh.faces).sum()),
-        grid=grid_for(mesh, config),
-    )
-
-
-def _check_same_layers(parts: list[TrayPart], source: str) -> None:
-    """Refuse models with different layer counts or colour layers (one stack needs one)."""
-    first = parts[0]
-    for part in parts[1:]:
-        if part.n_layers != first.n_layers:
-            raise InputError(
-                source,
-                f"{part.spec.name} has {part.n_layers} layers ({part.thickness.describe()}) "
-                f"but {first.spec.name} has {first.n_layers} ({first.thickness.describe()})",
-                "give every model the same number of layers (each its own thicknesses)",
-            )
-        if part.colour_layers != first.colour_layers:
-            raise InputError(
-                source,
-                f"{part.spec.name} colours layers {list(part.colour_layers)} but "
-                f"{first.spec.name} colours {list(first.colour_layers)}",
-                "use rules with the same colour layers, or pass --colour-layers",
-            )
 
 
 def _names(parts: list[TrayPart]) -> tuple[list[str], list[int], list[int]]:
@@ -441,9 +316,3 @@ def _snap(
 
 def _triple(values: NDArray[np.float64]) -> tuple[float, float, float]:
     return (float(values[0]), float(values[1]), float(values[2]))
-
-
-def _extent(mesh: ColouredMesh) -> NDArray[np.float64]:
-    """Size ``(3,) float64`` mm of a mesh's bounding box."""
-    extent: NDArray[np.float64] = mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)
-    return extent

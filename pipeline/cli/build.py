@@ -26,7 +26,8 @@ from pipeline.printer_profile import PrinterProfile, load_profile, shipped_profi
 from pipeline.tray import load_tray, tray_from_inputs
 from pipeline.tray_build import build_tray
 from pipeline.tray_layout import LayoutMode
-from pipeline.tray_plan import ThicknessSource, plan_tray
+from pipeline.tray_parts import ThicknessSource
+from pipeline.tray_plan import plan_tray
 from voxel.materials import HALFTONES
 from voxel.slab import LayerRule
 
