@@ -22,6 +22,7 @@ from pipeline.errors import InputError
 from pipeline.loading import load_model
 from pipeline.material_plan import MaterialSettings
 from pipeline.printer_profile import PrinterProfile, load_profile, shipped_profiles
+from pipeline.run_folder import RunSettings
 from voxel.materials import HALFTONES
 from voxel.slab import LayerRule
 
@@ -138,6 +139,40 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="progress bar (default: only on a terminal)",
     )
+    add_running_arguments(parser)
+
+
+def add_running_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the "running" group: where slabs run, checkpoints and resume."""
+    running = parser.add_argument_group("running (where the slabs run; resume after a kill)")
+    running.add_argument(
+        "--scheduler",
+        metavar="ADDRESS|local",
+        help="compute the slabs on a Dask cluster: its scheduler's address (tcp://host:8786), "
+        "or 'local' for a local cluster of --workers processes (default: this process "
+        "and forked workers)",
+    )
+    running.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the unfinished (killed) build in DIR: only its unfinished slabs are "
+        "computed; refused when the model or options differ",
+    )
+    running.add_argument(
+        "--checkpoint",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="keep finished slabs in DIR/.shellvox-run until the build is done, so that "
+        "--resume can continue a killed build (default: on)",
+    )
+
+
+def running_from_args(args: argparse.Namespace) -> RunSettings:
+    """Return the run settings of ``--scheduler``, ``--resume`` and ``--checkpoint``."""
+    scheduler = args.scheduler
+    if scheduler is not None and not scheduler.strip():
+        raise InputError("--scheduler", "got an empty address", "pass tcp://HOST:PORT or local")
+    return RunSettings(scheduler=scheduler, resume=args.resume, checkpoint=args.checkpoint)
 
 
 def config_from_args(
@@ -232,6 +267,7 @@ def run(args: argparse.Namespace) -> int:
     profile = load_profile(args.printer)
     constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
     config_from_args(args, profile)  # bad options fail before the model is read
+    running = running_from_args(args)
     out: Path = args.output
     if out.exists() and not out.is_dir():
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")
@@ -251,6 +287,7 @@ def run(args: argparse.Namespace) -> int:
         progress=args.progress,
         force=args.force,
         say=_say,
+        running=running,
     )
     shape = " x ".join(str(n) for n in manifest["grid"]["shape_zyx"])
     print(f"{out}: grid {shape} (z, y, x) voxels")
