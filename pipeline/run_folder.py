@@ -13,7 +13,11 @@ A build that checkpoints keeps a run folder, ``DIR/.shellvox-run/``, beside its 
 through the same writers in z order, so the files come out as an uninterrupted run's.
 Resuming is refused, naming what differs, when the key is not the same. The folder is
 removed once the build has committed (its manifest written), and by a run without
-``--resume`` (which starts afresh); a failed run keeps it when it holds a finished slab.
+``--resume`` (which starts afresh). A run that fails, or is stopped by SIGINT or SIGTERM,
+removes it too (one complete build or none: the contract of :mod:`pipeline.outdir`),
+except when the Dask cluster was lost (:class:`pipeline.slab_dask.ClusterError`): then
+the finished slabs stay for ``--resume``. What cannot clean up (SIGKILL, power loss, the
+kernel's OOM killer) leaves the run folder, and ``--resume`` continues from it.
 The output folder's lock (:mod:`pipeline.outdir`) covers it, and temporary chunk names
 (``.*.partial``) are among the leftovers every run removes first.
 """
@@ -39,6 +43,7 @@ from pipeline.errors import InputError
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import sha256
 from pipeline.slab_chunks import decode_chunk, encode_chunk, save_chunk
+from pipeline.slab_dask import ClusterError
 from pipeline.slab_runner import Rows, StackSlab
 from voxel.grid import GridSpec
 
@@ -206,8 +211,8 @@ def checkpoints(
 
     Yields None when the build does not checkpoint. Without ``settings.resume`` an
     earlier run's folder is removed and a new one started; with it, the earlier run's
-    key must equal `key`. When the block ends without an error (after the build has
-    committed) the folder is removed; after an error it is kept if it holds a chunk.
+    key must equal `key`. The folder is removed when the block ends (after the build
+    has committed, or failed), except after a lost cluster when it holds a chunk.
     """
     path = Path(out_dir) / RUN_FOLDER
     if not (settings.checkpoint or settings.resume):
@@ -223,9 +228,12 @@ def checkpoints(
     run = RunFolder(path)
     try:
         yield run
-    except BaseException:
+    except ClusterError:
         if not run.has_chunks():
             run.remove()
+        raise
+    except BaseException:
+        run.remove()
         raise
     run.remove()
 
