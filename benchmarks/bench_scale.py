@@ -133,10 +133,8 @@ def main() -> None:
     parser.add_argument("models", nargs="+", type=Path)
     parser.add_argument("--size-mm", type=float, default=40.0, help="largest extent of a model")
     parser.add_argument("--configs", default=",".join(CONFIGS), help="which configurations")
-    parser.add_argument("extra", nargs=argparse.REMAINDER, help="more build options, after --")
-    args = parser.parse_args()
+    args, extra = parser.parse_known_args()  # the rest: more build options
     scale = _scale_for(args.models[0], args.size_mm)
-    extra = [a for a in args.extra if a != "--"]
     results = []
     for name in args.configs.split(","):
         result = run_config(name, args.models, [*CONFIGS[name], *extra], scale)

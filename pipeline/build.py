@@ -19,6 +19,7 @@ serialise. The parts of a build:
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import time
 import warnings
@@ -43,7 +44,14 @@ from pipeline.material_plan import build_material_plan
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import OutputFolder
 from pipeline.printer_profile import PrinterProfile
-from pipeline.run_folder import RunFolder, RunSettings, check_resumable, checkpoints, run_key
+from pipeline.run_folder import (
+    CHECKPOINT_AFTER_S,
+    RunFolder,
+    RunSettings,
+    check_resumable,
+    checkpoints,
+    run_key,
+)
 from pipeline.shell_job import ShellJob
 from pipeline.slab_runner import SlabRunner, material_tally
 from pipeline.stack_outputs import StackOutputs
@@ -109,6 +117,9 @@ def build_stack(
     seconds: dict[str, float] = {}
     materials = _material_plan(profile, config, len(plan.depth), seconds)
     running = running or RunSettings()
+    if running.checkpoint is None:
+        checkpoint = plan.estimate.seconds > CHECKPOINT_AFTER_S
+        running = dataclasses.replace(running, checkpoint=checkpoint)
     key = run_key(mesh, config, plan.grid, plan.rows, plan.thickness, (profile, materials))
     if running.resume:  # before the lock: a refused --resume leaves the folder as it is
         check_resumable(Path(out_dir), key)

@@ -63,13 +63,20 @@ class RunSettings:
         machine's processes (``BuildConfig.workers``).
     resume : bool
         Continue the unfinished run in the output folder.
-    checkpoint : bool
-        Keep every finished slab in the run folder, so that a killed run can resume.
+    checkpoint : bool or None
+        Keep every finished slab in the run folder, so that a killed run can resume;
+        None: when the estimate says the build takes longer than
+        :data:`CHECKPOINT_AFTER_S` (compressing the chunks cost about a quarter of the
+        slab time in a first measurement, so short builds go without).
     """
 
     scheduler: str | None = None
     resume: bool = False
-    checkpoint: bool = True
+    checkpoint: bool | None = None
+
+
+#: Builds estimated to take longer than this (s) checkpoint by default.
+CHECKPOINT_AFTER_S = 600.0
 
 
 class RunFolder:

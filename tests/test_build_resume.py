@@ -21,10 +21,10 @@ from pipeline.slab_chunks import decode_chunk, encode_chunk
 
 # (slabs of 8 rows: forked workers with 1-row slabs hang on main too, see the report)
 SMALL = ["--voxel-size", "0.2,0.2,0.15", "--thickness", "0.5,0.5", "--no-shell-meshes",
-         "--slab-mb", "8", "--no-progress"]  # fmt: skip
+         "--slab-mb", "8", "--no-progress", "--checkpoint"]  # fmt: skip
 #: A build of a few seconds in many slabs of one process, so a kill lands mid-way.
 KILLABLE = ["--voxel-size", "0.1,0.1,0.08", "--thickness", "0.5,0.5", "--no-shell-meshes",
-            "--slab-mb", "4", "--workers", "1", "--no-progress"]  # fmt: skip
+            "--slab-mb", "4", "--workers", "1", "--no-progress", "--checkpoint"]  # fmt: skip
 
 
 def _build(out: Path, *options: str) -> int:

@@ -161,9 +161,10 @@ def add_running_arguments(parser: argparse.ArgumentParser) -> None:
     running.add_argument(
         "--checkpoint",
         action=argparse.BooleanOptionalAction,
-        default=True,
+        default=None,
         help="keep finished slabs in DIR/.shellvox-run until the build is done, so that "
-        "--resume can continue a killed build (default: on)",
+        "--resume can continue a killed build (default: for builds estimated to take "
+        "over 10 minutes)",
     )
 
 
