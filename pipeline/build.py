@@ -6,8 +6,10 @@ serialise. The parts of a build:
 - :mod:`pipeline.build_plan` the grid, slabs and workers, and the cost estimate: a build
   that cannot fit is refused before anything is allocated;
 - :mod:`pipeline.shell_job` the offset shells, before the voxels or beside them;
-- :mod:`pipeline.slab_runner` the slabs, in worker processes, and
-  :mod:`pipeline.stack_outputs` the streaming writers they feed;
+- :mod:`pipeline.slab_runner` the slabs, here, in forked workers or on a Dask cluster,
+  and :mod:`pipeline.stack_outputs` the streaming writers they feed;
+- :mod:`pipeline.run_folder` the checkpoints of finished slabs, so a killed build can
+  be resumed;
 - :mod:`pipeline.build_folder` the output folder: every file under a temporary name,
   renamed only when the whole build succeeded, ``manifest.json`` last (assembled by
   :mod:`pipeline.build_manifest`, with every file's size and SHA-256), so a failed run
@@ -17,6 +19,7 @@ serialise. The parts of a build:
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import time
 import warnings
@@ -41,6 +44,14 @@ from pipeline.material_plan import build_material_plan
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import OutputFolder
 from pipeline.printer_profile import PrinterProfile
+from pipeline.run_folder import (
+    CHECKPOINT_AFTER_S,
+    RunFolder,
+    RunSettings,
+    check_resumable,
+    checkpoints,
+    run_key,
+)
 from pipeline.shell_job import ShellJob
 from pipeline.slab_runner import SlabRunner, material_tally
 from pipeline.stack_outputs import StackOutputs
@@ -63,6 +74,7 @@ def build_stack(
     progress: bool | None = None,
     force: bool = False,
     say: Callable[[str], None] | None = None,
+    running: RunSettings | None = None,
 ) -> dict[str, Any]:
     """Build the layered voxel stack of a coloured mesh into ``out_dir``.
 
@@ -89,6 +101,9 @@ def build_stack(
         Build even when the estimate says it will not fit, or the layers leave no core.
     say : callable, optional
         Receives one line with the cost estimate before any work starts.
+    running : RunSettings, optional
+        Where the slabs run (``workers``, or a Dask scheduler), checkpoints and resume
+        (:mod:`pipeline.run_folder`); default: this machine, with checkpoints.
 
     Returns
     -------
@@ -101,11 +116,34 @@ def build_stack(
         say(plan.estimate.line())
     seconds: dict[str, float] = {}
     materials = _material_plan(profile, config, len(plan.depth), seconds)
-    job = _Job(mesh, config, plan, faces, profile, materials, progress, seconds)
-    with OutputFolder(Path(out_dir)) as locked:
+    running = settle_running(running, plan)
+    key = run_key(mesh, config, plan.grid, plan.rows, plan.thickness, (profile, materials))
+    job = _Job(mesh, config, plan, faces, profile, materials, progress, seconds, running)
+    return run_job(job, Path(out_dir), key, started)
+
+
+def settle_running(running: RunSettings | None, plan: BuildPlan) -> RunSettings:
+    """Return the run settings with the checkpoint default decided by the estimate."""
+    running = running or RunSettings()
+    if running.checkpoint is None:
+        checkpoint = plan.estimate.seconds > CHECKPOINT_AFTER_S
+        running = dataclasses.replace(running, checkpoint=checkpoint)
+    return running
+
+
+def run_job(job: _Job, out_dir: Path, key: dict[str, str], started: float) -> dict[str, Any]:
+    """Run `job` in `out_dir` (locked, checkpointed as ``job.running`` says); the manifest.
+
+    `key` names what the slabs depend on (:func:`pipeline.run_folder.run_key`): a
+    ``--resume`` whose key differs from the unfinished run's is refused before the lock,
+    so the folder is left as it is.
+    """
+    if job.running.resume:
+        check_resumable(out_dir, key)
+    with OutputFolder(out_dir) as locked, checkpoints(locked.path, key, job.running) as run:
         with contextlib.ExitStack() as stack:
             folder = BuildFolder(locked, stack, started)
-            manifest = job.run(folder)
+            manifest = job.run(folder, run)
         return folder.commit(manifest)
 
 
@@ -138,8 +176,9 @@ class _Job:
     materials: MaterialPlan | None
     progress: bool | None
     seconds: dict[str, float]
+    running: RunSettings
 
-    def run(self, folder: BuildFolder) -> dict[str, Any]:
+    def run(self, folder: BuildFolder, run: RunFolder | None) -> dict[str, Any]:
         """Compute and write every slab, then the shells and the manifest (no files yet)."""
         mesh, config, plan, stack = self.mesh, self.config, self.plan, folder.stack
         shell_job = ShellJob(mesh, plan.thickness, config, self.seconds)
@@ -148,7 +187,16 @@ class _Job:
         # workers are forked.
         setup = stack.enter_context(DeferredSignals())  # no signal until all is registered
         slabs = stack.enter_context(
-            SlabRunner(model, plan.grid, plan.rows, plan.workers, self.materials, self._encoder())
+            SlabRunner(
+                model,
+                plan.grid,
+                plan.rows,
+                plan.workers,
+                self.materials,
+                self._encoder(),
+                scheduler=self.running.scheduler,
+                run=run,
+            )
         )
         shell_job.start_beside(stack)
         outputs = StackOutputs(folder, plan.grid, config, self._profile(), self.materials)
@@ -188,6 +236,12 @@ class _Job:
             manifest["colour_report"] = check.result()
             self.seconds["colour_report"] = time.perf_counter() - tick
         manifest["estimate"] = asdict(plan.estimate)
+        manifest["run"] = {
+            "scheduler": self.running.scheduler,
+            "checkpoint": run is not None,
+            "resumed_slabs": len(slabs.finished),
+            "slabs": len(slabs.ranges),
+        }
         return manifest
 
     def _profile(self) -> PrinterProfile | None:

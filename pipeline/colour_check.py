@@ -8,6 +8,7 @@ layer's thickness changes (:func:`voxel.colour_report.thickness_effect`).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -79,7 +80,16 @@ class ColourCheck:
             ideal,
             linear[self.materials.backing_material],
             colour_depth[samples.face_ids],
-            float(np.average(colour_depth, weights=area)),
+            _weighted_mean(colour_depth, area),
             self.config.optical_depth_mm,
         )
         return result
+
+
+def _weighted_mean(values: NDArray[np.float64], weights: NDArray[np.float64]) -> float:
+    """Return the weighted mean with correctly rounded sums (``math.fsum``).
+
+    numpy's vectorised sums may round differently with the arrays' memory alignment;
+    equal builds must write equal reports.
+    """
+    return math.fsum((values * weights).tolist()) / math.fsum(weights.tolist())

@@ -151,6 +151,9 @@ def raise_if_interrupted() -> None:
 def describe(error: BaseException) -> tuple[int, str]:
     """Return the exit status and the one-line message for an exception.
 
+    Notes added to the exception (``add_note``, e.g. that finished slabs are kept for
+    ``--resume``) end the line.
+
     Examples
     --------
     >>> describe(InputError("a.obj", "not found", "check the path"))
@@ -158,6 +161,13 @@ def describe(error: BaseException) -> tuple[int, str]:
     >>> describe(OSError(28, "No space left on device", "out/layers.tif"))[0]
     3
     """
+    status, line = _describe(error)
+    notes = [note.replace("\n", " ") for note in getattr(error, "__notes__", ())]
+    return status, "; ".join([line, *notes])
+
+
+def _describe(error: BaseException) -> tuple[int, str]:
+    """Return :func:`describe`'s status and line, without the exception's notes."""
     if isinstance(error, InputError):
         return EXIT_INPUT, str(error)
     if isinstance(error, Interrupted):
@@ -172,13 +182,13 @@ def describe(error: BaseException) -> tuple[int, str]:
             "out of memory; no partial output was kept; rerun with a smaller --slab-mb, "
             "fewer --workers or a larger --voxel-size"
         )
-    os_error = _os_error(error)
-    if os_error is not None and os_error.errno in _DISK_ERRNOS:
-        where = os_error.filename or "the output folder"
-        reason = os_error.strerror or str(os_error)
+    cause = os_error(error)
+    if cause is not None and cause.errno in _DISK_ERRNOS:
+        where = cause.filename or "the output folder"
+        reason = cause.strerror or str(os_error)
         fix = (
             "free some space or choose another -o DIR"
-            if os_error.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+            if cause.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
             else "choose a folder you can write to with -o DIR"
         )
         return EXIT_DISK, f"{where}: cannot write ({reason}); no partial output was kept; {fix}"
@@ -189,7 +199,7 @@ def describe(error: BaseException) -> tuple[int, str]:
     )
 
 
-def _os_error(error: BaseException) -> OSError | None:
+def os_error(error: BaseException) -> OSError | None:
     """Return the OSError behind `error` (itself, or a cause raised from a writer thread)."""
     seen: set[int] = set()
     current: BaseException | None = error

@@ -1,18 +1,22 @@
-"""Run :func:`voxel.slab.compute_slab` over the Z slabs, in order, here or in worker processes.
+"""Run :func:`voxel.slab.compute_slab` over the Z slabs and hand them over in z order.
 
 With a material plan, each slab's voxels also get their materials
 (:func:`voxel.materials.materials_for_slab`) in the same worker, when the halftone is
 order-independent (blue noise); error diffusion runs in z order in the caller.
 
-Slabs are a pure function of (model, grid, rows), so they can be computed anywhere; the
-caller writes them in z order as they come back. With ``workers > 1`` the slabs run in
-forked processes (the model, with its AABB tree and texture, is inherited, not pickled),
-forked once, before the caller starts any thread. ``workers`` slabs are computed while
-the caller holds one, so memory stays bounded by the slab size times ``workers + 1``. A
-worker that dies (e.g. killed for lack of memory) fails the build with a clear error
-instead of hanging it. Workers ignore Ctrl-C and die with the parent
-(:class:`pipeline.children.ChildPool`); leaving the runner early (an error, an interrupt)
-kills them at once instead of waiting for the slabs they are computing.
+Slabs are a pure function of (model, grid, rows): :func:`stack_slab` is the one task,
+wherever it runs. :class:`SlabRunner` keeps a bounded number of slabs in flight on an
+executor and yields them in z order; the executor is a choice behind one small interface
+(:class:`SlabExecutor`):
+
+- here, in this process (``workers == 1``);
+- forked worker processes handing slabs back through shared memory
+  (:class:`pipeline.slab_pool.ForkPool`, ``workers > 1``);
+- a Dask cluster (:class:`pipeline.slab_dask.DaskPool`, ``scheduler``).
+
+With a run folder (:class:`pipeline.run_folder.RunFolder`) every finished slab is also
+checkpointed as a chunk file (where it is computed when that is this machine), and the
+slabs a killed run finished are read back from their chunks instead of computed again.
 """
 
 from __future__ import annotations
@@ -22,18 +26,13 @@ import contextlib
 import multiprocessing
 import os
 from collections.abc import Iterator
-from concurrent.futures import Future
-from concurrent.futures.process import BrokenProcessPool
-from typing import NamedTuple
+from types import TracebackType
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.children import ChildPool
-from pipeline.errors import SlabWorkerDied
-from pipeline.estimate import EXTRA_SLOTS
 from pipeline.faults import raise_if_interrupted
-from pipeline.slab_slots import SlabInSlot, SlabSlots
 from voxel.grid import GridSpec
 from voxel.layer_kernel import layer_material_counts
 from voxel.materials import MaterialPlan, materials_for_slab
@@ -41,9 +40,11 @@ from voxel.slab import SlabResult, StackModel, compute_slab
 from voxel.vdb_encode import VdbEncoder
 from voxel.vdb_leaves import GridSpool
 
-_WORKER: tuple[StackModel, GridSpec, MaterialPlan | None, VdbEncoder | None, SlabSlots] | None = (
-    None
-)
+if TYPE_CHECKING:
+    from pipeline.run_folder import RunFolder
+
+#: Rows of a slab: ``(z_start, z_stop)``.
+Rows = tuple[int, int]
 
 
 class StackSlab(NamedTuple):
@@ -120,11 +121,85 @@ def resolve_workers(workers: int) -> int:
     return max(1, os.cpu_count() or 1)
 
 
-class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
-    """Compute the slabs of a grid, in z order.
+class SlabJob(NamedTuple):
+    """What every slab task needs, sent to (or inherited by) each worker once.
 
-    Create it before any threads start (writers, progress bars): the workers are forked
-    here, and never again.
+    Attributes
+    ----------
+    model : StackModel
+    grid : GridSpec
+    plan : MaterialPlan or None
+        Materials of the voxels (see :func:`stack_slab`).
+    vdb : VdbEncoder or None
+        Encode each slab's VDB leaves where it is computed (see :func:`stack_slab`).
+    """
+
+    model: StackModel
+    grid: GridSpec
+    plan: MaterialPlan | None
+    vdb: VdbEncoder | None
+
+    def run(self, rows: Rows) -> StackSlab:
+        """Return the slab of `rows` (:func:`stack_slab`)."""
+        return stack_slab(self.model, self.grid, self.plan, rows[0], rows[1], self.vdb)
+
+
+class SlabExecutor(Protocol):
+    """Where slab tasks run: submit rows, later collect their slab (in any order).
+
+    ``capacity`` is how many tasks the runner keeps submitted; :meth:`close` ends the
+    workers (at once when ``failed``).
+    """
+
+    capacity: int
+
+    def submit(self, rows: Rows) -> Any:
+        """Start the slab of `rows`; return a handle for :meth:`result`."""
+
+    def result(self, handle: Any) -> StackSlab:
+        """Wait for a submitted slab and return it."""
+
+    def close(self, failed: bool) -> None:
+        """Stop the workers (kill them at once when `failed`)."""
+
+
+class InProcess:
+    """Slabs computed here, one at a time, when the runner asks for them.
+
+    Parameters
+    ----------
+    job : SlabJob
+    run : RunFolder, optional
+        Checkpoint every slab there.
+    """
+
+    capacity = 1
+
+    def __init__(self, job: SlabJob, run: RunFolder | None = None) -> None:
+        self.job, self.run = job, run
+
+    def submit(self, rows: Rows) -> Rows:
+        """Nothing runs yet: the slab is computed by :meth:`result`."""
+        return rows
+
+    def result(self, handle: Rows) -> StackSlab:
+        """Compute the slab (and checkpoint it)."""
+        done = self.job.run(handle)
+        if self.run is not None:
+            self.run.save(handle, done)
+        return done
+
+    def close(self, failed: bool) -> None:
+        """Nothing to stop."""
+
+
+class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
+    """Compute the slabs of a grid and yield them in z order.
+
+    Create it before any threads start (writers, progress bars): forked workers are
+    forked here, and never again. At most ``capacity`` slabs (the workers, or a Dask
+    cluster's threads plus one) are in flight while the caller holds one, so memory
+    stays bounded by the slab size.
 
     Parameters
     ----------
@@ -133,11 +208,17 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
     rows : int
         Rows per slab.
     workers : int
-        Processes computing slabs (1: in this process).
+        Processes computing slabs (1: in this process); with ``scheduler="local"`` the
+        local Dask cluster's worker processes.
     plan : MaterialPlan, optional
         Materials of the voxels (see :func:`stack_slab`).
     vdb : VdbEncoder, optional
         Encode each slab's VDB leaves where it is computed (see :func:`stack_slab`).
+    scheduler : str, optional
+        A Dask scheduler's address, or ``"local"`` for a local cluster
+        (:class:`pipeline.slab_dask.DaskPool`); None: this process or forked workers.
+    run : RunFolder, optional
+        Checkpoint every slab there, and take the slabs it already holds from it.
     """
 
     def __init__(
@@ -148,63 +229,68 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         workers: int,
         plan: MaterialPlan | None = None,
         vdb: VdbEncoder | None = None,
+        *,
+        scheduler: str | None = None,
+        run: RunFolder | None = None,
     ) -> None:
-        self.model, self.grid, self.rows, self.plan, self.vdb = model, grid, rows, plan, vdb
+        self.job = SlabJob(model, grid, plan, vdb)
+        self.run = run
         n_z = grid.shape_zyx[0]
-        self._ranges = iter([(z, min(n_z, z + rows)) for z in range(0, n_z, rows)])
-        self.workers = max(1, min(workers, -(-n_z // rows)))
-        self._pool: ChildPool | None = None
-        self._pending: collections.deque[Future[SlabInSlot]] = collections.deque()
+        self.ranges = [(z, min(n_z, z + rows)) for z in range(0, n_z, rows)]
+        #: Slabs read back from the run folder instead of computed.
+        self.finished = run.finished(self.ranges) if run is not None else set()
+        self._todo = collections.deque(r for r in self.ranges if r not in self.finished)
+        self.workers = max(1, min(workers, len(self._todo)))
+        self._pending: collections.deque[tuple[Rows, Any]] = collections.deque()
+        self._executor = self._choose(scheduler, (min(rows, n_z), *grid.shape_zyx[1:]))
+        try:
+            self._fill()  # with forked workers, the first submit forks every worker
+        except BaseException as error:  # e.g. a signal delivered once they are forked
+            self.__exit__(type(error), error, error.__traceback__)
+            raise
+
+    def _choose(self, scheduler: str | None, slab_shape: tuple[int, int, int]) -> SlabExecutor:
+        if not self._todo:
+            return InProcess(self.job, self.run)
+        if scheduler is not None:
+            from pipeline.slab_dask import DaskPool  # dask is imported only when used
+
+            return DaskPool(self.job, scheduler, self.workers, self.run)
         if self.workers > 1:
-            global _WORKER
-            # workers, plus slabs the writers may still hold (a queue of 2 per thread)
-            self._slots = SlabSlots(
-                self.workers + EXTRA_SLOTS, (min(rows, n_z), *grid.shape_zyx[1:])
-            )
-            _WORKER = (model, grid, plan, vdb, self._slots)  # inherited by the forked workers
-            self._pool = ChildPool(self.workers)
-            try:
-                for _ in range(self.workers):  # the first submit forks every worker
-                    self._submit()
-            except BaseException as error:  # e.g. a signal delivered once they are forked
-                self.__exit__(type(error), error, error.__traceback__)
-                raise
+            from pipeline.slab_pool import ForkPool
 
-    def _submit(self) -> None:
-        job = next(self._ranges, None)
-        if job is not None and self._pool is not None:
-            slot = self._slots.take()
-            self._pending.append(self._pool.submit(_worker_slab, *job, slot))
+            return ForkPool(self.job, self.workers, slab_shape, self.run)
+        return InProcess(self.job, self.run)
 
-    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
-        global _WORKER
-        if self._pool is not None:
-            self._pool.__exit__(kind, *exc)  # kills the workers on an error
-            _WORKER = None
+    def _fill(self) -> None:
+        while self._todo and len(self._pending) < self._executor.capacity:
+            rows = self._todo.popleft()
+            self._pending.append((rows, self._executor.submit(rows)))
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        value: BaseException | None = None,
+        traceback: TracebackType | None = None,
+    ) -> None:
+        self._executor.close(failed=kind is not None)
 
     def __iter__(self) -> Iterator[StackSlab]:
-        if self._pool is None:
-            for z_start, z_stop in self._ranges:
-                raise_if_interrupted()
-                yield stack_slab(self.model, self.grid, self.plan, z_start, z_stop, self.vdb)
-            return
-        while self._pending:
+        for rows in self.ranges:
             raise_if_interrupted()  # a signal whose exception a library swallowed
-            try:
-                item = self._pending.popleft().result()
-                slab, materials = self._slots.load(item)
-                result = StackSlab(slab, materials, item.tally, item.vdb)
-                self._submit()
-            except BrokenProcessPool:  # from result() or from submit()
-                raise SlabWorkerDied(
-                    "a slab worker process died (often: out of memory); rerun with a "
-                    "smaller --slab-mb or fewer --workers"
-                ) from None
-            yield result
+            if rows in self.finished:
+                yield self._load(rows)
+                continue
+            submitted, handle = self._pending.popleft()
+            assert submitted == rows, "slabs are submitted in z order"
+            done = self._executor.result(handle)
+            self._fill()
+            yield done
 
-
-def _worker_slab(z_start: int, z_stop: int, slot: int) -> SlabInSlot:
-    assert _WORKER is not None, "slab workers must be forked by SlabRunner"
-    model, grid, plan, vdb, slots = _WORKER
-    done = stack_slab(model, grid, plan, z_start, z_stop, vdb)
-    return slots.store(slot, done.slab, done.materials, done.tally, done.vdb)
+    def _load(self, rows: Rows) -> StackSlab:
+        """Return a slab checkpointed by an earlier run (computed here if its chunk is bad)."""
+        assert self.run is not None
+        try:
+            return self.run.load(rows)
+        except ValueError:
+            return InProcess(self.job, self.run).result(rows)

@@ -11,8 +11,9 @@ and the colour report; the manifest gets a ``tray`` section.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
+import hashlib
+import json
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -23,15 +24,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from offset.shells import Shell
-from pipeline.build import _Job, _material_plan
+from pipeline.build import _Job, _material_plan, run_job, settle_running
 from pipeline.build_folder import BuildFolder
 from pipeline.build_plan import BuildPlan, check_depth
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.face_thickness import FaceThickness
 from pipeline.mesh import ColouredMesh
-from pipeline.outdir import OutputFolder
 from pipeline.printer_profile import PrinterProfile
+from pipeline.run_folder import RunFolder, RunSettings, model_key, run_key
 from pipeline.tray_mesh import TrayMesh, concatenate_thickness
 from pipeline.tray_plan import TrayPlan
 from voxel.nearest import SurfaceIndex
@@ -51,6 +52,7 @@ def build_tray(
     progress: bool | None = None,
     force: bool = False,
     say: Callable[[str], None] | None = None,
+    running: RunSettings | None = None,
 ) -> dict[str, Any]:
     """Build the layered voxel stack of a tray into ``out_dir``.
 
@@ -70,7 +72,7 @@ def build_tray(
         Each part's layer thickness per face.
     faces : sequence of FaceThickness or None
         Each part's rule result (None: a constant thickness).
-    profile, progress, force, say
+    profile, progress, force, say, running
         As :func:`pipeline.build.build_stack`.
 
     Returns
@@ -127,15 +129,18 @@ def build_tray(
     )
     seconds: dict[str, float] = {}
     materials = _material_plan(profile, config, int(rows.shape[0]), seconds)
+    running = settle_running(running, build_plan)
+    entry = plan.manifest(mesh.face_starts)
+    parts = json.dumps([[model_key(meshes[p.part]), p.offset_zyx] for p in places])
+    key = run_key(
+        mesh, config, plan.grid, plan.rows, rows, (profile, materials, entry["models"]),
+        model=hashlib.sha256(parts.encode()).hexdigest(),
+    )  # fmt: skip
     job = _TrayJob(
         mesh, config, build_plan, face_thickness, profile, materials, progress, seconds,
-        tray=tray, entry=plan.manifest(mesh.face_starts),
+        running, tray=tray, entry=entry,
     )  # fmt: skip
-    with OutputFolder(Path(out_dir)) as locked:
-        with contextlib.ExitStack() as stack:
-            folder = BuildFolder(locked, stack, started)
-            manifest = job.run(folder)
-        return folder.commit(manifest)
+    return run_job(job, Path(out_dir), key, started)
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,9 +150,9 @@ class _TrayJob(_Job):
     tray: TrayStack | None = None
     entry: dict[str, Any] | None = None
 
-    def run(self, folder: BuildFolder) -> dict[str, Any]:
+    def run(self, folder: BuildFolder, run: RunFolder | None) -> dict[str, Any]:
         """Run the build (:meth:`_Job.run`) and add the manifest's ``tray`` section."""
-        manifest = super().run(folder)
+        manifest = super().run(folder, run)
         manifest["tray"] = self.entry
         return manifest
 

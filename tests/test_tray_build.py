@@ -15,38 +15,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 import tifffile
-import trimesh
 from skimage.measure import label, regionprops
+from tray_models import tray_models
 
 from pipeline.cli import main
 from pipeline.viewer.folder import BuildFolder
 from pipeline.viewer.slices import probe
 
-DEFAULT_MODEL = Path(__file__).resolve().parents[1] / "data" / "colour_target" / "colour_target.obj"
 OPTIONS = ["--voxel-size", "0.3,0.3,0.25", "--format", "tiff", "--no-materials", "--no-progress"]
 GAP_MM = 4.0
 J750_TRAY_MM = (490.0, 390.0, 200.0)
-
-
-def _models(folder: Path) -> list[Path]:
-    """The default model (texture), a vertex-coloured ball and a face-coloured box."""
-    ball = trimesh.creation.icosphere(subdivisions=3, radius=6.0)
-    rgb = (np.abs(ball.vertices) / 6 * 255).astype(np.uint8)
-    ball.visual.vertex_colors = np.c_[rgb, np.full(len(rgb), 255, np.uint8)]
-    ball.export(folder / "ball.ply")
-    box = trimesh.creation.box(extents=(10.0, 8.0, 6.0))
-    colours = np.zeros((12, 4), np.uint8)
-    colours[:, 0], colours[:, 1], colours[:, 3] = np.arange(12) * 20, 200, 255
-    box.visual.face_colors = colours
-    box.export(folder / "box.ply")
-    return [DEFAULT_MODEL, folder / "ball.ply", folder / "box.ply"]
 
 
 @pytest.fixture(scope="module")
 def builds(tmp_path_factory):
     """The tray of the three models, and each model built alone (same options)."""
     folder = tmp_path_factory.mktemp("tray")
-    models = _models(folder)
+    models = tray_models(folder)
     tray = folder / "tray"
     argv = ["build", *map(str, models), "-o", str(tray), "--gap", str(GAP_MM), *OPTIONS]
     assert main(argv) == 0

@@ -21,6 +21,7 @@ colours binned by CIELAB lightness and hue).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -248,10 +249,16 @@ def colour_regions(srgb: NDArray[np.uint8]) -> NDArray[np.str_]:
 
 
 def _stats(values: NDArray[np.float64]) -> dict[str, float | None]:
+    """Mean, median, 95th percentile and maximum of `values` (None when empty).
+
+    The mean is the correctly rounded sum over the count (``math.fsum``): numpy's
+    vectorised sum may round differently with the array's memory alignment, and equal
+    builds must write equal reports.
+    """
     if len(values) == 0:
         return {"mean": None, "median": None, "p95": None, "max": None}
     return {
-        "mean": float(np.mean(values)),
+        "mean": math.fsum(values.tolist()) / len(values),
         "median": float(np.median(values)),
         "p95": float(np.percentile(values, 95)),
         "max": float(np.max(values)),

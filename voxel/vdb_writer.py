@@ -173,6 +173,9 @@ class VdbStackWriter:
         if self._next_z == self.grid.shape_zyx[0]:
             ready = held
         if ready <= 0:
+            # Copies: a view would keep the caller's slab (a shared slot) alive until
+            # the leaf row is complete, and slabs of fewer than 8 rows would hold them all.
+            self._pending[-1] = tuple(part.copy() for part in arrays)
             return
         parts = (
             list(self._pending[0])

@@ -16,6 +16,7 @@ import numpy as np
 from offset import METHODS
 from pipeline.build import build_stack
 from pipeline.cli.loadargs import add_load_arguments, load_options
+from pipeline.cli.runargs import add_running_arguments, running_from_args
 from pipeline.cli.thicknessargs import ThicknessChoice, add_rule_arguments, choose_thickness
 from pipeline.cli.values import parse_lengths, parse_voxel_size
 from pipeline.config import FORMATS, BuildConfig
@@ -174,6 +175,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="progress bar (default: only on a terminal)",
     )
+    add_running_arguments(parser)
 
 
 def config_from_args(
@@ -275,6 +277,7 @@ def run(args: argparse.Namespace) -> int:
     profile = load_profile(args.printer)
     constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
     config_from_args(args, profile)  # bad options fail before the model is read
+    running = running_from_args(args)
     out: Path = args.output
     if out.exists() and not out.is_dir():
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")
@@ -294,6 +297,7 @@ def run(args: argparse.Namespace) -> int:
         progress=args.progress,
         force=args.force,
         say=_say,
+        running=running,
     )
     _report(out, manifest, load_seconds)
     return 0
@@ -380,7 +384,7 @@ def run_tray(args: argparse.Namespace) -> int:
     manifest = build_tray(
         plan, config, out, meshes=meshes, thickness=thickness, faces=faces,
         profile=None if config.material is None else profile, progress=args.progress,
-        force=args.force, say=_say,
+        force=args.force, say=_say, running=running_from_args(args),
     )  # fmt: skip
     _report(out, manifest, load_seconds)
     return 0

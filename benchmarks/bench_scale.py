@@ -1,0 +1,168 @@
+"""Build time and memory with 1 and 2 slab workers: forked pool and Dask LocalCluster.
+
+Each configuration runs ``shellvox build`` in a child process (J750 grid by default)
+while this script samples the whole process tree with psutil every 0.25 s: the peak RSS
+of the main process and of each worker, the forked workers' USS and PSS (what a forked
+worker really holds beyond the pages it shares with the parent), and the CPU seconds of
+the main process against its workers (the parent's share: writers, halftone, VDB
+assembly). Voxels per second are the grid's voxels over the build time the manifest
+reports. The checkpoint's cost is measured as the same build with ``--no-checkpoint``.
+
+    .venv/bin/python benchmarks/bench_scale.py /work/shared/meshes/spot/spot_triangulated.obj \
+        --size-mm 40
+
+Models are given as paths (several: one configuration per list, for trays once they
+exist). Writes ``benchmarks/results/bench_scale.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import psutil
+import trimesh
+
+REPO = Path(__file__).resolve().parents[1]
+RESULTS = REPO / "benchmarks" / "results" / "bench_scale.json"
+
+CONFIGS = {
+    "fork-1": ["--workers", "1"],
+    "fork-2": ["--workers", "2"],
+    "dask-local-1": ["--workers", "1", "--scheduler", "local"],
+    "dask-local-2": ["--workers", "2", "--scheduler", "local"],
+    "fork-2-no-checkpoint": ["--workers", "2", "--no-checkpoint"],
+    "fork-1-no-checkpoint": ["--workers", "1", "--no-checkpoint"],
+}
+
+
+def _scale_for(model: Path, size_mm: float) -> float:
+    mesh = trimesh.load(model, force="mesh", process=False)
+    return size_mm / float(max(mesh.extents))
+
+
+def _sample(main: psutil.Process, peaks: dict[int, dict[str, float]], cpu: dict[int, float],
+            roles: dict[int, str]) -> None:  # fmt: skip
+    try:
+        tree = [main, *main.children(recursive=True)]
+    except psutil.Error:
+        return
+    for process in tree:
+        try:
+            with process.oneshot():
+                times = process.cpu_times()
+                cpu[process.pid] = times.user + times.system
+                info = process.memory_full_info()
+                role = "main" if process.pid == main.pid else _role(process, main)
+        except psutil.Error:
+            continue
+        roles[process.pid] = role
+        peak = peaks.setdefault(process.pid, {"rss": 0.0, "uss": 0.0, "pss": 0.0})
+        peak["rss"] = max(peak["rss"], info.rss / 2**20)
+        peak["uss"] = max(peak["uss"], info.uss / 2**20)
+        peak["pss"] = max(peak["pss"], getattr(info, "pss", 0.0) / 2**20)
+
+
+def _role(process: psutil.Process, main: psutil.Process) -> str:
+    line = " ".join(process.cmdline())
+    if "resource_tracker" in line or "forkserver" in line:
+        return "helper"
+    if line == " ".join(main.cmdline()):
+        return "forked worker"
+    if "spawn" in line or "multiprocessing" in line:
+        return "spawned worker"
+    return "other"
+
+
+def run_config(name: str, models: list[Path], options: list[str], scale: float) -> dict[str, Any]:
+    with tempfile.TemporaryDirectory(prefix="bench_scale_") as folder:
+        out = Path(folder) / "out"
+        argv = [sys.executable, "-m", "pipeline.cli", "build", *map(str, models), "-o", str(out),
+                "--scale", f"{scale:.8g}", "--no-progress", *options]  # fmt: skip
+        env = dict(os.environ, PYTHONPATH=str(REPO))
+        started = time.perf_counter()
+        child = psutil.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        peaks: dict[int, dict[str, float]] = {}
+        cpu: dict[int, float] = {}
+        roles: dict[int, str] = {}
+        while child.poll() is None:
+            _sample(child, peaks, cpu, roles)
+            time.sleep(0.25)
+        wall = time.perf_counter() - started
+        stderr = child.stderr.read().decode() if child.stderr else ""
+        if child.returncode != 0:
+            raise SystemExit(f"{name}: build failed ({child.returncode}):\n{stderr}")
+        manifest = json.loads((out / "manifest.json").read_text())
+    voxels = 1
+    for n in manifest["grid"]["shape_zyx"]:
+        voxels *= n
+    workers = [pid for pid, role in roles.items() if role.endswith("worker")]
+    main_cpu = cpu.get(child.pid, 0.0)
+    worker_cpu = sum(cpu[pid] for pid in workers)
+    seconds = manifest["seconds"]
+    return {
+        "config": name,
+        "options": options,
+        "grid_zyx": manifest["grid"]["shape_zyx"],
+        "voxels": voxels,
+        "slab_rows": manifest["slab_rows"],
+        "slabs": manifest["run"]["slabs"],
+        "wall_s": round(wall, 2),
+        "build_s": round(seconds["total"], 2),
+        "slabs_s": round(seconds.get("slabs", 0.0), 2),
+        "voxels_per_s": round(voxels / seconds["total"]),
+        "main_peak_rss_mb": round(peaks.get(child.pid, {}).get("rss", 0.0), 1),
+        "worker_peak_rss_mb": [round(peaks[pid]["rss"], 1) for pid in workers],
+        "worker_peak_uss_mb": [round(peaks[pid]["uss"], 1) for pid in workers],
+        "worker_peak_pss_mb": [round(peaks[pid]["pss"], 1) for pid in workers],
+        "main_cpu_s": round(main_cpu, 2),
+        "workers_cpu_s": round(worker_cpu, 2),
+        "main_cpu_share": round(main_cpu / max(main_cpu + worker_cpu, 1e-9), 3),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("models", nargs="+", type=Path)
+    parser.add_argument("--size-mm", type=float, default=40.0, help="largest extent of a model")
+    parser.add_argument("--configs", default=",".join(CONFIGS), help="which configurations")
+    args, extra = parser.parse_known_args()  # the rest: more build options
+    scale = _scale_for(args.models[0], args.size_mm)
+    results = []
+    for name in args.configs.split(","):
+        result = run_config(name, args.models, [*CONFIGS[name], *extra], scale)
+        print(json.dumps(result), flush=True)
+        results.append(result)
+    by_name = {r["config"]: r for r in results}
+    summary: dict[str, float] = {}
+    for kind in ("fork", "dask-local"):
+        one, two = by_name.get(f"{kind}-1"), by_name.get(f"{kind}-2")
+        if one and two:
+            summary[f"{kind} speed-up 1->2"] = round(one["build_s"] / two["build_s"], 3)
+    for n in (1, 2):
+        on, off = by_name.get(f"fork-{n}"), by_name.get(f"fork-{n}-no-checkpoint")
+        if on and off:
+            summary[f"checkpoint cost fork-{n}"] = round(on["build_s"] / off["build_s"] - 1, 3)
+    record = {
+        "models": [str(m) for m in args.models],
+        "size_mm": args.size_mm,
+        "extra_options": extra,
+        "cores": len(os.sched_getaffinity(0)),
+        "load_average": os.getloadavg(),
+        "results": results,
+        "summary": summary,
+    }
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    RESULTS.write_text(json.dumps(record, indent=2) + "\n")
+    print(json.dumps(summary, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,155 @@
+"""A finished slab as bytes: the checkpoint of a resumable build and the Dask wire format.
+
+:func:`encode_chunk` packs everything :meth:`pipeline.build._Job._stream` consumes of a
+:class:`~pipeline.slab_runner.StackSlab` (the slab's arrays and counters, its materials
+and tally, its encoded VDB leaves) into a zip of ``.npy`` members (zlib level 1; no
+pickles: :func:`decode_chunk` reads it with ``allow_pickle=False``), and
+:func:`decode_chunk` gives back a slab that feeds the writers exactly as the original
+does. :func:`save_chunk` puts such bytes in place atomically (temporary name, fsync,
+rename), so a chunk file that exists is complete.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.slab_runner import StackSlab
+from voxel.slab import SlabResult
+from voxel.vdb_leaves import GridSpool
+
+#: zlib level of the chunks: slabs are mostly runs, which level 1 packs nearly as well.
+CHUNK_LEVEL = 1
+
+_ARRAYS = ("layers", "rgba", "sdf", "sdf_band", "layer_counts")
+_COUNTERS = ("z_start", "z_stop", "n_unbalanced_rows", "n_nesting_violations",
+             "n_nearest_queries", "n_distance_tests")  # fmt: skip
+_SPOOL_TEXT = ("name", "value_type", "grid_class")
+_SPOOL_LISTS = {
+    "leaf_origin": ((0, 3), np.int32),
+    "leaf_offset": ((0,), np.int64),
+    "leaf_length": ((0,), np.int64),
+    "tile_origin": ((0, 3), np.int32),
+    "tile_value": ((0,), np.float32),
+    "tile_active": ((0,), np.bool_),
+}
+
+
+def encode_chunk(done: StackSlab) -> bytes:
+    """Return a finished slab as the bytes of a chunk file (see the module)."""
+    members: dict[str, NDArray[Any]] = {}
+    slab = done.slab
+    for name in _ARRAYS:
+        members[f"slab.{name}"] = getattr(slab, name)
+    for name in _COUNTERS:
+        members[f"slab.{name}"] = np.array(int(getattr(slab, name)), np.int64)
+    if done.materials is not None:
+        members["materials"] = done.materials
+    if done.tally is not None:
+        members["tally"] = done.tally
+    members["n_spools"] = np.array(-1 if done.vdb is None else len(done.vdb), np.int64)
+    for i, spool in enumerate(done.vdb or []):
+        prefix = f"vdb{i}."
+        for name in _SPOOL_TEXT:
+            members[prefix + name] = np.array(getattr(spool, name))
+        members[prefix + "background"] = np.array(spool.background, np.float64)
+        members[prefix + "active_voxels"] = np.array(spool.active_voxels, np.int64)
+        members[prefix + "bbox_min"] = np.asarray(spool.bbox_min, np.int64)
+        members[prefix + "bbox_max"] = np.asarray(spool.bbox_max, np.int64)
+        members[prefix + "stream"] = np.frombuffer(_spool_bytes(spool), np.uint8)
+        for name, (empty, dtype) in _SPOOL_LISTS.items():
+            parts = getattr(spool, name)
+            members[prefix + name] = (
+                np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(empty, dtype)
+            )
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED, compresslevel=CHUNK_LEVEL) as archive:
+        for name, array in members.items():
+            with archive.open(name + ".npy", "w", force_zip64=True) as member:
+                np.save(member, np.asarray(array), allow_pickle=False)
+    return buffer.getvalue()
+
+
+def decode_chunk(data: bytes) -> StackSlab:
+    """Return the slab that :func:`encode_chunk` packed into `data`.
+
+    Raises
+    ------
+    ValueError
+        `data` is not a chunk (a damaged file: resume recomputes the slab).
+    """
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as archive:
+            members = {name: archive[name] for name in archive.files}
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as error:
+        raise ValueError(f"not a slab chunk ({error})") from None
+    try:
+        count = {name: int(members[f"slab.{name}"]) for name in _COUNTERS}
+        slab = SlabResult(
+            z_start=count["z_start"],
+            z_stop=count["z_stop"],
+            layers=members["slab.layers"],
+            rgba=members["slab.rgba"],
+            sdf=members["slab.sdf"],
+            sdf_band=members["slab.sdf_band"],
+            n_unbalanced_rows=count["n_unbalanced_rows"],
+            n_nesting_violations=count["n_nesting_violations"],
+            n_nearest_queries=count["n_nearest_queries"],
+            n_distance_tests=count["n_distance_tests"],
+            layer_counts=members["slab.layer_counts"],
+        )
+        n_spools = int(members["n_spools"])
+        spools = None if n_spools < 0 else [_spool(members, f"vdb{i}.") for i in range(n_spools)]
+        return StackSlab(slab, members.get("materials"), members.get("tally"), spools)
+    except (KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"not a slab chunk (missing or bad {error})") from None
+
+
+def save_chunk(path: Path, data: bytes) -> None:
+    """Write `data` to `path` atomically: a temporary name, fsync, then rename.
+
+    The temporary name (``.NAME.*.partial``) is one that
+    :func:`pipeline.outdir.remove_leftovers` removes when a killed run left it.
+    """
+    handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            stream.write(data)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(name, path)
+    finally:
+        Path(name).unlink(missing_ok=True)
+
+
+def _spool_bytes(spool: GridSpool) -> bytes:
+    """Return the leaf buffers an in-memory spool holds."""
+    if not isinstance(spool.stream, io.BytesIO):
+        raise ValueError(f"{spool.name}: only in-memory spools can be checkpointed")
+    return spool.stream.getvalue()
+
+
+def _spool(members: dict[str, NDArray[Any]], prefix: str) -> GridSpool:
+    """Rebuild one in-memory spool of a chunk."""
+    stream = members[prefix + "stream"].tobytes()
+    spool = GridSpool(
+        str(members[prefix + "name"]),
+        str(members[prefix + "value_type"]),
+        str(members[prefix + "grid_class"]),
+        float(members[prefix + "background"]),
+        io.BytesIO(stream),
+        size=len(stream),
+        active_voxels=int(members[prefix + "active_voxels"]),
+        bbox_min=members[prefix + "bbox_min"],
+        bbox_max=members[prefix + "bbox_max"],
+    )
+    for name in _SPOOL_LISTS:
+        setattr(spool, name, [members[prefix + name]])
+    return spool
