@@ -44,6 +44,9 @@ from voxel.srgb import srgb8_to_lab
 CHUNK_SAMPLES = 1 << 20
 
 
+#: Decimals kept of a face's colour spread (CIEDE2000 units).
+SPREAD_DECIMALS = 9
+
 @dataclass(frozen=True, eq=False)
 class FaceColour:
     """Robust colour of every face.
@@ -219,7 +222,9 @@ def _statistics(rgba: NDArray[np.uint8]) -> FaceColour:
         spread = np.zeros(n_faces, dtype=np.float64)
     else:
         difference: NDArray[Any] = colour.delta_E(samples, median[:, None, :], method="CIE 2000")
-        spread = np.percentile(difference, 90, axis=1)
+        # Rounded: numpy's vectorised trigonometry in CIEDE2000 may differ in the last
+        # bits from run to run (memory alignment); equal inputs must give equal files.
+        spread = np.round(np.percentile(difference, 90, axis=1), SPREAD_DECIMALS)
     return FaceColour(
         lab=np.asarray(median, dtype=np.float64),
         alpha=np.median(rgba[..., 3], axis=1) / 255.0,

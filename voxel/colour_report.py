@@ -61,6 +61,10 @@ class SurfaceSamples:
     target_rgba: NDArray[np.uint8]
 
 
+#: Decimals of the report's CIEDE2000 statistics (see :func:`_stats`).
+REPORT_DECIMALS = 6
+
+
 def sample_surface(
     vertices: NDArray[np.float64],
     faces: NDArray[np.int64],
@@ -251,17 +255,17 @@ def colour_regions(srgb: NDArray[np.uint8]) -> NDArray[np.str_]:
 def _stats(values: NDArray[np.float64]) -> dict[str, float | None]:
     """Mean, median, 95th percentile and maximum of `values` (None when empty).
 
-    The mean is the correctly rounded sum over the count (``math.fsum``): numpy's
-    vectorised sum may round differently with the array's memory alignment, and equal
-    builds must write equal reports.
+    Rounded to :data:`REPORT_DECIMALS` (CIEDE2000 units; one unit is about a just
+    noticeable difference): numpy's vectorised loops may round the last bits differently
+    from run to run (memory alignment), and equal builds must write equal reports.
     """
     if len(values) == 0:
         return {"mean": None, "median": None, "p95": None, "max": None}
     return {
-        "mean": math.fsum(values.tolist()) / len(values),
-        "median": float(np.median(values)),
-        "p95": float(np.percentile(values, 95)),
-        "max": float(np.max(values)),
+        "mean": round(math.fsum(values.tolist()) / len(values), REPORT_DECIMALS),
+        "median": round(float(np.median(values)), REPORT_DECIMALS),
+        "p95": round(float(np.percentile(values, 95)), REPORT_DECIMALS),
+        "max": round(float(np.max(values)), REPORT_DECIMALS),
     }
 
 
