@@ -34,12 +34,12 @@ REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results" / "bench_scale.json"
 
 CONFIGS = {
-    "fork-1": ["--workers", "1"],
-    "fork-2": ["--workers", "2"],
-    "dask-local-1": ["--workers", "1", "--scheduler", "local"],
-    "dask-local-2": ["--workers", "2", "--scheduler", "local"],
-    "fork-2-no-checkpoint": ["--workers", "2", "--no-checkpoint"],
-    "fork-1-no-checkpoint": ["--workers", "1", "--no-checkpoint"],
+    "fork-1": ["--workers", "1", "--no-checkpoint"],
+    "fork-2": ["--workers", "2", "--no-checkpoint"],
+    "dask-local-1": ["--workers", "1", "--scheduler", "local", "--no-checkpoint"],
+    "dask-local-2": ["--workers", "2", "--scheduler", "local", "--no-checkpoint"],
+    "fork-2-checkpoint": ["--workers", "2", "--checkpoint"],
+    "fork-1-checkpoint": ["--workers", "1", "--checkpoint"],
 }
 
 
@@ -133,34 +133,46 @@ def main() -> None:
     parser.add_argument("models", nargs="+", type=Path)
     parser.add_argument("--size-mm", type=float, default=40.0, help="largest extent of a model")
     parser.add_argument("--configs", default=",".join(CONFIGS), help="which configurations")
+    parser.add_argument("--out", type=Path, default=RESULTS, help="JSON results file")
+    parser.add_argument(
+        "--copies", default="1", help="comma list: trays of that many copies (--layout auto)"
+    )
     args, extra = parser.parse_known_args()  # the rest: more build options
     scale = _scale_for(args.models[0], args.size_mm)
     results = []
-    for name in args.configs.split(","):
-        result = run_config(name, args.models, [*CONFIGS[name], *extra], scale)
-        print(json.dumps(result), flush=True)
-        results.append(result)
-    by_name = {r["config"]: r for r in results}
     summary: dict[str, float] = {}
-    for kind in ("fork", "dask-local"):
-        one, two = by_name.get(f"{kind}-1"), by_name.get(f"{kind}-2")
-        if one and two:
-            summary[f"{kind} speed-up 1->2"] = round(one["build_s"] / two["build_s"], 3)
-    for n in (1, 2):
-        on, off = by_name.get(f"fork-{n}"), by_name.get(f"fork-{n}-no-checkpoint")
-        if on and off:
-            summary[f"checkpoint cost fork-{n}"] = round(on["build_s"] / off["build_s"] - 1, 3)
+    for copies in (int(c) for c in args.copies.split(",")):
+        tray = ["--copies", str(copies)] if copies > 1 else []
+        done = []
+        for name in args.configs.split(","):
+            result = run_config(name, args.models, [*CONFIGS[name], *tray, *extra], scale)
+            result["copies"] = copies
+            print(json.dumps(result), flush=True)
+            done.append(result)
+        results += done
+        by_name = {r["config"]: r for r in done}
+        for kind in ("fork", "dask-local"):
+            one, two = by_name.get(f"{kind}-1"), by_name.get(f"{kind}-2")
+            if one and two:
+                speed_up = one["build_s"] / two["build_s"]
+                summary[f"copies {copies}: {kind} speed-up 1->2"] = round(speed_up, 3)
+        for n in (1, 2):
+            on, off = by_name.get(f"fork-{n}-checkpoint"), by_name.get(f"fork-{n}")
+            if on and off:
+                cost = on["build_s"] / off["build_s"] - 1
+                summary[f"copies {copies}: checkpoint cost fork-{n}"] = round(cost, 3)
     record = {
         "models": [str(m) for m in args.models],
         "size_mm": args.size_mm,
+        "copies": args.copies,
         "extra_options": extra,
         "cores": len(os.sched_getaffinity(0)),
         "load_average": os.getloadavg(),
         "results": results,
         "summary": summary,
     }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(record, indent=2) + "\n")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(record, indent=2) + "\n")
     print(json.dumps(summary, indent=2))
 
 

@@ -8,29 +8,25 @@ import uuid
 from pathlib import Path
 from typing import Any
 
-#: volume.vdb's file UUID (random per write, io::Archive's unique tag): after the
-#: 21-byte header (magic int64, file version, library major and minor, a flag byte).
-VDB_UUID = slice(21, 57)
-
 
 def output_digests(folder: Path) -> dict[str, str]:
-    """SHA-256 of every file the manifest lists; volume.vdb's random UUID blanked."""
+    """SHA-256 of every file the manifest lists (volume.vdb's UUID is derived from its
+    content, so equal builds have equal files byte for byte)."""
     manifest = json.loads((folder / "manifest.json").read_text())
     digests = {}
     for name in manifest["files"]:
-        data = bytearray((folder / name).read_bytes())
+        data = (folder / name).read_bytes()
         if name.endswith(".vdb"):
-            uuid.UUID(data[VDB_UUID].decode("ascii"))  # it is the UUID that is blanked
-            data[VDB_UUID] = b"-" * 36
+            uuid.UUID(data[21:57].decode("ascii"))  # the file's UUID is where OpenVDB reads it
         digests[name] = hashlib.sha256(data).hexdigest()
     return digests
 
 
 def manifest_core(folder: Path) -> dict[str, Any]:
-    """The manifest without what may differ between equal builds: timings, how it ran,
-    the estimate (which depends on the workers) and the VDB's checksum (its UUID)."""
+    """The manifest without what may differ between equal builds: timings, how it ran
+    and the estimate (which depends on the workers)."""
     manifest = json.loads((folder / "manifest.json").read_text())
-    for key in ("seconds", "run", "estimate", "files"):
+    for key in ("seconds", "run", "estimate"):
         manifest.pop(key)
     manifest["config"].pop("workers")
     return manifest

@@ -17,6 +17,7 @@ read by OpenVDB 10 and later; the tests read them back with OpenVDB's own reader
 
 from __future__ import annotations
 
+import hashlib
 import struct
 import uuid
 from dataclasses import dataclass
@@ -60,13 +61,32 @@ def write_file(
     metadata : dict of str to str
         Added to every grid's metadata.
     """
-    with open(path, "wb") as out:
+    with open(path, "w+b") as out:
         out.write(struct.pack("<qIIIb", _MAGIC, _FILE_VERSION, *_LIBRARY_VERSION, 1))
-        out.write(str(uuid.uuid4()).encode("ascii"))  # 36 characters
+        uuid_at = out.tell()
+        out.write(b"0" * 36)  # the file's UUID, written last
         out.write(struct.pack("<I", 0))  # no file-level metadata
         out.write(struct.pack("<i", len(spools)))
         for spool in spools:
             _write_grid(out, spool, grid, metadata)
+        out.flush()
+        file_uuid = content_uuid(out, uuid_at + 36)
+        out.seek(uuid_at)
+        out.write(str(file_uuid).encode("ascii"))  # 36 characters
+
+
+def content_uuid(stream: IO[bytes], start: int) -> uuid.UUID:
+    """Return the UUID of a file's bytes from `start` on (a name-based UUID, version 5).
+
+    OpenVDB's writer gives every file a random UUID; readers use it only to tell files
+    apart. Derived from the content, equal builds write equal files, and a file that
+    differs gets another UUID.
+    """
+    hasher = hashlib.sha256()
+    stream.seek(start)
+    while block := stream.read(1 << 24):
+        hasher.update(block)
+    return uuid.UUID(bytes=hasher.digest()[:16], version=5)
 
 
 def _write_grid(out: IO[bytes], spool: GridSpool, grid: GridSpec, metadata: dict[str, str]) -> None:
