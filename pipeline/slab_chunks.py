@@ -69,10 +69,18 @@ def encode_chunk(done: StackSlab) -> bytes:
             members[prefix + name] = (
                 np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(empty, dtype)
             )
+    stored = set()  # compressed already: stored as they are
+    for name, pages in (done.pages or {}).items():
+        members[f"pages.{name}.data"] = np.frombuffer(b"".join(pages), np.uint8)
+        members[f"pages.{name}.sizes"] = np.array([len(page) for page in pages], np.int64)
+        stored.add(f"pages.{name}.data")
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED, compresslevel=CHUNK_LEVEL) as archive:
         for name, array in members.items():
-            with archive.open(name + ".npy", "w", force_zip64=True) as member:
+            info = zipfile.ZipInfo(name + ".npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_STORED if name in stored else zipfile.ZIP_DEFLATED
+            info.compress_level = CHUNK_LEVEL
+            with archive.open(info, "w", force_zip64=True) as member:
                 np.save(member, np.asarray(array), allow_pickle=False)
     return buffer.getvalue()
 
@@ -107,7 +115,16 @@ def decode_chunk(data: bytes) -> StackSlab:
         )
         n_spools = int(members["n_spools"])
         spools = None if n_spools < 0 else [_spool(members, f"vdb{i}.") for i in range(n_spools)]
-        return StackSlab(slab, members.get("materials"), members.get("tally"), spools)
+        pages = {}
+        for key in members:
+            if key.startswith("pages.") and key.endswith(".data"):
+                name = key[len("pages.") : -len(".data")]
+                data, sizes = members[key], members[f"pages.{name}.sizes"]
+                ends = np.cumsum(sizes)
+                pages[name] = [data[e - n : e].tobytes() for e, n in zip(ends, sizes, strict=True)]
+        return StackSlab(
+            slab, members.get("materials"), members.get("tally"), spools, pages or None
+        )
     except (KeyError, TypeError, ValueError) as error:
         raise ValueError(f"not a slab chunk (missing or bad {error})") from None
 
