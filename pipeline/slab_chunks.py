@@ -69,18 +69,13 @@ def encode_chunk(done: StackSlab) -> bytes:
             members[prefix + name] = (
                 np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(empty, dtype)
             )
-    stored = set()  # compressed already: stored as they are
-    for name, pages in (done.pages or {}).items():
+    for name, pages in (done.pages or {}).items():  # compressed already, and small
         members[f"pages.{name}.data"] = np.frombuffer(b"".join(pages), np.uint8)
         members[f"pages.{name}.sizes"] = np.array([len(page) for page in pages], np.int64)
-        stored.add(f"pages.{name}.data")
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED, compresslevel=CHUNK_LEVEL) as archive:
         for name, array in members.items():
-            info = zipfile.ZipInfo(name + ".npy", date_time=(1980, 1, 1, 0, 0, 0))
-            info.compress_type = zipfile.ZIP_STORED if name in stored else zipfile.ZIP_DEFLATED
-            info.compress_level = CHUNK_LEVEL
-            with archive.open(info, "w", force_zip64=True) as member:
+            with archive.open(name + ".npy", "w", force_zip64=True) as member:
                 np.save(member, np.asarray(array), allow_pickle=False)
     return buffer.getvalue()
 
@@ -119,9 +114,11 @@ def decode_chunk(data: bytes) -> StackSlab:
         for key in members:
             if key.startswith("pages.") and key.endswith(".data"):
                 name = key[len("pages.") : -len(".data")]
-                data, sizes = members[key], members[f"pages.{name}.sizes"]
+                stream, sizes = members[key], members[f"pages.{name}.sizes"]
                 ends = np.cumsum(sizes)
-                pages[name] = [data[e - n : e].tobytes() for e, n in zip(ends, sizes, strict=True)]
+                pages[name] = [
+                    stream[e - n : e].tobytes() for e, n in zip(ends, sizes, strict=True)
+                ]
         return StackSlab(
             slab, members.get("materials"), members.get("tally"), spools, pages or None
         )
