@@ -54,12 +54,13 @@ from pipeline.run_folder import (
 )
 from pipeline.shell_job import ShellJob
 from pipeline.slab_runner import SlabRunner, material_tally
-from pipeline.stack_outputs import StackOutputs
+from pipeline.stack_outputs import MATERIALS_LEVEL, StackOutputs
 from voxel.agreement import shell_agreement
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.nearest import SurfaceIndex
 from voxel.sampler import LayerSampler
 from voxel.slab import StackModel
+from voxel.tiff_pages import PageEncoder
 from voxel.vdb_encode import VdbEncoder
 
 
@@ -194,6 +195,7 @@ class _Job:
                 plan.workers,
                 self.materials,
                 self._encoder(),
+                pages=self._page_encoder(),
                 scheduler=self.running.scheduler,
                 run=run,
             )
@@ -268,6 +270,19 @@ class _Job:
         _ = model.surface.regions  # the scan's regions, computed once, inherited by workers
         return model
 
+    def _page_encoder(self) -> PageEncoder | None:
+        """Return the slab workers' TIFF page encoder (the writers' own compression)."""
+        config = self.config
+        if "tiff" not in config.formats:
+            return None
+        return PageEncoder(
+            colour_samples=4 if config.alpha else 3,
+            level=config.compression_level,
+            materials_level=None
+            if self._profile() is None
+            else config.compression_level or MATERIALS_LEVEL,
+        )
+
     def _encoder(self) -> VdbEncoder | None:
         """Return the slab workers' VDB encoder, when slabs hold whole leaf rows."""
         grid, rows = self.plan.grid, self.plan.rows
@@ -296,7 +311,7 @@ class _Job:
         carry = None
         n_z = self.plan.grid.shape_zyx[0]
         with tqdm(total=n_z, unit="z", desc="voxels", disable=disable) as bar:
-            for slab, materials, counts, encoded in slabs:
+            for slab, materials, counts, encoded, pages in slabs:
                 if self.materials is not None and materials is None:  # error diffusion, z order
                     diffused = materials_for_slab(
                         slab.layers, slab.rgba, slab.z_start, self.materials, carry=carry
@@ -307,7 +322,7 @@ class _Job:
                 sampler.add(slab.z_start, slab.layers)
                 if check is not None and materials is not None:
                     check.add_slab(slab.z_start, materials)
-                outputs.write(slab, materials, encoded)
+                outputs.write(slab, materials, encoded, pages)
                 bar.update(slab.z_stop - slab.z_start)
         self.seconds["slabs"] = time.perf_counter() - tick
 

@@ -47,6 +47,7 @@ CHUNK_SAMPLES = 1 << 20
 #: Decimals kept of a face's colour spread (CIEDE2000 units).
 SPREAD_DECIMALS = 9
 
+
 @dataclass(frozen=True, eq=False)
 class FaceColour:
     """Robust colour of every face.

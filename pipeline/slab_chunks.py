@@ -69,6 +69,9 @@ def encode_chunk(done: StackSlab) -> bytes:
             members[prefix + name] = (
                 np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(empty, dtype)
             )
+    for name, pages in (done.pages or {}).items():  # compressed already, and small
+        members[f"pages.{name}.data"] = np.frombuffer(b"".join(pages), np.uint8)
+        members[f"pages.{name}.sizes"] = np.array([len(page) for page in pages], np.int64)
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED, compresslevel=CHUNK_LEVEL) as archive:
         for name, array in members.items():
@@ -107,7 +110,18 @@ def decode_chunk(data: bytes) -> StackSlab:
         )
         n_spools = int(members["n_spools"])
         spools = None if n_spools < 0 else [_spool(members, f"vdb{i}.") for i in range(n_spools)]
-        return StackSlab(slab, members.get("materials"), members.get("tally"), spools)
+        pages = {}
+        for key in members:
+            if key.startswith("pages.") and key.endswith(".data"):
+                name = key[len("pages.") : -len(".data")]
+                stream, sizes = members[key], members[f"pages.{name}.sizes"]
+                ends = np.cumsum(sizes)
+                pages[name] = [
+                    stream[e - n : e].tobytes() for e, n in zip(ends, sizes, strict=True)
+                ]
+        return StackSlab(
+            slab, members.get("materials"), members.get("tally"), spools, pages or None
+        )
     except (KeyError, TypeError, ValueError) as error:
         raise ValueError(f"not a slab chunk (missing or bad {error})") from None
 

@@ -72,7 +72,7 @@ class ForkPool:
         except BrokenProcessPool:
             raise SlabWorkerDied(_DIED) from None
         slab, materials = self._slots.load(item)
-        return StackSlab(slab, materials, item.tally, item.vdb)
+        return StackSlab(slab, materials, item.tally, item.vdb, item.pages)
 
     def close(self, failed: bool) -> None:
         """Stop the workers (kill them at once when `failed`)."""
@@ -87,4 +87,4 @@ def _worker_slab(z_start: int, z_stop: int, slot: int) -> SlabInSlot:
     done = job.run((z_start, z_stop))
     if run is not None:
         run.save((z_start, z_stop), done)
-    return slots.store(slot, done.slab, done.materials, done.tally, done.vdb)
+    return slots.store(slot, done.slab, done.materials, done.tally, done.vdb, done.pages)

@@ -37,6 +37,7 @@ from voxel.grid import GridSpec
 from voxel.layer_kernel import layer_material_counts
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.slab import SlabResult, StackModel, compute_slab
+from voxel.tiff_pages import PageEncoder
 from voxel.vdb_encode import VdbEncoder
 from voxel.vdb_leaves import GridSpool
 
@@ -61,12 +62,16 @@ class StackSlab(NamedTuple):
         Voxels per layer (rows, ``L = K + 2``) and material (columns), with `materials`.
     vdb : list of GridSpool or None
         The slab's VDB leaves and tiles, when the runner was given an encoder.
+    pages : dict of str to list of bytes, or None
+        The slab's TIFF pages compressed, by file name (:class:`voxel.tiff_pages.PageEncoder`),
+        when the runner was given a page encoder.
     """
 
     slab: SlabResult
     materials: NDArray[np.uint8] | None
     tally: NDArray[np.int64] | None = None
     vdb: list[GridSpool] | None = None
+    pages: dict[str, list[bytes]] | None = None
 
 
 def material_tally(
@@ -84,17 +89,21 @@ def stack_slab(
     z_start: int,
     z_stop: int,
     vdb: VdbEncoder | None = None,
+    pages: PageEncoder | None = None,
 ) -> StackSlab:
     """Return the slab of rows ``z_start..z_stop`` with its materials (a pure function).
 
     With `vdb`, also its VDB leaves and tiles (only when the materials, if any, are made
-    here: with error diffusion they are not, and the caller encodes the slab).
+    here: with error diffusion they are not, and the caller encodes the slab). With
+    `pages`, also its TIFF pages compressed (those of ``materials.tif`` only when the
+    materials are made here).
     """
     slab = compute_slab(model, grid, z_start, z_stop)
     materials = tally = None
     if plan is not None:
         if plan.halftone != "blue-noise":
-            return StackSlab(slab, None)
+            encoded_pages = None if pages is None else pages.encode(slab.layers, slab.rgba, None)
+            return StackSlab(slab, None, pages=encoded_pages)
         materials = materials_for_slab(slab.layers, slab.rgba, z_start, plan).materials
         tally = material_tally(slab.layers, materials, plan.core_layer + 1)
     encoded = None
@@ -104,7 +113,8 @@ def stack_slab(
         encoded = vdb.encode(
             z_start, slab.layers, slab.rgba[..., :3], is_colour[slab.layers], slab.sdf, materials
         )
-    return StackSlab(slab, materials, tally, encoded)
+    encoded_pages = None if pages is None else pages.encode(slab.layers, slab.rgba, materials)
+    return StackSlab(slab, materials, tally, encoded, encoded_pages)
 
 
 def resolve_workers(workers: int) -> int:
@@ -132,16 +142,19 @@ class SlabJob(NamedTuple):
         Materials of the voxels (see :func:`stack_slab`).
     vdb : VdbEncoder or None
         Encode each slab's VDB leaves where it is computed (see :func:`stack_slab`).
+    pages : PageEncoder or None
+        Compress each slab's TIFF pages where it is computed (see :func:`stack_slab`).
     """
 
     model: StackModel
     grid: GridSpec
     plan: MaterialPlan | None
     vdb: VdbEncoder | None
+    pages: PageEncoder | None = None
 
     def run(self, rows: Rows) -> StackSlab:
         """Return the slab of `rows` (:func:`stack_slab`)."""
-        return stack_slab(self.model, self.grid, self.plan, rows[0], rows[1], self.vdb)
+        return stack_slab(self.model, self.grid, self.plan, rows[0], rows[1], self.vdb, self.pages)
 
 
 class SlabExecutor(Protocol):
@@ -214,6 +227,8 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         Materials of the voxels (see :func:`stack_slab`).
     vdb : VdbEncoder, optional
         Encode each slab's VDB leaves where it is computed (see :func:`stack_slab`).
+    pages : PageEncoder, optional
+        Compress each slab's TIFF pages where it is computed (see :func:`stack_slab`).
     scheduler : str, optional
         A Dask scheduler's address, or ``"local"`` for a local cluster
         (:class:`pipeline.slab_dask.DaskPool`); None: this process or forked workers.
@@ -230,10 +245,11 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         plan: MaterialPlan | None = None,
         vdb: VdbEncoder | None = None,
         *,
+        pages: PageEncoder | None = None,
         scheduler: str | None = None,
         run: RunFolder | None = None,
     ) -> None:
-        self.job = SlabJob(model, grid, plan, vdb)
+        self.job = SlabJob(model, grid, plan, vdb, pages)
         self.run = run
         n_z = grid.shape_zyx[0]
         self.ranges = [(z, min(n_z, z + rows)) for z in range(0, n_z, rows)]
@@ -251,7 +267,7 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
 
     def _choose(self, scheduler: str | None, slab_shape: tuple[int, int, int]) -> SlabExecutor:
         if not self._todo:
-            return InProcess(self.job, self.run)
+            return InProcess(self.job._replace(pages=None), self.run)
         if scheduler is not None:
             from pipeline.slab_dask import DaskPool  # dask is imported only when used
 
@@ -260,7 +276,10 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
             from pipeline.slab_pool import ForkPool
 
             return ForkPool(self.job, self.workers, slab_shape, self.run)
-        return InProcess(self.job, self.run)
+        # Here the writers' threads compress the pages beside the numerics, on the other
+        # cores; worker processes compress their own, so the writing process does not
+        # set the pace of many workers.
+        return InProcess(self.job._replace(pages=None), self.run)
 
     def _fill(self) -> None:
         while self._todo and len(self._pending) < self._executor.capacity:

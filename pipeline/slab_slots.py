@@ -39,6 +39,7 @@ class SlabInSlot(NamedTuple):
     has_materials: bool
     tally: NDArray[np.int64] | None
     vdb: list[GridSpool] | None
+    pages: dict[str, list[bytes]] | None = None
 
 
 def _layout(shape: tuple[int, int, int]) -> list[tuple[str, int, tuple[int, ...], str]]:
@@ -86,7 +87,8 @@ class SlabSlots:
 
     def store(self, slot: int, result: SlabResult, materials: NDArray[np.uint8] | None,
               tally: NDArray[np.int64] | None,
-              vdb: list[GridSpool] | None = None) -> SlabInSlot:  # fmt: skip
+              vdb: list[GridSpool] | None = None,
+              pages: dict[str, list[bytes]] | None = None) -> SlabInSlot:  # fmt: skip
         """Copy a slab into ``slot`` (worker side); return what to send back."""
         shape = (result.layers.shape[0], result.layers.shape[1], result.layers.shape[2])
         views = self._views(slot, shape)
@@ -104,7 +106,7 @@ class SlabSlots:
             sdf=np.zeros((0, 0, 0), np.float32),
             sdf_band=np.zeros((0, 0, 0), bool),
         )
-        return SlabInSlot(slot, shape, small, materials is not None, tally, vdb)
+        return SlabInSlot(slot, shape, small, materials is not None, tally, vdb, pages)
 
     def load(self, item: SlabInSlot) -> tuple[SlabResult, NDArray[np.uint8] | None]:
         """Return the slab and its materials as views of the slot (parent side)."""

@@ -30,6 +30,10 @@ from voxel.tiff_writer import TiffStackWriter
 from voxel.vdb_leaves import GridSpool
 from voxel.vdb_writer import VdbStackWriter
 
+#: zlib level of ``materials.tif`` unless ``--compression-level`` says: halftoned
+#: materials are no runs, and zlib packs them 6 times smaller than the run encoder.
+MATERIALS_LEVEL = 1
+
 
 class StackOutputs:
     """Open the chosen writers in the build's folder; :meth:`write` feeds them a slab.
@@ -71,9 +75,7 @@ class StackOutputs:
             self.layers_tif = self._tiff("layers.tif", 0, level)
             self.colour_tif = self._tiff("colour.tif", self.samples, level)
             if with_materials:
-                # halftoned materials are no runs: zlib (level 1 unless asked) packs them
-                # 6 times smaller than the run encoder
-                self.materials_tif = self._tiff("materials.tif", 0, level or 1)
+                self.materials_tif = self._tiff("materials.tif", 0, level or MATERIALS_LEVEL)
         self.vdb: VdbStackWriter | None = None
         self._vdb_path = None
         if "vdb" in formats:
@@ -138,16 +140,27 @@ class StackOutputs:
         slab: SlabResult,
         materials: NDArray[np.uint8] | None,
         vdb: list[GridSpool] | None = None,
+        pages: dict[str, list[bytes]] | None = None,
     ) -> None:
         """Write one slab (in z order) to every open writer.
 
-        `vdb`: the slab's VDB leaves already encoded (:class:`voxel.vdb_encode.VdbEncoder`).
+        `vdb`: the slab's VDB leaves already encoded (:class:`voxel.vdb_encode.VdbEncoder`);
+        `pages`: its TIFF pages already compressed, by file name
+        (:class:`voxel.tiff_pages.PageEncoder`, made with this build's levels).
         """
-        if self.layers_tif is not None and self.colour_tif is not None:
-            self.layers_tif.write_slab(slab.layers)
-            self.colour_tif.write_slab(slab.rgba[..., : self.samples])
-        if self.materials_tif is not None and materials is not None:
-            self.materials_tif.write_slab(materials)
+        pages = pages or {}
+        stacks = (
+            ("layers.tif", self.layers_tif, slab.layers),
+            ("colour.tif", self.colour_tif, slab.rgba[..., : self.samples]),
+            ("materials.tif", self.materials_tif, materials),
+        )
+        for name, writer, array in stacks:
+            if writer is None or array is None:
+                continue
+            if name in pages:
+                writer.write_pages(pages[name])
+            else:
+                writer.write_slab(array)
         if self.vdb is not None and vdb is not None:
             self.vdb.write_encoded(slab.z_start, slab.z_stop - slab.z_start, vdb)
         elif self.vdb is not None:

@@ -15,7 +15,6 @@ zlib at a given level (smaller files, slower). Both are TIFF compression 8 (defl
 from __future__ import annotations
 
 import warnings
-import zlib
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -24,9 +23,9 @@ import numpy as np
 import tifffile
 from numpy.typing import NDArray
 
-from voxel.deflate import pixel_bytes, zlib_compress
 from voxel.grid import GridSpec
 from voxel.slab_thread import ClosingWriter, SlabThread
+from voxel.tiff_pages import compress_page
 
 #: Classic TIFF holds at most 4 GiB; BigTIFF is chosen when the raw data could exceed this.
 CLASSIC_TIFF_LIMIT = 2**32 - 2**26
@@ -75,7 +74,7 @@ class TiffStackWriter(ClosingWriter):
         self.bigtiff = grid.n_voxels * max(samples, 1) > CLASSIC_TIFF_LIMIT
         self._level = compression_level
         self._pages_sent = 0
-        self._thread: SlabThread[NDArray[np.uint8]] = SlabThread.streaming(
+        self._thread: SlabThread[NDArray[np.uint8] | list[bytes]] = SlabThread.streaming(
             str(self.path), self._write, queue_slabs=queue_slabs
         )
 
@@ -102,18 +101,27 @@ class TiffStackWriter(ClosingWriter):
         """Stop the writer thread without finishing the file (the caller removes it)."""
         self._thread.abort()
 
-    def _pages(self, slabs: Iterator[NDArray[np.uint8]]) -> Iterator[bytes]:
-        """Compressed pages (one strip each), in order, from the queued slabs."""
-        period = max(1, self.samples)
-        for slab in slabs:
-            for page in slab:
-                raw = pixel_bytes(page)
-                if self._level is None:
-                    yield zlib_compress(raw, period)
-                else:
-                    yield zlib.compress(raw.tobytes(), self._level)
+    def write_pages(self, pages: list[bytes]) -> None:
+        """Queue the next pages, already compressed, in z order.
 
-    def _write(self, slabs: Iterator[NDArray[np.uint8]]) -> None:
+        Each as :func:`voxel.tiff_pages.compress_page` gives it with this writer's samples
+        and level.
+        """
+        if self._pages_sent + len(pages) > self.grid.shape_zyx[0]:
+            raise ValueError(f"more than Z={self.grid.shape_zyx[0]} pages written")
+        self._thread.put(pages)
+        self._pages_sent += len(pages)
+
+    def _pages(self, slabs: Iterator[NDArray[np.uint8] | list[bytes]]) -> Iterator[bytes]:
+        """Compressed pages (one strip each), in order, from the queued slabs."""
+        for slab in slabs:
+            if isinstance(slab, list):  # compressed where the slab was computed
+                yield from slab
+                continue
+            for page in slab:
+                yield compress_page(page, self.samples, self._level)
+
+    def _write(self, slabs: Iterator[NDArray[np.uint8] | list[bytes]]) -> None:
         """In the writer thread: the whole file, its pages compressed as the slabs come."""
         vx, vy, vz = self.grid.voxel_mm
         n_z = self.grid.shape_zyx[0]

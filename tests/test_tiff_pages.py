@@ -1,0 +1,67 @@
+"""Pages compressed in slab workers give the files the writer's own compression gives.
+
+Independent truth: the writer compressing the arrays itself, and tifffile reading back.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import tifffile
+
+from pipeline.slab_chunks import decode_chunk, encode_chunk
+from pipeline.slab_runner import StackSlab
+from voxel.grid import GridSpec
+from voxel.slab import SlabResult
+from voxel.tiff_pages import PageEncoder
+from voxel.tiff_writer import TiffStackWriter
+
+GRID = GridSpec((0.0, 0.0, 0.0), (0.05, 0.1, 0.02), (11, 23, 37))
+
+
+def _voxels(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    layers = np.zeros(GRID.shape_zyx, np.uint8)
+    layers[:, 5:18, 8:30] = rng.integers(1, 4, size=(11, 13, 22), dtype=np.uint8)
+    rgba = np.zeros((*GRID.shape_zyx, 4), np.uint8)
+    rgba[layers == 1] = rng.integers(0, 256, size=(int((layers == 1).sum()), 4), dtype=np.uint8)
+    materials = rng.integers(0, 7, size=GRID.shape_zyx, dtype=np.uint8)
+    return layers, rgba, materials
+
+
+@pytest.mark.parametrize("level", [None, 1, 6], ids=["run-encoder", "zlib-1", "zlib-6"])
+@pytest.mark.parametrize("samples", [3, 4])
+def test_precompressed_pages_write_the_same_file(tmp_path, level, samples):
+    layers, rgba, materials = _voxels(samples)
+    encoder = PageEncoder(colour_samples=samples, level=level, materials_level=level or 1)
+    rows = [(0, 4), (4, 9), (9, 11)]
+    for name, array, stack_samples in (
+        ("layers.tif", layers, 0),
+        ("colour.tif", rgba[..., :samples], samples),
+        ("materials.tif", materials, 0),
+    ):
+        own, given = tmp_path / f"own_{name}", tmp_path / f"given_{name}"
+        stack_level = (level or 1) if name == "materials.tif" else level
+        with TiffStackWriter(own, GRID, samples=stack_samples, compression_level=stack_level) as w:
+            for start, stop in rows:
+                w.write_slab(np.ascontiguousarray(array[start:stop]))
+        with TiffStackWriter(
+            given, GRID, samples=stack_samples, compression_level=stack_level
+        ) as writer:
+            for start, stop in rows:
+                pages = encoder.encode(layers[start:stop], rgba[start:stop], materials[start:stop])
+                writer.write_pages(pages[name])
+        assert given.read_bytes() == own.read_bytes()
+        assert np.array_equal(tifffile.imread(given), array)
+
+
+def test_a_chunk_keeps_the_pages():
+    layers, rgba, materials = _voxels(0)
+    slab = SlabResult(
+        0, 11, layers, rgba, np.zeros(layers.shape, np.float32), layers > 0, 0, 0, 0, 0,
+        np.bincount(layers.ravel(), minlength=4).astype(np.int64),
+    )  # fmt: skip
+    pages = PageEncoder(3, None, 1).encode(layers, rgba, materials)
+    back = decode_chunk(encode_chunk(StackSlab(slab, materials, None, None, pages)))
+    assert back.pages == pages
+    assert decode_chunk(encode_chunk(StackSlab(slab, materials))).pages is None

@@ -1,0 +1,82 @@
+"""TIFF pages compressed where the slab is computed: the stacks' encoding as a pure function.
+
+:class:`voxel.tiff_writer.TiffStackWriter` compresses each page (one strip) in its writer
+thread, in the process that writes the file. A build's slab workers can do the same work
+beside the numerics (:class:`PageEncoder`) and hand over the compressed bytes, which the
+writer then stores as they are: the bytes are those :func:`compress_page` gives either
+way, so the files are the same.
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from voxel.deflate import pixel_bytes, zlib_compress
+
+
+def compress_page(page: NDArray[np.uint8], samples: int, level: int | None) -> bytes:
+    """Return a ``(Y, X)`` or ``(Y, X, S)`` uint8 page as one deflate (zlib) stream.
+
+    Parameters
+    ----------
+    page : (Y, X) or (Y, X, S) uint8
+    samples : int
+        0 for a grey page, ``S`` for colour (the run encoder's period).
+    level : int or None
+        zlib level 1..9; None: the run encoder (:mod:`voxel.deflate`).
+    """
+    raw = pixel_bytes(page)
+    if level is None:
+        return zlib_compress(raw, max(1, samples))
+    return zlib.compress(raw.tobytes(), level)
+
+
+@dataclass(frozen=True)
+class PageEncoder:
+    """The pages of a build's TIFF stacks, compressed as its writers would.
+
+    Parameters
+    ----------
+    colour_samples : int
+        3 (RGB) or 4 (RGBA) samples of ``colour.tif``.
+    level : int or None
+        zlib level of ``layers.tif`` and ``colour.tif``; None: the run encoder.
+    materials_level : int or None
+        zlib level of ``materials.tif``; None: the build writes no materials stack.
+    """
+
+    colour_samples: int
+    level: int | None
+    materials_level: int | None
+
+    def encode(
+        self,
+        layers: NDArray[np.uint8],
+        rgba: NDArray[np.uint8],
+        materials: NDArray[np.uint8] | None,
+    ) -> dict[str, list[bytes]]:
+        """Return each stack's compressed pages of a slab, by file name.
+
+        Parameters
+        ----------
+        layers : (Zs, Y, X) uint8
+        rgba : (Zs, Y, X, 4) uint8
+        materials : (Zs, Y, X) uint8, optional
+            Given when the materials are known here (``materials.tif`` then included).
+        """
+        samples = self.colour_samples
+        pages = {
+            "layers.tif": [compress_page(page, 0, self.level) for page in layers],
+            "colour.tif": [
+                compress_page(page[..., :samples], samples, self.level) for page in rgba
+            ],
+        }
+        if materials is not None and self.materials_level is not None:
+            pages["materials.tif"] = [
+                compress_page(page, 0, self.materials_level) for page in materials
+            ]
+        return pages
