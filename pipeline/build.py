@@ -54,7 +54,7 @@ from pipeline.run_folder import (
 )
 from pipeline.shell_job import ShellJob
 from pipeline.slab_runner import SlabRunner, material_tally
-from pipeline.stack_outputs import MATERIALS_LEVEL, StackOutputs
+from pipeline.stack_outputs import MATERIALS_LEVEL, StackOutputs, gcvf_slices
 from voxel.agreement import shell_agreement
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.nearest import SurfaceIndex
@@ -273,9 +273,14 @@ class _Job:
     def _page_encoder(self) -> PageEncoder | None:
         """Return the slab workers' TIFF page encoder (the writers' own compression)."""
         config = self.config
-        if "tiff" not in config.formats:
+        if not {"tiff", "gcvf"} & set(config.formats):
             return None
+        profile = self._profile()
+        slices = None
+        if profile is not None and self.materials is not None and "gcvf" in config.formats:
+            slices = gcvf_slices(profile, self.materials)
         return PageEncoder(
+            slices=slices,
             colour_samples=4 if config.alpha else 3,
             level=config.compression_level,
             materials_level=None
@@ -322,7 +327,7 @@ class _Job:
                 sampler.add(slab.z_start, slab.layers)
                 if check is not None and materials is not None:
                     check.add_slab(slab.z_start, materials)
-                outputs.write(slab, materials, encoded, pages)
+                outputs.write(slab, materials, encoded, pages, counts)
                 bar.update(slab.z_stop - slab.z_start)
         self.seconds["slabs"] = time.perf_counter() - tick
 

@@ -20,8 +20,8 @@ from pipeline.build_folder import BuildFolder
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.printer_profile import PrinterProfile
-from voxel.gcvf_job import GcvfJobError
-from voxel.gcvf_writer import GcvfWriter
+from voxel.gcvf_job import RGBA, GcvfJobError, key_rgba, material_table
+from voxel.gcvf_writer import GcvfWriter, KeySlices
 from voxel.grid import GridSpec
 from voxel.materials import MaterialPlan
 from voxel.png_slices import PngSliceWriter
@@ -112,11 +112,7 @@ class StackOutputs:
         )
 
     def _gcvf(self, profile: PrinterProfile, plan: MaterialPlan) -> GcvfWriter:
-        used = sorted({*plan.column_materials, plan.backing_material, plan.core_material})
-        table = [
-            (index, profile.materials[index].name, profile.materials[index].rgba_key)
-            for index in used
-        ]
+        table = _gcvf_table(profile, plan)
         try:
             writer = GcvfWriter(
                 self.folder.temporary("job.gcvf"),
@@ -141,12 +137,15 @@ class StackOutputs:
         materials: NDArray[np.uint8] | None,
         vdb: list[GridSpool] | None = None,
         pages: dict[str, list[bytes]] | None = None,
+        counts: NDArray[np.int64] | None = None,
     ) -> None:
         """Write one slab (in z order) to every open writer.
 
         `vdb`: the slab's VDB leaves already encoded (:class:`voxel.vdb_encode.VdbEncoder`);
-        `pages`: its TIFF pages already compressed, by file name
-        (:class:`voxel.tiff_pages.PageEncoder`, made with this build's levels).
+        `pages`: its TIFF pages and job slices already encoded, by file name
+        (:class:`voxel.tiff_pages.PageEncoder`, made with this build's levels and
+        :func:`gcvf_slices`); `counts`: its voxels per layer and material ``(L, 256)``,
+        which the job's slices need with them.
         """
         pages = pages or {}
         stacks = (
@@ -168,7 +167,9 @@ class StackOutputs:
             self.vdb.write_slab(
                 slab.z_start, slab.layers, slab.rgba[..., :3], coloured, slab.sdf, materials
             )
-        if self.gcvf is not None and materials is not None:
+        if self.gcvf is not None and "job.gcvf" in pages and counts is not None:
+            self.gcvf.write_encoded(pages["job.gcvf"], counts.sum(axis=0))
+        elif self.gcvf is not None and materials is not None:
             self.gcvf.write_slab(materials)
         if self.png is not None and materials is not None:
             self.png.write_slab(self.colour_slices(slab, materials))
@@ -219,3 +220,24 @@ class StackOutputs:
             self.folder.add(sorted(p for p in slices.iterdir() if p.is_file()))
             summary["png_slices"] = {"folder": "slices", "files": len(list(slices.iterdir()))}
         return summary
+
+
+def _gcvf_table(profile: PrinterProfile, plan: MaterialPlan) -> list[tuple[int, str, RGBA]]:
+    """Return the job's material table: ``(index, name, rgba_key)`` of every usable one."""
+    used = sorted({*plan.column_materials, plan.backing_material, plan.core_material})
+    return [
+        (index, profile.materials[index].name, profile.materials[index].rgba_key) for index in used
+    ]
+
+
+def gcvf_slices(profile: PrinterProfile, plan: MaterialPlan) -> KeySlices | None:
+    """Return the slice encoder of the build's job (as :class:`StackOutputs` makes it).
+
+    None when the table breaks a job limit: the writer refuses the job then.
+    """
+    try:
+        background = key_rgba(profile.materials[0].rgba_key, "background_rgba")
+        table = material_table(_gcvf_table(profile, plan), background, profile.max_materials)
+    except GcvfJobError:
+        return None
+    return KeySlices.of(table, background, "max_y", 1)

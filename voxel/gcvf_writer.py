@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 
 from voxel.gcvf_job import (
     IMAGE_PREFIX,
+    RGBA,
     Material,
     check_grid,
     config_xml,
@@ -169,12 +170,7 @@ class GcvfWriter(SliceWriter):
         check_grid(grid, self.dpi, self.slice_thickness_nm, min_slices, tray_mm)
         n_z = grid.shape_zyx[0]
         self.n_padding_slices = max(0, min_slices - n_z)
-        # Index -> key as one uint32 per pixel (the RGBA bytes in memory order).
-        lut = np.zeros((256, 4), dtype=np.uint8)
-        lut[0] = self.background
-        for material in self.materials:
-            lut[material.index] = material.rgba
-        self._lut = np.ascontiguousarray(lut).view(np.uint32).ravel()
+        self.slice_encoder = KeySlices.of(self.materials, self.background, first_row, level)
         self._known = np.zeros(256, dtype=bool)
         self._indices = (0, *(m.index for m in self.materials))
         self._known[list(self._indices)] = True
@@ -228,6 +224,31 @@ class GcvfWriter(SliceWriter):
         self._thread.put((self._next_z, np.ascontiguousarray(materials)))
         self._counts += counts
         self._next_z += len(materials)
+
+    def write_encoded(self, slices: list[bytes], counts: NDArray[np.int64]) -> None:
+        """Queue the next slices, already encoded by :attr:`slice_encoder`.
+
+        Parameters
+        ----------
+        slices : list of bytes
+            The PNG files of the next ``Zs`` slices, in z order.
+        counts : (256,) int64
+            Voxels of each material index in those slices.
+        """
+        if self._next_z + len(slices) > self.grid.shape_zyx[0]:
+            raise ValueError(f"more than Z={self.grid.shape_zyx[0]} slices written")
+        if self._zip is None:
+            raise ValueError(f"{self.path} is closed")
+        unknown = np.flatnonzero((counts > 0) & ~self._known)
+        if len(unknown):
+            raise ValueError(
+                f"slices {self._next_z}..{self._next_z + len(slices) - 1} hold material "
+                f"indices {unknown.tolist()} that are not in the material table "
+                f"{[m.index for m in self.materials]}"
+            )
+        self._thread.put((self._next_z, slices))
+        self._counts += counts
+        self._next_z += len(slices)
 
     def close(self) -> GcvfSummary:
         """Write the padding and ``ConfigFile.xml`` and finish the zip.
@@ -302,9 +323,7 @@ class GcvfWriter(SliceWriter):
 
     def _encode(self, plane: NDArray[np.uint8]) -> bytes:
         """One slice ``(Y, X)`` of indices -> PNG of keys, rows in the chosen order."""
-        plane = self._rows(plane)
-        keys = np.take(self._lut, plane).view(np.uint8).reshape(*plane.shape, 4)
-        return encode_png(keys, level=self._level)
+        return self.slice_encoder.encode(plane)
 
     def _store(self, z: int, data: bytes) -> None:
         self._add(f"{IMAGE_PREFIX}{z}.png", data)
@@ -312,6 +331,46 @@ class GcvfWriter(SliceWriter):
     def _add(self, name: str, data: bytes) -> None:
         assert self._zip is not None
         self._zip.writestr(_zip_info(name), data)
+
+
+@dataclass(frozen=True, eq=False)
+class KeySlices:
+    """A job's slice images as a pure function: material indices to a PNG of RGBA keys.
+
+    What :class:`GcvfWriter` stores for each slice; slab workers call it where the
+    materials are made, so the writer only stores the bytes (:meth:`GcvfWriter.write_encoded`).
+
+    Parameters
+    ----------
+    lut : (256,) uint32
+        The RGBA key of each material index, as the key's bytes in memory order.
+    first_row : {"max_y", "min_y"}
+        Which end of the y axis is image row 0.
+    level : int
+        zlib level of the PNG data.
+    """
+
+    lut: NDArray[np.uint32]
+    first_row: FirstRow
+    level: int
+
+    @classmethod
+    def of(
+        cls, materials: Sequence[Material], background: RGBA, first_row: FirstRow, level: int
+    ) -> KeySlices:
+        """Return the encoder of a checked material table (:func:`material_table`)."""
+        lut = np.zeros((256, 4), dtype=np.uint8)
+        lut[0] = background
+        for material in materials:
+            lut[material.index] = material.rgba
+        return cls(np.ascontiguousarray(lut).view(np.uint32).ravel(), first_row, level)
+
+    def encode(self, plane: NDArray[np.uint8]) -> bytes:
+        """One slice ``(Y, X)`` of indices -> PNG of keys, rows in the chosen order."""
+        if self.first_row == "max_y":
+            plane = plane[::-1]
+        keys = np.take(self.lut, plane).view(np.uint8).reshape(*plane.shape, 4)
+        return encode_png(keys, level=self.level)
 
 
 def _zip_info(name: str) -> zipfile.ZipInfo:

@@ -188,7 +188,7 @@ class SliceWriter(ClosingWriter):
             if self._threads > 1
             else None
         )
-        self._thread: SlabThread[tuple[int, NDArray[np.uint8]]] = SlabThread(
+        self._thread: SlabThread[tuple[int, NDArray[np.uint8] | list[bytes]]] = SlabThread(
             name, self._write_slices, queue_slabs=queue_slabs
         )
 
@@ -202,10 +202,18 @@ class SliceWriter(ClosingWriter):
     def _store(self, z: int, data: bytes) -> None:
         raise NotImplementedError
 
-    def _write_slices(self, item: tuple[int, NDArray[np.uint8]]) -> None:
-        """In the writer thread: encode a slab's slices (in parallel) and store them in order."""
+    def _write_slices(self, item: tuple[int, NDArray[np.uint8] | list[bytes]]) -> None:
+        """In the writer thread: encode a slab's slices (in parallel) and store them in order.
+
+        A list of bytes holds slices encoded already (where the slab was computed).
+        """
         z0, slab = item
-        pngs = self._pool.map(self._encode, slab) if self._pool else map(self._encode, slab)
+        if isinstance(slab, list):
+            pngs: Iterable[bytes] = slab
+        elif self._pool is not None:
+            pngs = self._pool.map(self._encode, slab)
+        else:
+            pngs = map(self._encode, slab)
         for z, data in enumerate(pngs, start=z0):
             self._store(z, data)
 

@@ -1,10 +1,11 @@
-"""TIFF pages compressed where the slab is computed: the stacks' encoding as a pure function.
+"""TIFF pages and job slices encoded where the slab is computed, as a pure function.
 
 :class:`voxel.tiff_writer.TiffStackWriter` compresses each page (one strip) in its writer
-thread, in the process that writes the file. A build's slab workers can do the same work
-beside the numerics (:class:`PageEncoder`) and hand over the compressed bytes, which the
-writer then stores as they are: the bytes are those :func:`compress_page` gives either
-way, so the files are the same.
+thread, and :class:`voxel.gcvf_writer.GcvfWriter` encodes each slice's PNG in its threads,
+in the process that writes the files. A build's slab workers can do the same work beside
+the numerics (:class:`PageEncoder`) and hand over the bytes, which the writers then store
+as they are: the bytes are those :func:`compress_page` and
+:meth:`voxel.gcvf_writer.KeySlices.encode` give either way, so the files are the same.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from voxel.deflate import pixel_bytes, zlib_compress
+from voxel.gcvf_writer import KeySlices
 
 
 def compress_page(page: NDArray[np.uint8], samples: int, level: int | None) -> bytes:
@@ -47,11 +49,14 @@ class PageEncoder:
         zlib level of ``layers.tif`` and ``colour.tif``; None: the run encoder.
     materials_level : int or None
         zlib level of ``materials.tif``; None: the build writes no materials stack.
+    slices : KeySlices, optional
+        The printer job's slice encoder (``job.gcvf``), when the build writes one.
     """
 
     colour_samples: int
     level: int | None
     materials_level: int | None
+    slices: KeySlices | None = None
 
     def encode(
         self,
@@ -79,4 +84,6 @@ class PageEncoder:
             pages["materials.tif"] = [
                 compress_page(page, 0, self.materials_level) for page in materials
             ]
+        if materials is not None and self.slices is not None:
+            pages["job.gcvf"] = [self.slices.encode(plane) for plane in materials]
         return pages
