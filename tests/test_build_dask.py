@@ -112,19 +112,20 @@ def test_slabs_of_one_row_in_forked_workers_give_the_single_process_build(tmp_pa
 @pytest.mark.slow
 def test_job_slices_encoded_in_workers_give_the_single_process_job(tmp_path):
     """On the printer's grid the build writes job.gcvf: its slices, encoded in forked
-    workers and on a LocalCluster (with the TIFF pages), equal the writer's own."""
+    workers (with the TIFF pages; a Dask worker runs the same task, and chunks carry the
+    pages, see test_tiff_pages), equal the writer's own."""
     box = tray_models(tmp_path)[2]
-    options = ["--thickness", "0.3,0.3", "--slab-mb", "4", "--no-progress", "--no-checkpoint"]
+    options = ["--thickness", "0.3,0.3", "--scale", "0.5", "--slab-mb", "1", "--no-progress",
+               "--no-checkpoint"]  # fmt: skip
     builds = {}
     for name, extra in (
         ("single", ["--workers", "1"]),
         ("forked", ["--workers", "2"]),
-        ("cluster", ["--workers", "2", "--scheduler", "local"]),
     ):
         builds[name] = tmp_path / name
         assert main(["build", str(box), "-o", str(builds[name]), *options, *extra]) == 0
     digests = {name: output_digests(folder) for name, folder in builds.items()}
     assert "job.gcvf" in digests["single"]
-    assert digests["forked"] == digests["single"] and digests["cluster"] == digests["single"]
+    assert digests["forked"] == digests["single"]
     manifest = json.loads((builds["forked"] / "manifest.json").read_text())
     assert manifest["run"]["slabs"] >= 4
