@@ -123,6 +123,34 @@ def build_stack(
     return run_job(job, Path(out_dir), key, started)
 
 
+def stack_model(
+    mesh: ColouredMesh,
+    config: BuildConfig,
+    depth: np.ndarray[Any, np.dtype[np.float64]] | None,
+    shells: list[Shell] | None = None,
+) -> StackModel:
+    """Return what every slab of `mesh` needs, its scan regions computed (before forking).
+
+    `depth` ``(K, F) float64`` mm: the distance layers' depths (None with the "shells"
+    rule, whose `shells` give the layers).
+    """
+    model = StackModel(
+        surfaces=(
+            (mesh.vertices, mesh.faces),
+            *(((s.vertices, s.faces) for s in shells) if shells is not None else ()),
+        ),
+        surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
+        colour_at=mesh.colour_at,
+        surface_colour=mesh.surface_colour(),
+        colour_layers=config.colour_layers,
+        sdf_half_width_mm=config.sdf_half_width_mm,
+        depth_mm=depth,
+        layer_rule=config.layer_rule,
+    )
+    _ = model.surface.regions  # the scan's regions, computed once, inherited by workers
+    return model
+
+
 def settle_running(running: RunSettings | None, plan: BuildPlan) -> RunSettings:
     """Return the run settings with the checkpoint default decided by the estimate."""
     running = running or RunSettings()
@@ -252,39 +280,24 @@ class _Job:
 
     def _model(self, shells: list[Shell] | None) -> StackModel:
         """Return what every slab needs (the shells only with the "shells" rule)."""
-        mesh, config = self.mesh, self.config
-        by_distance = config.layer_rule == "distance"
-        model = StackModel(
-            surfaces=(
-                (mesh.vertices, mesh.faces),
-                *(((s.vertices, s.faces) for s in shells) if shells is not None else ()),
-            ),
-            surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
-            colour_at=mesh.colour_at,
-            surface_colour=mesh.surface_colour(),
-            colour_layers=config.colour_layers,
-            sdf_half_width_mm=config.sdf_half_width_mm,
-            depth_mm=self.plan.depth if by_distance else None,
-            layer_rule=config.layer_rule,
-        )
-        _ = model.surface.regions  # the scan's regions, computed once, inherited by workers
-        return model
+        by_distance = self.config.layer_rule == "distance"
+        return stack_model(self.mesh, self.config, self.plan.depth if by_distance else None, shells)
 
     def _page_encoder(self) -> PageEncoder | None:
-        """Return the slab workers' TIFF page encoder (the writers' own compression)."""
-        config = self.config
-        if not {"tiff", "gcvf"} & set(config.formats):
-            return None
-        profile = self._profile()
+        """Return the slab workers' encoder of TIFF pages and job slices (the writers' own)."""
+        config, profile = self.config, self._profile()
         slices = None
         if profile is not None and self.materials is not None and "gcvf" in config.formats:
             slices = gcvf_slices(profile, self.materials)
+        tiff = "tiff" in config.formats
+        if not tiff and slices is None:
+            return None
         return PageEncoder(
             slices=slices,
-            colour_samples=4 if config.alpha else 3,
+            colour_samples=(4 if config.alpha else 3) if tiff else None,
             level=config.compression_level,
             materials_level=None
-            if self._profile() is None
+            if profile is None
             else config.compression_level or MATERIALS_LEVEL,
         )
 

@@ -103,8 +103,12 @@ def plan_build(
     estimate = estimate_build(
         grid.shape_zyx,
         grid.voxel_mm,
-        area_mm2=float(face_areas(mesh.vertices, mesh.faces).sum()),
-        reach_mm=max(float(depth.max()), config.sdf_half_width_mm),
+        bands=[
+            (
+                float(face_areas(mesh.vertices, mesh.faces).sum()),
+                max(float(depth.max()), config.sdf_half_width_mm),
+            )
+        ],
         n_faces=mesh.n_faces,
         slab_rows=rows,
         workers=min(workers, -(-grid.shape_zyx[0] // rows)),

@@ -100,13 +100,12 @@ def estimate_build(
     shape_zyx: tuple[int, int, int],
     voxel_mm: tuple[float, float, float],
     *,
-    area_mm2: float,
-    reach_mm: float,
+    bands: Sequence[tuple[float, float]],
     n_faces: int,
     slab_rows: int,
     workers: int,
 ) -> BuildEstimate:
-    """Estimate a build's cost from its grid and its model's surface.
+    """Estimate a build's cost from its grid and its models' surfaces.
 
     Parameters
     ----------
@@ -114,12 +113,12 @@ def estimate_build(
         Grid size ``(Z, Y, X)``.
     voxel_mm : (3,) float, mm
         Voxel size ``(x, y, z)``.
-    area_mm2 : float, mm^2
-        Surface area of the model.
-    reach_mm : float, mm
-        Depth of the deepest layer (or the level-set half width, if larger).
+    bands : sequence of (area_mm2, reach_mm)
+        Surface area (mm^2) and depth of the deepest layer, or the level-set half width if
+        larger (mm), of each model in the grid (a tray's copies each counted): the band
+        voxels are the sum of their products.
     n_faces : int
-        Faces of the model.
+        Faces held by every process (each distinct model once).
     slab_rows : int
         Rows per slab.
     workers : int
@@ -128,7 +127,7 @@ def estimate_build(
     z, y, x = (int(n) for n in shape_zyx)
     voxels = z * y * x
     volume = voxel_mm[0] * voxel_mm[1] * voxel_mm[2]
-    band = min(voxels, int(area_mm2 * reach_mm / volume))
+    band = min(voxels, int(sum(area * reach for area, reach in bands) / volume))
     slab_voxels = min(slab_rows, z) * y * x
     slots = workers + EXTRA_SLOTS if workers > 1 else 0
     memory = slab_voxels * (
@@ -228,36 +227,3 @@ def _duration(seconds: float) -> str:
     if seconds < 7200:
         return f"{seconds / 60:.0f} min"
     return f"{seconds / 3600:.1f} h"
-
-
-def estimate_tray(
-    shape_zyx: tuple[int, int, int],
-    voxel_mm: tuple[float, float, float],
-    *,
-    bands: Sequence[tuple[float, float]],
-    n_faces: int,
-    slab_rows: int,
-    workers: int,
-) -> BuildEstimate:
-    """Estimate a tray's cost: the tray grid and the band of every model on it.
-
-    Parameters
-    ----------
-    shape_zyx : (3,) int
-        The tray grid's size ``(Z, Y, X)``.
-    voxel_mm : (3,) float, mm
-        Voxel size ``(x, y, z)``.
-    bands : sequence of (area_mm2, reach_mm)
-        Surface area (mm^2) and deepest layer or level-set half width (mm) of each model
-        on the tray, copies counted: the band voxels are their sum.
-    n_faces : int
-        Faces held by every process (each distinct model once).
-    slab_rows, workers : int
-        As :func:`estimate_build`.
-    """
-    band_mm3 = sum(area * reach for area, reach in bands)
-    # the band volume as an area times a reach of 1 mm
-    return estimate_build(
-        shape_zyx, voxel_mm, area_mm2=band_mm3, reach_mm=1.0, n_faces=n_faces,
-        slab_rows=slab_rows, workers=workers,
-    )  # fmt: skip

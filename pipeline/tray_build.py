@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from offset.shells import Shell
-from pipeline.build import _Job, _material_plan, run_job, settle_running
+from pipeline.build import _Job, _material_plan, run_job, settle_running, stack_model
 from pipeline.build_folder import BuildFolder
 from pipeline.build_plan import BuildPlan, check_depth
 from pipeline.config import BuildConfig
@@ -35,7 +35,6 @@ from pipeline.printer_profile import PrinterProfile
 from pipeline.run_folder import RunFolder, RunSettings, model_key, run_key
 from pipeline.tray_mesh import TrayMesh, concatenate_thickness
 from pipeline.tray_plan import TrayPlan
-from voxel.nearest import SurfaceIndex
 from voxel.slab import StackModel
 from voxel.tray_slab import TrayStack
 
@@ -93,18 +92,7 @@ def build_tray(
     for part, mesh, rows in zip(plan.parts, meshes, thickness, strict=True):
         depth = np.cumsum(rows, axis=0)
         check_depth(mesh, depth, force=force, source=part.thickness.describe())
-        model = StackModel(
-            surfaces=((mesh.vertices, mesh.faces),),
-            surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
-            colour_at=mesh.colour_at,
-            surface_colour=mesh.surface_colour(),
-            colour_layers=config.colour_layers,
-            sdf_half_width_mm=config.sdf_half_width_mm,
-            depth_mm=depth,
-            layer_rule="distance",
-        )
-        _ = model.surface.regions  # computed once, inherited by the forked workers
-        models.append(model)
+        models.append(stack_model(mesh, config, depth))
     places = plan.placements
     tray = TrayStack(
         tuple(models[p.part] for p in places),

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from pipeline.build_plan import slab_rows_for
 from pipeline.config import BuildConfig, LoadOptions
 from pipeline.errors import ResourceError
-from pipeline.estimate import BuildEstimate, check_resources, estimate_tray
+from pipeline.estimate import BuildEstimate, check_resources, estimate_build
 from pipeline.loading import load_model
 from pipeline.mesh import ColouredMesh
 from pipeline.outdir import sha256
@@ -227,7 +227,7 @@ def plan_tray(
     placements, grid = _snap(parts, part_of, copies, names, layout.positions_mm, voxel)
     workers = resolve_workers(config.workers)
     rows = slab_rows_for(grid, config.slab_mb)
-    estimate = estimate_tray(
+    estimate = estimate_build(
         grid.shape_zyx,
         grid.voxel_mm,
         bands=[(parts[i].area_mm2, parts[i].reach_mm) for i in part_of],

@@ -43,8 +43,9 @@ class PageEncoder:
 
     Parameters
     ----------
-    colour_samples : int
-        3 (RGB) or 4 (RGBA) samples of ``colour.tif``.
+    colour_samples : int or None
+        3 (RGB) or 4 (RGBA) samples of ``colour.tif``; None: the build writes no TIFF
+        stacks (nor ``materials.tif``).
     level : int or None
         zlib level of ``layers.tif`` and ``colour.tif``; None: the run encoder.
     materials_level : int or None
@@ -53,7 +54,7 @@ class PageEncoder:
         The printer job's slice encoder (``job.gcvf``), when the build writes one.
     """
 
-    colour_samples: int
+    colour_samples: int | None
     level: int | None
     materials_level: int | None
     slices: KeySlices | None = None
@@ -74,13 +75,13 @@ class PageEncoder:
             Given when the materials are known here (``materials.tif`` then included).
         """
         samples = self.colour_samples
-        pages = {
-            "layers.tif": [compress_page(page, 0, self.level) for page in layers],
-            "colour.tif": [
+        pages: dict[str, list[bytes]] = {}
+        if samples is not None:
+            pages["layers.tif"] = [compress_page(page, 0, self.level) for page in layers]
+            pages["colour.tif"] = [
                 compress_page(page[..., :samples], samples, self.level) for page in rgba
-            ],
-        }
-        if materials is not None and self.materials_level is not None:
+            ]
+        if materials is not None and samples is not None and self.materials_level is not None:
             pages["materials.tif"] = [
                 compress_page(page, 0, self.materials_level) for page in materials
             ]
