@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -128,6 +129,30 @@ def run_config(name: str, models: list[Path], options: list[str], scale: float) 
     }
 
 
+def _summary(done: list[dict[str, Any]], copies: int, rounds: int) -> dict[str, Any]:
+    """Speed-ups 1 -> 2 workers (per round, and of the median times) and checkpoint costs."""
+    summary: dict[str, Any] = {}
+
+    def times(name: str, key: str) -> list[float]:
+        return [r[key] for r in sorted(done, key=lambda r: r["round"]) if r["config"] == name]
+
+    for kind in ("fork", "dask-local"):
+        for key in ("wall_s", "build_s"):
+            one, two = times(f"{kind}-1", key), times(f"{kind}-2", key)
+            if one and two:
+                label = f"copies {copies}: {kind} speed-up 1->2 ({key[:-2]})"
+                summary[label] = round(statistics.median(one) / statistics.median(two), 3)
+                if rounds > 1:
+                    rounds_ = zip(one, two, strict=True)
+                    summary[label + " per round"] = [round(a / b, 3) for a, b in rounds_]
+    for n in (1, 2):
+        on, off = times(f"fork-{n}-checkpoint", "build_s"), times(f"fork-{n}", "build_s")
+        if on and off:
+            cost = statistics.median(on) / statistics.median(off) - 1
+            summary[f"copies {copies}: checkpoint cost fork-{n}"] = round(cost, 3)
+    return summary
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("models", nargs="+", type=Path)
@@ -137,34 +162,32 @@ def main() -> None:
     parser.add_argument(
         "--copies", default="1", help="comma list: trays of that many copies (--layout auto)"
     )
+    parser.add_argument(
+        "--repeat", type=int, default=1, help="rounds of every configuration (order alternates)"
+    )
     args, extra = parser.parse_known_args()  # the rest: more build options
     scale = _scale_for(args.models[0], args.size_mm)
     results = []
     summary: dict[str, float] = {}
+    configs = args.configs.split(",")
     for copies in (int(c) for c in args.copies.split(",")):
         tray = ["--copies", str(copies)] if copies > 1 else []
         done = []
-        for name in args.configs.split(","):
-            result = run_config(name, args.models, [*CONFIGS[name], *tray, *extra], scale)
-            result["copies"] = copies
-            print(json.dumps(result), flush=True)
-            done.append(result)
+        for round_ in range(args.repeat):
+            # Alternate the order: a machine that speeds up or slows down during the
+            # rounds favours neither configuration.
+            for name in configs if round_ % 2 == 0 else configs[::-1]:
+                result = run_config(name, args.models, [*CONFIGS[name], *tray, *extra], scale)
+                result["copies"], result["round"] = copies, round_
+                print(json.dumps(result), flush=True)
+                done.append(result)
         results += done
-        by_name = {r["config"]: r for r in done}
-        for kind in ("fork", "dask-local"):
-            one, two = by_name.get(f"{kind}-1"), by_name.get(f"{kind}-2")
-            if one and two:
-                speed_up = one["build_s"] / two["build_s"]
-                summary[f"copies {copies}: {kind} speed-up 1->2"] = round(speed_up, 3)
-        for n in (1, 2):
-            on, off = by_name.get(f"fork-{n}-checkpoint"), by_name.get(f"fork-{n}")
-            if on and off:
-                cost = on["build_s"] / off["build_s"] - 1
-                summary[f"copies {copies}: checkpoint cost fork-{n}"] = round(cost, 3)
+        summary.update(_summary(done, copies, args.repeat))
     record = {
         "models": [str(m) for m in args.models],
         "size_mm": args.size_mm,
         "copies": args.copies,
+        "repeat": args.repeat,
         "extra_options": extra,
         "cores": len(os.sched_getaffinity(0)),
         "load_average": os.getloadavg(),

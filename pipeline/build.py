@@ -54,7 +54,7 @@ from pipeline.run_folder import (
 )
 from pipeline.shell_job import ShellJob
 from pipeline.slab_runner import SlabRunner, material_tally
-from pipeline.stack_outputs import MATERIALS_LEVEL, StackOutputs, gcvf_slices
+from pipeline.stack_outputs import StackOutputs, gcvf_slices
 from voxel.agreement import shell_agreement
 from voxel.materials import MaterialPlan, materials_for_slab
 from voxel.nearest import SurfaceIndex
@@ -230,9 +230,10 @@ class _Job:
         )
         shell_job.start_beside(stack)
         outputs = StackOutputs(folder, plan.grid, config, self._profile(), self.materials)
-        sampler = LayerSampler(
-            plan.grid, model.n_bands, n_slabs=math.ceil(plan.grid.shape_zyx[0] / plan.rows)
-        )
+        sampler = None  # the voxels compared with the shell meshes, when there are any
+        if shell_job.writes_meshes:
+            n_slabs = math.ceil(plan.grid.shape_zyx[0] / plan.rows)
+            sampler = LayerSampler(plan.grid, model.n_bands, n_slabs=n_slabs)
         tally = Tally(model.n_bands)
         check = self._colour_check()
         setup.close()  # a signal that came during the set-up is raised here
@@ -246,7 +247,7 @@ class _Job:
         agreement = None
         if shells is not None:
             shells = folder.write_shells(shells)
-            if config.layer_rule == "distance":
+            if sampler is not None:
                 agreement = self._agreement(model, sampler, shells)
         self._warn_if_no_core(tally)
         manifest = stack_manifest(
@@ -296,9 +297,7 @@ class _Job:
             slices=slices,
             colour_samples=(4 if config.alpha else 3) if tiff else None,
             level=config.compression_level,
-            materials_level=None
-            if profile is None
-            else config.compression_level or MATERIALS_LEVEL,
+            materials_tif=profile is not None,
         )
 
     def _encoder(self) -> VdbEncoder | None:
@@ -318,7 +317,7 @@ class _Job:
         self,
         slabs: SlabRunner,
         outputs: StackOutputs,
-        sampler: LayerSampler,
+        sampler: LayerSampler | None,
         tally: Tally,
         check: ColourCheck | None,
     ) -> None:
@@ -337,7 +336,8 @@ class _Job:
                     materials, carry = diffused.materials, diffused.carry
                     counts = material_tally(slab.layers, materials, n_bands + 2)
                 tally.add(slab, counts)
-                sampler.add(slab.z_start, slab.layers)
+                if sampler is not None:
+                    sampler.add(slab.z_start, slab.layers)
                 if check is not None and materials is not None:
                     check.add_slab(slab.z_start, materials)
                 outputs.write(slab, materials, encoded, pages, counts)

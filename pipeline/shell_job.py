@@ -59,13 +59,18 @@ class ShellJob:
                 mesh.vertices, mesh.faces, thickness, config
             )
 
+    @property
+    def writes_meshes(self) -> bool:
+        """The distance layers' build computes shell meshes beside the slabs."""
+        return self.config.layer_rule == "distance" and self.config.shell_meshes
+
     def start_beside(self, stack: contextlib.ExitStack) -> None:
         """Start the shells in another process, with the distance rule and shell meshes.
 
         Call after the slab workers are forked; `stack` stops the process if the build
         fails.
         """
-        if self.config.layer_rule == "distance" and self.config.shell_meshes:
+        if self.writes_meshes:
             call = ChildCall(  # a process that dies fails the call instead of hanging it
                 timed_shells, self.mesh.vertices, self.mesh.faces, self.thickness, self.config
             )

@@ -30,10 +30,6 @@ from voxel.tiff_writer import TiffStackWriter
 from voxel.vdb_leaves import GridSpool
 from voxel.vdb_writer import VdbStackWriter
 
-#: zlib level of ``materials.tif`` unless ``--compression-level`` says: halftoned
-#: materials are no runs, and zlib packs them 6 times smaller than the run encoder.
-MATERIALS_LEVEL = 1
-
 
 class StackOutputs:
     """Open the chosen writers in the build's folder; :meth:`write` feeds them a slab.
@@ -75,7 +71,7 @@ class StackOutputs:
             self.layers_tif = self._tiff("layers.tif", 0, level)
             self.colour_tif = self._tiff("colour.tif", self.samples, level)
             if with_materials:
-                self.materials_tif = self._tiff("materials.tif", 0, level or MATERIALS_LEVEL)
+                self.materials_tif = self._tiff("materials.tif", 0, level)
         self.vdb: VdbStackWriter | None = None
         self._vdb_path = None
         if "vdb" in formats:
@@ -240,4 +236,4 @@ def gcvf_slices(profile: PrinterProfile, plan: MaterialPlan) -> KeySlices | None
         table = material_table(_gcvf_table(profile, plan), background, profile.max_materials)
     except GcvfJobError:
         return None
-    return KeySlices.of(table, background, "max_y", 1)
+    return KeySlices.of(table, background, "max_y", None)

@@ -142,19 +142,29 @@ class ColourReport:
         depths = (np.arange(int(np.ceil(4 * optical_depth_mm / step))) + 0.5) * step
         n, k = len(samples.points), len(depths)
         starts = samples.points[:, None, :] + _disc(samples.normals, optical_depth_mm, lateral_rays)
-        rays = starts[:, :, None, :] - samples.normals[:, None, None, :] * depths[:, None]
-        index = np.rint(grid.world_to_index(rays.reshape(-1, 3))).astype(np.int64)
-        del rays
-        shape = np.asarray(grid.shape_zyx)
-        valid = np.all((index >= 0) & (index < shape), axis=1)
+        # The voxel of each ray's step (sample, ray, depth), one axis at a time: the nearest
+        # centre, as ``np.rint(grid.world_to_index(point))`` gives it.
+        valid = np.ones((n, lateral_rays, k), dtype=bool)
+        index_zyx = []
+        for axis, size in zip((2, 1, 0), grid.shape_zyx, strict=True):
+            along = starts[:, :, None, axis] - samples.normals[:, None, None, axis] * depths
+            along -= grid.origin_mm[axis]
+            along /= grid.voxel_mm[axis]
+            index = np.rint(along).astype(np.int64)
+            valid &= (index >= 0) & (index < size)
+            index_zyx.append(index)
+        del along
+        z = index_zyx[0][valid]
+        # Rows in z order (stable: the order within a row stays): a radix sort of 16 bits.
+        key = z.astype(np.uint16) if grid.shape_zyx[0] <= 1 << 16 else z
+        order = np.argsort(key, kind="stable")
+        self._z = z[order].astype(np.int32)
+        self._yx = (index_zyx[1][valid] * grid.shape_zyx[2] + index_zyx[2][valid])[order]
         weight = np.broadcast_to(
             np.exp(-depths / optical_depth_mm).astype(np.float32), (n, lateral_rays, k)
-        ).reshape(-1)
-        sample = np.repeat(np.arange(n, dtype=np.int32), lateral_rays * k)
-        order = np.argsort(index[valid, 0], kind="stable")
-        self._z = index[valid, 0][order].astype(np.int32)
-        self._yx = (index[valid, 1] * grid.shape_zyx[2] + index[valid, 2])[order]
+        )
         self._weight = weight[valid][order]
+        sample = np.broadcast_to(np.arange(n, dtype=np.int32)[:, None, None], valid.shape)
         self._sample = sample[valid][order]
         self._sums = np.zeros((n, 3))
         self._weights = np.zeros(n)

@@ -152,7 +152,7 @@ class GcvfWriter(SliceWriter):
         tray_mm: tuple[float, float, float] | None = None,
         first_row: FirstRow = "max_y",
         threads: int = 2,
-        level: int = 1,
+        level: int | None = None,
         queue_slabs: int = 2,
     ) -> None:
         super().__init__(first_row, threads, level)
@@ -346,17 +346,17 @@ class KeySlices:
         The RGBA key of each material index, as the key's bytes in memory order.
     first_row : {"max_y", "min_y"}
         Which end of the y axis is image row 0.
-    level : int
-        zlib level of the PNG data.
+    level : int or None
+        Of the PNG data: None, the fast setting (:mod:`voxel.igzip`), or zlib's level.
     """
 
     lut: NDArray[np.uint32]
     first_row: FirstRow
-    level: int
+    level: int | None
 
     @classmethod
     def of(
-        cls, materials: Sequence[Material], background: RGBA, first_row: FirstRow, level: int
+        cls, materials: Sequence[Material], background: RGBA, first_row: FirstRow, level: int | None
     ) -> KeySlices:
         """Return the encoder of a checked material table (:func:`material_table`)."""
         lut = np.zeros((256, 4), dtype=np.uint8)

@@ -24,6 +24,8 @@ import zlib
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel.igzip import check_level, compressobj
+
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: PNG colour type by samples per pixel: grey, RGB, RGBA (8 bits per sample).
 _COLOUR_TYPE = {1: 0, 3: 2, 4: 6}
@@ -35,7 +37,7 @@ _IDAT_BYTES = 1 << 26
 def encode_png(
     image: NDArray[np.uint8],
     *,
-    level: int = 1,
+    level: int | None = None,
     pixels_per_metre: tuple[int, int] | None = None,
 ) -> bytes:
     """Return a PNG file of `image` with unfiltered rows (see the module docstring).
@@ -45,8 +47,8 @@ def encode_png(
     image : (H, W) or (H, W, S) uint8
         Grey (``S`` = 1), RGB (3) or RGBA (4, straight alpha) samples; row 0 is the top of
         the picture.
-    level : int
-        zlib level 0..9.
+    level : int, optional
+        None (default): the fast setting (:mod:`voxel.igzip`, ISA-L); else zlib's level 0..9.
     pixels_per_metre : (2,) int, optional
         Physical pixel density ``(x, y)`` stored in a ``pHYs`` chunk (600 dpi is 23622).
 
@@ -76,13 +78,12 @@ def encode_png(
         raise ValueError(
             f"image must be uint8 (H, W), (H, W, 3) or (H, W, 4), got {pixels.dtype} {pixels.shape}"
         )
-    if not 0 <= level <= 9:
-        raise ValueError(f"level must be 0..9, got {level}")
+    check_level(level)
     height, width, samples = pixels.shape
     rows = np.empty((height, 1 + width * samples), dtype=np.uint8)
     rows[:, 0] = 0  # filter type None
     rows[:, 1:] = pixels.reshape(height, width * samples)
-    packer = zlib.compressobj(level)
+    packer = compressobj(level)
     data = packer.compress(rows.data) + packer.flush()
     header = struct.pack(">IIBBBBB", width, height, 8, _COLOUR_TYPE[samples], 0, 0, 0)
     parts = [_SIGNATURE, _chunk(b"IHDR", header)]

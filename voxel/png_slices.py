@@ -53,8 +53,8 @@ class PngSliceWriter(SliceWriter):
         Extra JSON-serialisable entries for the sidecar (e.g. what the colours mean).
     threads : int
         Slices encoded in parallel.
-    level : int
-        zlib level of the PNG data.
+    level : int, optional
+        Of the PNG data: None (default), the fast setting (:mod:`voxel.igzip`), or zlib's.
     queue_slabs : int
         Slabs that may wait for the writer thread.
     """
@@ -67,7 +67,7 @@ class PngSliceWriter(SliceWriter):
         first_row: FirstRow = "max_y",
         metadata: Mapping[str, Any] | None = None,
         threads: int = 2,
-        level: int = 1,
+        level: int | None = None,
         queue_slabs: int = 2,
     ) -> None:
         super().__init__(first_row, threads, level)

@@ -20,6 +20,8 @@ from typing import Any, Generic, Literal, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel.igzip import check_level
+
 FirstRow = Literal["max_y", "min_y"]
 
 Item = TypeVar("Item")
@@ -166,17 +168,16 @@ class SliceWriter(ClosingWriter):
         Which end of the y axis is image row 0.
     threads : int
         Slices encoded in parallel.
-    level : int
-        zlib level of the PNG data (0..9).
+    level : int, optional
+        Of the PNG data: None, the fast setting (:mod:`voxel.igzip`), or zlib's 0..9.
     """
 
-    def __init__(self, first_row: FirstRow, threads: int, level: int) -> None:
+    def __init__(self, first_row: FirstRow, threads: int, level: int | None) -> None:
         if first_row not in ("max_y", "min_y"):
             raise ValueError(f"first_row must be 'max_y' or 'min_y', got {first_row!r}")
         if threads < 1:
             raise ValueError(f"threads must be >= 1, got {threads}")
-        if not 0 <= level <= 9:
-            raise ValueError(f"level must be 0..9, got {level}")
+        check_level(level)
         self.first_row: FirstRow = first_row
         self._threads = threads
         self._level = level

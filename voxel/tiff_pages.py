@@ -10,31 +10,26 @@ as they are: the bytes are those :func:`compress_page` and
 
 from __future__ import annotations
 
-import zlib
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.deflate import pixel_bytes, zlib_compress
+from voxel.deflate import pixel_bytes
 from voxel.gcvf_writer import KeySlices
+from voxel.igzip import compress
 
 
-def compress_page(page: NDArray[np.uint8], samples: int, level: int | None) -> bytes:
+def compress_page(page: NDArray[np.uint8], level: int | None) -> bytes:
     """Return a ``(Y, X)`` or ``(Y, X, S)`` uint8 page as one deflate (zlib) stream.
 
     Parameters
     ----------
     page : (Y, X) or (Y, X, S) uint8
-    samples : int
-        0 for a grey page, ``S`` for colour (the run encoder's period).
     level : int or None
-        zlib level 1..9; None: the run encoder (:mod:`voxel.deflate`).
+        zlib level 1..9; None: the fast setting (:mod:`voxel.igzip`, ISA-L).
     """
-    raw = pixel_bytes(page)
-    if level is None:
-        return zlib_compress(raw, max(1, samples))
-    return zlib.compress(raw.tobytes(), level)
+    return compress(pixel_bytes(page).data, level)
 
 
 @dataclass(frozen=True)
@@ -47,16 +42,16 @@ class PageEncoder:
         3 (RGB) or 4 (RGBA) samples of ``colour.tif``; None: the build writes no TIFF
         stacks (nor ``materials.tif``).
     level : int or None
-        zlib level of ``layers.tif`` and ``colour.tif``; None: the run encoder.
-    materials_level : int or None
-        zlib level of ``materials.tif``; None: the build writes no materials stack.
+        zlib level of the stacks; None: the fast setting (:mod:`voxel.igzip`).
+    materials_tif : bool
+        The build writes ``materials.tif`` (with the same level).
     slices : KeySlices, optional
         The printer job's slice encoder (``job.gcvf``), when the build writes one.
     """
 
     colour_samples: int | None
     level: int | None
-    materials_level: int | None
+    materials_tif: bool
     slices: KeySlices | None = None
 
     def encode(
@@ -77,14 +72,10 @@ class PageEncoder:
         samples = self.colour_samples
         pages: dict[str, list[bytes]] = {}
         if samples is not None:
-            pages["layers.tif"] = [compress_page(page, 0, self.level) for page in layers]
-            pages["colour.tif"] = [
-                compress_page(page[..., :samples], samples, self.level) for page in rgba
-            ]
-        if materials is not None and samples is not None and self.materials_level is not None:
-            pages["materials.tif"] = [
-                compress_page(page, 0, self.materials_level) for page in materials
-            ]
+            pages["layers.tif"] = [compress_page(page, self.level) for page in layers]
+            pages["colour.tif"] = [compress_page(page[..., :samples], self.level) for page in rgba]
+        if materials is not None and samples is not None and self.materials_tif:
+            pages["materials.tif"] = [compress_page(page, self.level) for page in materials]
         if materials is not None and self.slices is not None:
             pages["job.gcvf"] = [self.slices.encode(plane) for plane in materials]
         return pages

@@ -52,7 +52,7 @@ class VdbEncoder:
         grid: GridSpec,
         kinds: list[tuple[str, tuple[str, str, float]]],
         half_width: float,
-        level: int,
+        level: int | None,
     ) -> None:
         self.grid = grid
         self._kinds = kinds
@@ -62,7 +62,7 @@ class VdbEncoder:
     @classmethod
     def for_grid(
         cls, grid: GridSpec, *, sdf_half_width_mm: float, material_grid: bool,
-        compression_level: int = 1,
+        compression_level: int | None = None,
     ) -> VdbEncoder:  # fmt: skip
         """Return the encoder of a :class:`VdbStackWriter` made with the same arguments."""
         kinds = grid_kinds(float(np.float32(sdf_half_width_mm)), material_grid)

@@ -36,6 +36,7 @@ from voxel.vdb_leaves import (
     MASK_AND_NO_INACTIVE_VALS,
     NO_MASK_OR_INACTIVE_VALS,
     GridSpool,
+    copy_records,
     zipped,
 )
 
@@ -184,10 +185,10 @@ class _Tree:
         out.write(struct.pack(value_format, *bg))
         l1_leaf = _key(self.origin, L1)
         l1_tile = _key(self.tile_origin, L1)
-        nodes1 = np.unique(np.concatenate([l1_leaf, l1_tile]), axis=0)
+        nodes1 = _unique_origins(np.concatenate([l1_leaf, l1_tile]))
         nodes1 = nodes1[_tree_order(nodes1)]
         nodes2 = _key(nodes1, L2)
-        roots = np.unique(nodes2, axis=0)
+        roots = _unique_origins(nodes2)
         roots = roots[np.lexsort(roots.T[::-1])]  # root table: Coord order (x, y, z)
         out.write(struct.pack("<ii", 0, len(roots)))  # no root tiles
         spool.stream.flush()
@@ -244,7 +245,7 @@ class _Tree:
         """Tree::writeBuffers: every leaf's buffer, in tree order, from the spool."""
         if len(self.offset) == 0:
             return
-        data = np.memmap(spool.stream.name, dtype=np.uint8, mode="r")
+        data = np.asarray(np.memmap(spool.stream.name, dtype=np.uint8, mode="r"))
         ends = np.cumsum(self.length)
         start = 0
         while start < len(self.offset):
@@ -253,10 +254,22 @@ class _Tree:
             )
             stop = max(stop, start + 1)
             off, length = self.offset[start:stop], self.length[start:stop]
-            before = np.concatenate([[0], np.cumsum(length)[:-1]])
-            index = np.repeat(off - before, length) + np.arange(int(length.sum()))
-            out.write(np.asarray(data[index]).tobytes())
+            before = np.concatenate([[0], np.cumsum(length)[:-1]]).astype(np.int64)
+            chunk = np.empty(int(length.sum()), dtype=np.uint8)
+            copy_records(data, off, length, chunk, before)
+            out.write(chunk.data)
             start = stop
+
+
+def _unique_origins(origin: NDArray[np.int32]) -> NDArray[np.int32]:
+    """``np.unique(origin, axis=0)`` of ``(n, 3)`` coordinates in [0, 2**20), one key each."""
+    o = origin.astype(np.int64)
+    keys = np.unique((o[:, 0] << 40) | (o[:, 1] << 20) | o[:, 2])
+    mask = (1 << 20) - 1
+    unique: NDArray[np.int32] = np.stack(
+        [keys >> 40, (keys >> 20) & mask, keys & mask], axis=1
+    ).astype(np.int32)
+    return unique
 
 
 def _key(origin: NDArray[np.int32], size: int) -> NDArray[np.int32]:

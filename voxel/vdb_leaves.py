@@ -12,7 +12,6 @@ from __future__ import annotations
 import io
 import itertools
 import struct
-import zlib
 from dataclasses import dataclass, field
 from typing import BinaryIO
 
@@ -21,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from voxel.deflate import compress_segments
+from voxel.igzip import compress
 
 #: io::writeCompressedValues metadata: inactive values are all the background; inactive
 #: values are +-background, chosen by a selection mask (on: +background).
@@ -103,7 +103,7 @@ class GridSpool:
         values: NDArray[np.float32],
         active: NDArray[np.bool_],
         inside: NDArray[np.bool_] | None,
-        level: int,
+        level: int | None,
         runs: bool = False,
     ) -> None:
         """Encode leaves as LeafNode::writeBuffers does and append them to the spool.
@@ -115,11 +115,12 @@ class GridSpool:
         active : (n, 512) bool
         inside : (n, 512) bool, optional
             Level sets: where inactive values are -background.
-        level : int
-            zlib level of the values (0: stored raw).
+        level : int or None
+            Of the values: None, the fast setting (:mod:`voxel.igzip`); zlib's level; 0:
+            stored raw.
         runs : bool
             Values are runs of equal numbers (density, layer): the compiled run encoder
-            packs them as well as zlib in one call; otherwise zlib per leaf.
+            packs them as well as zlib in one call; otherwise ISA-L or zlib per leaf.
         """
         if len(origin) == 0:
             return
@@ -132,12 +133,12 @@ class GridSpool:
             head.append(np.packbits(~inside, axis=1, bitorder="little"))
         head_bytes = np.concatenate(head, axis=1)
         bounds = np.concatenate([[0], np.cumsum(counts.astype(np.int64) * 4 * self.channels)])
-        if runs and level:
+        if runs and level != 0:
             raw = np.ascontiguousarray(values[active], dtype="<f4").reshape(-1).view(np.uint8)
             body, body_lengths = _zipped_all(raw, bounds, level)
         else:
-            # io::zipToStream per leaf with zlib: colours and halftoned materials need its
-            # matches at any distance.
+            # io::zipToStream per leaf with ISA-L or zlib: colours and halftoned materials
+            # need matches at any distance.
             packed = np.ascontiguousarray(values[active], dtype="<f4").tobytes()
             bodies = [zipped(packed[a:b], level) for a, b in itertools.pairwise(bounds)]
             body_lengths = np.fromiter((len(b) for b in bodies), np.int64, len(bodies))
@@ -161,21 +162,21 @@ class GridSpool:
         self.extend(origin[some].astype(np.int64) + low, origin[some].astype(np.int64) + high)
 
 
-def zipped(raw: bytes, level: int) -> bytes:
+def zipped(raw: bytes, level: int | None) -> bytes:
     """Return ``raw`` as io::zipToStream writes it: int64 size, then zlib data or raw bytes.
 
-    A negative (or zero) size marks raw bytes, used when zlib does not make them smaller
-    and for ``level`` 0.
+    A negative (or zero) size marks raw bytes, used when compression does not make them
+    smaller and for ``level`` 0 (None: the fast setting of :mod:`voxel.igzip`).
     """
-    if raw and level:
-        packed = zlib.compress(raw, level)
+    if raw and level != 0:
+        packed = compress(raw, level)
         if len(packed) < len(raw):
             return struct.pack("<q", len(packed)) + packed
     return struct.pack("<q", -len(raw)) + raw
 
 
 def _zipped_all(
-    raw: NDArray[np.uint8], bounds: NDArray[np.int64], level: int
+    raw: NDArray[np.uint8], bounds: NDArray[np.int64], level: int | None
 ) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
     """Each leaf's values as io::zipToStream writes them, back to back, and their lengths.
 
@@ -184,11 +185,11 @@ def _zipped_all(
     when compression does not make them smaller and for ``level`` 0.
     """
     sizes = np.diff(bounds)
-    if level:
+    if level != 0:
         packed, packed_lengths = compress_segments(raw, bounds, period=4)
     else:
         packed, packed_lengths = np.zeros(0, np.uint8), np.zeros(len(sizes), np.int64)
-    use = (packed_lengths < sizes) & (sizes > 0) & bool(level)
+    use = (packed_lengths < sizes) & (sizes > 0) & (level != 0)
     lengths = 8 + np.where(use, packed_lengths, sizes)
     prefix = np.where(use, packed_lengths, -sizes).astype("<i8").view(np.uint8).reshape(-1, 8)
     starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
@@ -223,11 +224,26 @@ def _interleave(
     head: NDArray[np.uint8], body: NDArray[np.uint8], body_lengths: NDArray[np.int64]
 ) -> NDArray[np.uint8]:
     """Return the records ``head[i] + body_i`` back to back (``body`` holds them in order)."""
-    h = head.shape[1]
+    n, h = head.shape
     lengths = h + body_lengths
-    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
+    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
     record = np.empty(int(lengths.sum()), dtype=np.uint8)
-    record[(starts[:, None] + np.arange(h)).ravel()] = head.ravel()
-    body_starts = np.concatenate([[0], np.cumsum(body_lengths)[:-1]])
-    record[np.repeat(starts + h - body_starts, body_lengths) + np.arange(len(body))] = body
+    heads = np.arange(n, dtype=np.int64) * h
+    copy_records(np.ascontiguousarray(head).reshape(-1), heads, np.full(n, h), record, starts)
+    body_starts = np.concatenate([[0], np.cumsum(body_lengths)[:-1]]).astype(np.int64)
+    copy_records(body, body_starts, body_lengths.astype(np.int64), record, starts + h)
     return record
+
+
+@numba.njit(cache=True, nogil=True)
+def copy_records(
+    source: NDArray[np.uint8],
+    source_starts: NDArray[np.int64],
+    lengths: NDArray[np.int64],
+    out: NDArray[np.uint8],
+    out_starts: NDArray[np.int64],
+) -> None:
+    """Copy ``source[source_starts[i]:][:lengths[i]]`` to ``out[out_starts[i]:]`` for each i."""
+    for i in range(len(lengths)):
+        a, b, n = source_starts[i], out_starts[i], lengths[i]
+        out[b : b + n] = source[a : a + n]

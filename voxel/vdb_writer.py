@@ -61,9 +61,10 @@ class VdbStackWriter:
         Where the leaf spools go (default: the system's temporary folder); they are
         removed by :meth:`write` or :meth:`close`.
     compression_level : int, optional
-        zlib level (1-9) of the leaf values (level 1 is about as small on these grids:
-        constant densities, integer layers and texture colours). Level-set values
-        hardly compress (about 0.92) and are stored raw.
+        Of the leaf values: None (default), the fast setting of :mod:`voxel.igzip`, or
+        zlib's level 1-9 (hardly smaller on these grids: constant densities, integer
+        layers and texture colours). Level-set values hardly compress (about 0.92) and
+        are stored raw.
     material_grid : bool, optional
         Also write the ``material`` grid; then every :meth:`write_slab` gives `materials`.
 
@@ -80,11 +81,11 @@ class VdbStackWriter:
         *,
         sdf_half_width_mm: float,
         spool_dir: Path | None = None,
-        compression_level: int = 1,
+        compression_level: int | None = None,
         material_grid: bool = False,
     ) -> None:
         self.grid = grid
-        self._level = int(compression_level)
+        self._level = compression_level
         self._half_width = np.float32(sdf_half_width_mm)
         self._dir = tempfile.TemporaryDirectory(prefix=".vdb-spool.", dir=spool_dir)
         self.material_grid = material_grid

@@ -1,0 +1,113 @@
+"""Deflate encoders on a build's own pages: ISA-L (the fast setting), zlib, the run encoder.
+
+Every file a build writes is deflate data, so the encoder's speed is paid per voxel. This
+reads the pages of a finished build (``layers.tif``, ``colour.tif``, ``materials.tif``
+and the slices of ``job.gcvf``), compresses every ``--every``-th one again with each
+encoder in this process, checks each stream inflates (zlib) to the page's bytes, and
+reports milliseconds and bytes per page, with the ratio to zlib's level 1 as the peer.
+For the TIFF stacks it also times what the viewer does with each encoder's pages: decode
+the deflate symbols (``pipeline.viewer.inflate.decode``) against zlib inflating them.
+
+    .venv/bin/python benchmarks/bench_compress.py out/spot35
+
+Writes ``benchmarks/results/bench_compress.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import time
+import zipfile
+import zlib
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tifffile
+from PIL import Image
+
+from pipeline.viewer.inflate import decode
+from voxel.deflate import zlib_compress
+from voxel.igzip import compress
+
+REPO = Path(__file__).resolve().parents[1]
+RESULTS = REPO / "benchmarks" / "results" / "bench_compress.json"
+
+
+def _pages(build: Path, every: int) -> dict[str, tuple[list[bytes], int]]:
+    """Raw bytes of the chosen pages of each stack, and the run encoder's period."""
+    pages: dict[str, tuple[list[bytes], int]] = {}
+    for name, period in (("layers.tif", 1), ("colour.tif", 3), ("materials.tif", 1)):
+        path = build / name
+        if path.exists():
+            with tifffile.TiffFile(path) as tiff:
+                n = len(tiff.pages)
+                arrays = [tiff.pages[i].asarray() for i in range(0, n, every)]
+            pages[name] = ([a.tobytes() for a in arrays], period)
+    job = build / "job.gcvf"
+    if job.exists():
+        with zipfile.ZipFile(job) as archive:
+            names = [n for n in archive.namelist() if n.endswith(".png")][::every]
+            rows = []
+            for name in names:
+                with Image.open(io.BytesIO(archive.read(name))) as image:
+                    pixels = np.asarray(image)
+                height = pixels.shape[0]
+                row = np.zeros((height, 1 + pixels[0].size), np.uint8)  # PNG filter 0
+                row[:, 1:] = pixels.reshape(height, -1)
+                rows.append(row.tobytes())
+            pages["job.gcvf slices"] = (rows, 4)
+    return pages
+
+
+def _time(encode: Callable[[bytes], bytes], pages: list[bytes], viewer: bool) -> dict[str, float]:
+    encode(pages[0])  # compiled on first use (the run encoder)
+    tick = time.perf_counter()
+    streams = [encode(page) for page in pages]
+    seconds = time.perf_counter() - tick
+    tick = time.perf_counter()
+    inflated = [zlib.decompress(s) for s in streams]
+    inflate_s = time.perf_counter() - tick
+    if inflated != pages:
+        raise AssertionError("a stream does not inflate to its page")
+    row = {
+        "ms_per_page": round(1e3 * seconds / len(pages), 3),
+        "bytes_per_page": round(sum(map(len, streams)) / len(pages)),
+        "zlib_inflate_ms_per_page": round(1e3 * inflate_s / len(pages), 3),
+    }
+    if viewer:
+        decode(streams[0], max_inflated=len(pages[0]))  # compiled on first use
+        tick = time.perf_counter()
+        for stream, page in zip(streams, pages, strict=True):
+            decode(stream, max_inflated=len(page))
+        row["viewer_decode_ms_per_page"] = round(1e3 * (time.perf_counter() - tick) / len(pages), 3)
+    return row
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("build", type=Path, help="a build's output folder")
+    parser.add_argument("--every", type=int, default=20, help="take every N-th page")
+    args = parser.parse_args()
+    results: dict[str, Any] = {"build": str(args.build), "every": args.every, "stacks": {}}
+    for name, (pages, period) in _pages(args.build, args.every).items():
+        row: dict[str, Any] = {"pages": len(pages), "raw_bytes_per_page": len(pages[0])}
+        viewer = name.endswith(".tif")
+        row["zlib-1"] = _time(lambda b: zlib.compress(b, 1), pages, viewer)
+        row["isal-1 (fast)"] = _time(compress, pages, viewer)
+        row["run encoder"] = _time(lambda b, p=period: zlib_compress(b, p), pages, viewer)
+        peer = row["zlib-1"]["ms_per_page"]
+        row["fast time / zlib-1"] = round(row["isal-1 (fast)"]["ms_per_page"] / peer, 3)
+        row["fast size / zlib-1"] = round(
+            row["isal-1 (fast)"]["bytes_per_page"] / row["zlib-1"]["bytes_per_page"], 3
+        )
+        results["stacks"][name] = row
+        print(name, json.dumps(row))
+    RESULTS.write_text(json.dumps(results, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
