@@ -53,7 +53,7 @@ from pipeline.run_folder import (
     run_key,
 )
 from pipeline.shell_job import ShellJob
-from pipeline.slab_runner import SlabRunner, material_tally
+from pipeline.slab_runner import SLAB_ARRAYS, SlabRunner, material_tally
 from pipeline.stack_outputs import StackOutputs, gcvf_slices
 from voxel.agreement import shell_agreement
 from voxel.materials import MaterialPlan, materials_for_slab
@@ -224,6 +224,7 @@ class _Job:
                 self.materials,
                 self._encoder(),
                 pages=self._page_encoder(),
+                send=self._send(shell_job.writes_meshes),
                 scheduler=self.running.scheduler,
                 run=run,
             )
@@ -299,6 +300,21 @@ class _Job:
             level=config.compression_level,
             materials_tif=profile is not None,
         )
+
+    def _send(self, sampled: bool) -> tuple[str, ...]:
+        """Return the slab arrays this process uses when the workers encode the pages.
+
+        ``layers`` for the voxels compared with the shell meshes (`sampled`); ``layers``
+        and ``rgba`` for the PNG slices and for error diffusion (made here); ``layers``,
+        ``rgba`` and ``sdf`` for VDB leaves not encoded where the slab is computed.
+        """
+        config, plan = self.config, self.materials
+        send = {"layers"} if sampled else set()
+        if plan is not None and ("png" in config.formats or plan.halftone != "blue-noise"):
+            send |= {"layers", "rgba"}
+        if config.write_vdb and self._encoder() is None:
+            send |= {"layers", "rgba", "sdf"}
+        return tuple(name for name in SLAB_ARRAYS if name in send)
 
     def _encoder(self) -> VdbEncoder | None:
         """Return the slab workers' VDB encoder, when slabs hold whole leaf rows."""

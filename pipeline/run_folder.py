@@ -105,9 +105,9 @@ class RunFolder:
         """Whether any slab has been checkpointed."""
         return any(self.path.glob("slab_*.npz"))
 
-    def save(self, rows: Rows, done: StackSlab) -> None:
-        """Checkpoint a finished slab."""
-        save_chunk(self.chunk_path(rows), encode_chunk(done))
+    def save(self, rows: Rows, done: StackSlab, send: tuple[str, ...] | None = None) -> None:
+        """Checkpoint a finished slab (only the arrays `send` when it has its pages)."""
+        save_chunk(self.chunk_path(rows), encode_chunk(done, send))
 
     def save_bytes(self, rows: Rows, data: bytes) -> None:
         """Checkpoint a slab already encoded (:func:`pipeline.slab_chunks.encode_chunk`)."""

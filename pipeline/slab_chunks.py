@@ -2,11 +2,14 @@
 
 :func:`encode_chunk` packs everything :meth:`pipeline.build._Job._stream` consumes of a
 :class:`~pipeline.slab_runner.StackSlab` (the slab's arrays and counters, its materials
-and tally, its encoded VDB leaves) into a zip of ``.npy`` members (zlib level 1; no
-pickles: :func:`decode_chunk` reads it with ``allow_pickle=False``), and
+and tally, its encoded VDB leaves and pages) into a zip of ``.npy`` members (the arrays
+deflated at zlib level 1, the leaves and pages stored as they are, being compressed
+already; no pickles: :func:`decode_chunk` reads it with ``allow_pickle=False``), and
 :func:`decode_chunk` gives back a slab that feeds the writers exactly as the original
-does. :func:`save_chunk` puts such bytes in place atomically (temporary name, fsync,
-rename), so a chunk file that exists is complete.
+does. A slab that comes with its pages leaves out the voxel arrays the writing process
+does not use (the job's ``send``): they are carried by the pages and leaves, and
+decode as empty arrays. :func:`save_chunk` puts such bytes in place atomically
+(temporary name, fsync, rename), so a chunk file that exists is complete.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.slab_runner import StackSlab
+from pipeline.slab_runner import SLAB_ARRAYS, StackSlab
 from voxel.slab import SlabResult
 from voxel.vdb_leaves import GridSpool
 
@@ -29,6 +32,8 @@ from voxel.vdb_leaves import GridSpool
 CHUNK_LEVEL = 1
 
 _ARRAYS = ("layers", "rgba", "sdf", "sdf_band", "layer_counts")
+#: The voxel arrays a chunk with pages may leave out (:data:`pipeline.slab_runner.SLAB_ARRAYS`).
+_LEFT_OUT = SLAB_ARRAYS
 _COUNTERS = ("z_start", "z_stop", "n_unbalanced_rows", "n_nesting_violations",
              "n_nearest_queries", "n_distance_tests")  # fmt: skip
 _SPOOL_TEXT = ("name", "value_type", "grid_class")
@@ -42,12 +47,20 @@ _SPOOL_LISTS = {
 }
 
 
-def encode_chunk(done: StackSlab) -> bytes:
-    """Return a finished slab as the bytes of a chunk file (see the module)."""
+def encode_chunk(done: StackSlab, send: tuple[str, ...] | None = None) -> bytes:
+    """Return a finished slab as the bytes of a chunk file (see the module).
+
+    With `send` and pages, of the voxel arrays only those named in `send` (the others
+    decode as empty arrays of their kind).
+    """
     members: dict[str, NDArray[Any]] = {}
+    stored: set[str] = set()  # compressed already
     slab = done.slab
     for name in _ARRAYS:
-        members[f"slab.{name}"] = getattr(slab, name)
+        array = getattr(slab, name)
+        if send is not None and done.pages is not None and name in _LEFT_OUT and name not in send:
+            array = np.zeros((0,) * array.ndim, array.dtype)
+        members[f"slab.{name}"] = array
     for name in _COUNTERS:
         members[f"slab.{name}"] = np.array(int(getattr(slab, name)), np.int64)
     if done.materials is not None:
@@ -64,6 +77,7 @@ def encode_chunk(done: StackSlab) -> bytes:
         members[prefix + "bbox_min"] = np.asarray(spool.bbox_min, np.int64)
         members[prefix + "bbox_max"] = np.asarray(spool.bbox_max, np.int64)
         members[prefix + "stream"] = np.frombuffer(_spool_bytes(spool), np.uint8)
+        stored.add(prefix + "stream")
         for name, (empty, dtype) in _SPOOL_LISTS.items():
             parts = getattr(spool, name)
             members[prefix + name] = (
@@ -71,10 +85,13 @@ def encode_chunk(done: StackSlab) -> bytes:
             )
     for name, pages in (done.pages or {}).items():  # compressed already, and small
         members[f"pages.{name}.data"] = np.frombuffer(b"".join(pages), np.uint8)
+        stored.add(f"pages.{name}.data")
         members[f"pages.{name}.sizes"] = np.array([len(page) for page in pages], np.int64)
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED, compresslevel=CHUNK_LEVEL) as archive:
         for name, array in members.items():
+            # open() takes the archive's method at the time (a ZipInfo would drop the level)
+            archive.compression = zipfile.ZIP_STORED if name in stored else zipfile.ZIP_DEFLATED
             with archive.open(name + ".npy", "w", force_zip64=True) as member:
                 np.save(member, np.asarray(array), allow_pickle=False)
     return buffer.getvalue()

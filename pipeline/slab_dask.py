@@ -159,4 +159,4 @@ class DaskPool:
 
 def _dask_slab(job: SlabJob, z_start: int, z_stop: int) -> bytes:
     """Compute a slab on a Dask worker; return it as chunk bytes."""
-    return encode_chunk(job.run((z_start, z_stop)))
+    return encode_chunk(job.run((z_start, z_stop)), job.send)

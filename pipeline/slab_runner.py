@@ -131,6 +131,10 @@ def resolve_workers(workers: int) -> int:
     return max(1, os.cpu_count() or 1)
 
 
+#: The voxel arrays of a slab (:class:`voxel.slab.SlabResult`) a chunk may leave out.
+SLAB_ARRAYS = ("layers", "rgba", "sdf", "sdf_band")
+
+
 class SlabJob(NamedTuple):
     """What every slab task needs, sent to (or inherited by) each worker once.
 
@@ -144,6 +148,10 @@ class SlabJob(NamedTuple):
         Encode each slab's VDB leaves where it is computed (see :func:`stack_slab`).
     pages : PageEncoder or None
         Compress each slab's TIFF pages where it is computed (see :func:`stack_slab`).
+    send : tuple of str
+        The slab's arrays (of :data:`SLAB_ARRAYS`) the writing process uses when a slab
+        comes with its pages; the others travel as the pages and VDB leaves only
+        (:func:`pipeline.slab_chunks.encode_chunk`: the Dask wire and the checkpoints).
     """
 
     model: StackModel
@@ -151,6 +159,7 @@ class SlabJob(NamedTuple):
     plan: MaterialPlan | None
     vdb: VdbEncoder | None
     pages: PageEncoder | None = None
+    send: tuple[str, ...] = ("layers", "rgba", "sdf", "sdf_band")
 
     def run(self, rows: Rows) -> StackSlab:
         """Return the slab of `rows` (:func:`stack_slab`)."""
@@ -199,7 +208,7 @@ class InProcess:
         """Compute the slab (and checkpoint it)."""
         done = self.job.run(handle)
         if self.run is not None:
-            self.run.save(handle, done)
+            self.run.save(handle, done, self.job.send)
         return done
 
     def close(self, failed: bool) -> None:
@@ -246,10 +255,11 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         vdb: VdbEncoder | None = None,
         *,
         pages: PageEncoder | None = None,
+        send: tuple[str, ...] = SLAB_ARRAYS,
         scheduler: str | None = None,
         run: RunFolder | None = None,
     ) -> None:
-        self.job = SlabJob(model, grid, plan, vdb, pages)
+        self.job = SlabJob(model, grid, plan, vdb, pages, send)
         self.run = run
         n_z = grid.shape_zyx[0]
         self.ranges = [(z, min(n_z, z + rows)) for z in range(0, n_z, rows)]

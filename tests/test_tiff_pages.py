@@ -62,3 +62,24 @@ def test_a_chunk_keeps_the_pages():
     back = decode_chunk(encode_chunk(StackSlab(slab, materials, None, None, pages)))
     assert back.pages == pages
     assert decode_chunk(encode_chunk(StackSlab(slab, materials))).pages is None
+
+
+def test_a_chunk_with_pages_leaves_out_what_is_not_sent():
+    layers, rgba, materials = _voxels(0)
+    sdf = np.linspace(-1, 1, layers.size, dtype=np.float32).reshape(layers.shape)
+    slab = SlabResult(
+        0, 11, layers, rgba, sdf, layers > 0, 0, 0, 0, 0,
+        np.bincount(layers.ravel(), minlength=4).astype(np.int64),
+    )  # fmt: skip
+    pages = PageEncoder(3, None, True).encode(layers, rgba, materials)
+    light = decode_chunk(encode_chunk(StackSlab(slab, materials, None, None, pages), ("layers",)))
+    np.testing.assert_array_equal(light.slab.layers, layers)
+    np.testing.assert_array_equal(light.materials, materials)
+    assert light.pages == pages
+    for name, ndim in (("rgba", 4), ("sdf", 3), ("sdf_band", 3)):
+        left_out = getattr(light.slab, name)
+        assert left_out.size == 0 and left_out.ndim == ndim
+    # Without pages (the writers compress), every array travels whatever `send` says.
+    full = decode_chunk(encode_chunk(StackSlab(slab, materials), ("layers",)))
+    for name in ("layers", "rgba", "sdf", "sdf_band"):
+        np.testing.assert_array_equal(getattr(full.slab, name), getattr(slab, name))
