@@ -40,6 +40,8 @@ CONNECT_S = 30.0
 NO_WORKERS_S = 60.0
 #: Seconds between health checks while waiting for a slab.
 POLL_S = 1.0
+#: Losses of the slab job (or cancelled slabs, per slab in flight) a build survives.
+RESCATTERS = 3
 
 
 class ClusterError(InputError):
@@ -92,7 +94,9 @@ class DaskPool:
                 "or check the address",
             ) from None
         self.capacity = sum(self.client.nthreads().values()) + 1
-        self._job = self.client.scatter(job, broadcast=True, hash=False)
+        self._slab_job = job
+        self._job = self._scatter()
+        self._retries = 0
 
     def submit(self, rows: Rows) -> tuple[Rows, Future]:
         """Send the slab's task to the cluster."""
@@ -118,10 +122,38 @@ class DaskPool:
                     "rerun with a smaller --slab-mb or on workers with more memory"
                 ) from None
             except CancelledError:
-                raise self._lost("the scheduler cancelled the slab's task") from None
+                future = self._again(rows)
         if self.run is not None:
             self.run.save_bytes(rows, data)
         return decode_chunk(data)
+
+    def _scatter(self) -> Future:
+        """Send the slab job to every worker as one piece of data.
+
+        In a list: a tuple's fields would each be scattered alone.
+        """
+        futures: list[Future] = self.client.scatter([self._slab_job], broadcast=True, hash=False)
+        return futures[0]
+
+    def _again(self, rows: Rows) -> Future:
+        """Submit a cancelled slab again, after sending the job again if it was lost.
+
+        The job is data on the workers, not a task Dask can recompute: when the workers
+        holding it die (Dask's memory manager may keep one replica only), the scheduler
+        cancels every slab that needs it. A cancelled slab is submitted again (the job
+        sent again first when it was lost), up to :data:`RESCATTERS` times the slabs in
+        flight in a build; a cluster that keeps cancelling is reported lost.
+        """
+        lost = self._job.status != "finished"  # the job's last copy died with its worker
+        self._retries += 1  # each loss cancels the slabs in flight: capacity retries
+        if self._retries > RESCATTERS * self.capacity or self.client.status != "running":
+            why = "the workers holding the slab job died" if lost else "it cancelled the slab"
+            raise self._lost(why)
+        if lost:
+            self._job = self._scatter()
+        key = f"shellvox-slab-{self._tag}-{rows[0]}-again{self._retries}"
+        again: Future = self.client.submit(_dask_slab, self._job, *rows, key=key, pure=False)
+        return again
 
     def _check_health(self, alone_since: float | None) -> float | None:
         """Raise when the scheduler is lost or workerless for too long; return since when."""

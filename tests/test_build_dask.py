@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
 from pathlib import Path
 
+import psutil
 import pytest
 from build_compare import differences, manifest_core, output_digests
+from fault_harness import Command, wait_for
 from tray_models import tray_models
 
 from pipeline.cli import main
@@ -39,6 +43,58 @@ def test_local_cluster_of_two_gives_the_single_process_build(tmp_path, inputs):
     assert not (cluster / ".shellvox-run").exists()  # checkpoints go when the build commits
 
 
+@pytest.mark.slow
+def test_a_dask_worker_killed_mid_build_is_replaced_and_the_files_are_the_same(tmp_path):
+    """A worker process SIGKILLed (the OOM killer, a lost node): its nanny starts another,
+    Dask runs the lost slab again, and the build writes the files of one process."""
+    single, cluster = tmp_path / "single", tmp_path / "cluster"
+    many = [*OPTIONS, "--voxel-size", "0.1,0.1,0.08", "--slab-mb", "2", "--checkpoint"]
+    assert main(["build", str(MODEL), "-o", str(single), *many, "--workers", "1"]) == 0
+    argv = ["build", str(MODEL), "-o", str(cluster), *many, "--workers", "2"]
+    command = Command([*argv, "--scheduler", "local"], tmp_path / "run")
+    chunks = cluster / ".shellvox-run"
+    wait_for(lambda: any(chunks.glob("slab_*.npz")), what="a slab from the cluster")
+    workers = [p for p in psutil.Process(command.pid).children(recursive=True) if _dask_worker(p)]
+    assert len(workers) == 2, [p.cmdline() for p in workers]
+    assert not (cluster / "manifest.json").exists()  # killed mid-build
+    os.kill(workers[0].pid, signal.SIGKILL)
+    result = command.finish(timeout=300)
+    assert result.status == 0, result.stderr
+    assert output_digests(cluster) == output_digests(single)
+    assert differences(manifest_core(cluster), manifest_core(single)) == []
+
+
+def _dask_worker(process: psutil.Process) -> bool:
+    """A LocalCluster's worker process (spawned by its nanny), not a helper."""
+    try:
+        line = " ".join(process.cmdline())
+    except psutil.Error:
+        return False
+    return "multiprocessing.spawn" in line or "spawn_main" in line
+
+
+@pytest.mark.slow
+def test_a_lost_slab_job_is_sent_again():
+    """The job is data on the workers, which Dask cannot recompute: when its copies are
+    gone (here: cancelled), the cancelled slab is submitted again with the job sent again."""
+    import numpy as np
+
+    from pipeline.slab_dask import DaskPool
+
+    job, rows = _slab_job()
+    pool = DaskPool(job, "local", 1, None)
+    try:
+        pool.client.cancel(pool._job, force=True)
+        lost = pool._job
+        done = pool.result(pool.submit(rows))
+        assert pool._job is not lost and pool._retries == 1
+    finally:
+        pool.close(failed=False)
+    expected = job.run(rows).slab
+    np.testing.assert_array_equal(done.slab.layers, expected.layers)
+    np.testing.assert_array_equal(done.slab.layer_counts, expected.layer_counts)
+
+
 def test_an_unreachable_scheduler_is_one_line_and_status_2(tmp_path, monkeypatch, capsys):
     import pipeline.slab_dask as slab_dask
 
@@ -51,11 +107,8 @@ def test_an_unreachable_scheduler_is_one_line_and_status_2(tmp_path, monkeypatch
     assert not any(p.is_file() for p in (tmp_path / "out").rglob("*"))
 
 
-def test_a_pickled_model_gives_bit_identical_slabs():
-    """What a Dask worker receives (the model pickled and unpickled, its AABB tree and
-    Voronoi regions rebuilt there) computes the same slab as the original."""
-    import pickle
-
+def _slab_job():
+    """A small one-model slab job and rows of it that cut the colour layer."""
     import numpy as np
 
     from pipeline.config import LoadOptions
@@ -82,11 +135,20 @@ def test_a_pickled_model_gives_bit_identical_slabs():
         mesh.vertices.min(axis=0), mesh.vertices.max(axis=0), (0.2, 0.2, 0.15), margin_mm=0.3
     )
     vdb = VdbEncoder.for_grid(grid, sdf_half_width_mm=0.3, material_grid=False)
-    job = SlabJob(model, grid, None, vdb)
-    copy = pickle.loads(pickle.dumps(job))
-    assert copy.model.surface.tree is not model.surface.tree  # rebuilt, not shared
     middle = grid.shape_zyx[0] // 2
-    rows = (middle - middle % 8, middle - middle % 8 + 8)
+    return SlabJob(model, grid, None, vdb), (middle - middle % 8, middle - middle % 8 + 8)
+
+
+def test_a_pickled_model_gives_bit_identical_slabs():
+    """What a Dask worker receives (the model pickled and unpickled, its AABB tree and
+    Voronoi regions rebuilt there) computes the same slab as the original."""
+    import pickle
+
+    import numpy as np
+
+    job, rows = _slab_job()
+    copy = pickle.loads(pickle.dumps(job))
+    assert copy.model.surface.tree is not job.model.surface.tree  # rebuilt, not shared
     here, there = job.run(rows), copy.run(rows)
     assert int(here.slab.layer_counts[1]) > 0  # the rows cut the colour layer
     for name in ("layers", "rgba", "sdf", "sdf_band", "layer_counts"):
