@@ -144,8 +144,8 @@ class BuildConfig:
     alpha : bool
         Write ``colour.tif`` as RGBA instead of RGB.
     compression_level : int, optional
-        zlib level of the TIFFs (1 fast .. 9 small); None (default): a compiled run
-        encoder, several times faster, files up to twice the size (:mod:`voxel.deflate`).
+        zlib level of the TIFFs (1 fast .. 9 small); None (default): ISA-L's fast
+        deflate, 3 to 9 times zlib level 1's speed and smaller (:mod:`voxel.igzip`).
     formats : tuple of {"tiff", "vdb", "gcvf", "png"}
         Files to write: ``tiff`` = ``layers.tif``, ``colour.tif`` and ``materials.tif``;
         ``vdb`` = ``volume.vdb``; ``gcvf`` = ``job.gcvf`` (GrabCAD Voxel Print);
