@@ -144,8 +144,8 @@ class BuildConfig:
     alpha : bool
         Write ``colour.tif`` as RGBA instead of RGB.
     compression_level : int, optional
-        zlib level of the TIFFs (1 fast .. 9 small); None (default): ISA-L's fast
-        deflate, 3 to 9 times zlib level 1's speed and smaller (:mod:`voxel.igzip`).
+        zlib level of the TIFFs (1 fast .. 9 small); None (default): the fast
+        setting of :mod:`voxel.igzip` (zlib level 1).
     formats : tuple of {"tiff", "vdb", "gcvf", "png"}
         Files to write: ``tiff`` = ``layers.tif``, ``colour.tif`` and ``materials.tif``;
         ``vdb`` = ``volume.vdb``; ``gcvf`` = ``job.gcvf`` (GrabCAD Voxel Print);

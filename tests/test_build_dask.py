@@ -73,28 +73,6 @@ def _dask_worker(process: psutil.Process) -> bool:
     return "multiprocessing.spawn" in line or "spawn_main" in line
 
 
-@pytest.mark.slow
-def test_a_lost_slab_job_is_sent_again():
-    """The job is data on the workers, which Dask cannot recompute: when its copies are
-    gone (here: cancelled), the cancelled slab is submitted again with the job sent again."""
-    import numpy as np
-
-    from pipeline.slab_dask import DaskPool
-
-    job, rows = _slab_job()
-    pool = DaskPool(job, "local", 1, None)
-    try:
-        pool.client.cancel(pool._job, force=True)
-        lost = pool._job
-        done = pool.result(pool.submit(rows))
-        assert pool._job is not lost and pool._retries == 1
-    finally:
-        pool.close(failed=False)
-    expected = job.run(rows).slab
-    np.testing.assert_array_equal(done.slab.layers, expected.layers)
-    np.testing.assert_array_equal(done.slab.layer_counts, expected.layer_counts)
-
-
 def test_an_unreachable_scheduler_is_one_line_and_status_2(tmp_path, monkeypatch, capsys):
     import pipeline.slab_dask as slab_dask
 

@@ -1,16 +1,15 @@
-"""zlib streams at the fast setting: Intel's ISA-L (``igzip``) through python-isal.
+"""The deflate streams of every file shellvox writes, at one place: the fast setting.
 
-Every file shellvox writes stores deflate data (TIFF compression 8, PNG's IDAT, OpenVDB's
-``io::zipToStream``), and at printer resolution the compression of those bytes cost as
-much as computing the voxels. ISA-L's level 1 compresses voxel pages 5 to 10 times faster
-than zlib's level 1 and to smaller streams (a 1.7 MB RGBA printer slice: 0.7 ms and 17 kB
-against 3.3 ms and 18 kB; a colour page: 0.5 ms and 12 kB against 2.9 ms and 16 kB;
-``benchmarks/bench_compress.py``). Its output is an ordinary zlib stream (RFC 1950), so
-every reader inflates it with zlib; it releases the GIL, so writer threads run in
-parallel.
+A *level* throughout shellvox is ``None`` for the fast setting, or zlib's level 1..9
+(``--compression-level``) for smaller files at zlib's speed; 0 stores the bytes. The
+fast setting is zlib's level 1 (Python's zlib, which releases the GIL).
 
-A *level* throughout shellvox is ``None`` for this fast setting, or zlib's level 1..9
-(``--compression-level``) for smaller files at zlib's speed; 0 stores the bytes.
+ISA-L's igzip (python-isal) was measured as the fast setting (stop 19): 3 to 9 times
+zlib level 1's speed on voxel pages and 8 to 26 % smaller (``benchmarks/bench_compress.py``)
+but its output for the same input depends on what its buffers held before (a process that
+compressed other data first writes other bytes), so equal builds were no longer byte-equal
+(a Dask build with a killed worker differed from one process in ``volume.vdb``'s bytes,
+not its values). Builds must be reproducible, so zlib stays.
 """
 
 from __future__ import annotations
@@ -18,14 +17,12 @@ from __future__ import annotations
 import zlib
 from typing import Protocol
 
-from isal import isal_zlib
-
-#: ISA-L's level of the fast setting (its levels are 0..3; 1 is its default).
+#: zlib's level of the fast setting.
 FAST_LEVEL = 1
 
 
 class Compressor(Protocol):
-    """What :func:`compressobj` returns (zlib's and ISA-L's compressor objects)."""
+    """What :func:`compressobj` returns (zlib's compressor objects)."""
 
     def compress(self, data: bytes | memoryview, /) -> bytes:
         """Return the stream's next bytes for ``data``."""
@@ -37,21 +34,16 @@ class Compressor(Protocol):
 
 
 def compress(data: bytes | memoryview, level: int | None = None) -> bytes:
-    """Return ``data`` as one zlib stream: ISA-L when ``level`` is None, else zlib's level."""
-    if level is None:
-        return isal_zlib.compress(data, FAST_LEVEL)
-    return zlib.compress(data, level)
+    """Return ``data`` as one zlib stream at ``level`` (None: the fast setting)."""
+    return zlib.compress(data, FAST_LEVEL if level is None else level)
 
 
 def compressobj(level: int | None = None) -> Compressor:
-    """Return a streaming compressor of one zlib stream (ISA-L when ``level`` is None)."""
-    if level is None:
-        packer: Compressor = isal_zlib.compressobj(FAST_LEVEL)
-        return packer
-    return zlib.compressobj(level)
+    """Return a streaming compressor of one zlib stream (None: the fast setting)."""
+    return zlib.compressobj(FAST_LEVEL if level is None else level)
 
 
 def check_level(level: int | None, name: str = "level") -> None:
     """Raise ValueError unless ``level`` is None or a zlib level 0..9."""
     if level is not None and not 0 <= level <= 9:
-        raise ValueError(f"{name} must be None (fast, ISA-L) or a zlib level 0..9, got {level}")
+        raise ValueError(f"{name} must be None (fast) or a zlib level 0..9, got {level}")
