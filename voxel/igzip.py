@@ -4,12 +4,13 @@ A *level* throughout shellvox is ``None`` for the fast setting, or zlib's level 
 (``--compression-level``) for smaller files at zlib's speed; 0 stores the bytes. The
 fast setting is zlib's level 1 (Python's zlib, which releases the GIL).
 
-ISA-L's igzip (python-isal) was measured as the fast setting (stop 19): 3 to 9 times
-zlib level 1's speed on voxel pages and 8 to 26 % smaller (``benchmarks/bench_compress.py``)
-but its output for the same input depends on what its buffers held before (a process that
-compressed other data first writes other bytes), so equal builds were no longer byte-equal
-(a Dask build with a killed worker differed from one process in ``volume.vdb``'s bytes,
-not its values). Builds must be reproducible, so zlib stays.
+ISA-L's igzip (python-isal) was tried as the fast setting (stop 19): 3 to 9 times zlib
+level 1's speed on voxel pages and 8 to 26 % smaller (``benchmarks/bench_compress.py``).
+With it, a Dask build whose worker was killed mid-build differed from the one-process
+build in 3 of 7 runs on a loaded machine: ``volume.vdb``'s material grid had equal values
+and topology but leaf streams of other lengths. With zlib every such run was byte-equal.
+The mechanism was not found (ISA-L gave equal bytes for equal input in every isolated
+test: after other data, in threads, inside larger buffers), so zlib stays until it is.
 """
 
 from __future__ import annotations
