@@ -16,6 +16,7 @@ whole 5 G-voxel model asks for every fourth page, not all of them.
 from __future__ import annotations
 
 import os
+import struct
 import threading
 import zlib
 from collections import OrderedDict
@@ -34,6 +35,8 @@ Axis = Literal["z", "y", "x"]
 
 #: TIFF compression codes read: deflate (the TIFF 6 code and Adobe's).
 DEFLATE = (8, 32946)
+#: What tifffile raises on a file that is not a whole TIFF (struct.error: an IFD cut short).
+_UNREADABLE = (OSError, tifffile.TiffFileError, ValueError, IndexError, KeyError, struct.error)
 
 #: Streams below which a slice is read in one thread (above: two, the decoder is nogil).
 _SPLIT_STREAMS = 64
@@ -310,7 +313,7 @@ def _strip_index(
                 offsets.append(page.dataoffsets)
                 counts.append(page.databytecounts)
             rows_per_strip = int(first.rowsperstrip) or n_y
-    except (OSError, tifffile.TiffFileError, ValueError, IndexError, KeyError) as error:
+    except _UNREADABLE as error:
         if isinstance(error, StackError):
             raise
         raise StackError(f"{path}: not a readable TIFF stack ({error})") from None
