@@ -61,9 +61,10 @@ class ChildPool(contextlib.AbstractContextManager["ChildPool"]):
     them before any other thread), with SIGINT and SIGTERM blocked until
     :func:`init_child`. A worker that dies (e.g. killed for lack of memory) fails the
     pending futures with ``BrokenProcessPool``. Leaving the block with an exception kills
-    the workers at once instead of waiting for their tasks. Tasks should be small (the
-    workers inherit the data): a task being written to a worker that is then killed
-    could block the executor's shutdown.
+    the workers at once instead of waiting for their tasks (:meth:`kill`, which also
+    unblocks the executor when a worker died half-way through sending a result). Tasks
+    should be small (the workers inherit the data): a task being written to a worker
+    that is then killed could block the executor's shutdown.
 
     Parameters
     ----------
@@ -93,6 +94,14 @@ class ChildPool(contextlib.AbstractContextManager["ChildPool"]):
         for process in processes:
             with contextlib.suppress(OSError, ValueError, AssertionError):
                 process.join(timeout=5)
+        # A worker killed while it wrote its result leaves the executor's reader waiting
+        # for the rest of that message for ever, and shutdown with it. With every worker
+        # gone, this process holds the last writing end: closing it ends the wait (EOF:
+        # the pool is broken) and shutdown returns.
+        writer = getattr(getattr(self._executor, "_result_queue", None), "_writer", None)
+        if writer is not None:
+            with contextlib.suppress(OSError):
+                writer.close()
 
     def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
         if kind is not None:  # do not wait for results nobody will use
