@@ -1,4 +1,4 @@
-"""Deflate encoders on a build's own pages: zlib level 1 (the fast setting), ISA-L, the run encoder.
+"""Deflate encoders on a build's own pages: the fast setting (zlib-ng), zlib level 1, runs.
 
 Every file a build writes is deflate data, so the encoder's speed is paid per voxel. This
 reads the pages of a finished build (``layers.tif``, ``colour.tif``, ``materials.tif``
@@ -29,12 +29,13 @@ import numpy as np
 import tifffile
 from PIL import Image
 
-try:  # not a dependency (see voxel/igzip.py): measured where installed
+try:  # not a dependency (see voxel/compression.py): measured where installed
     from isal import isal_zlib
 except ImportError:
     isal_zlib = None
 
 from pipeline.viewer.inflate import decode
+from voxel.compression import compress
 from voxel.deflate import zlib_compress
 
 REPO = Path(__file__).resolve().parents[1]
@@ -101,10 +102,17 @@ def main() -> None:
         row: dict[str, Any] = {"pages": len(pages), "raw_bytes_per_page": len(pages[0])}
         viewer = name.endswith(".tif")
         row["zlib-1"] = _time(lambda b: zlib.compress(b, 1), pages, viewer)
+        row["fast (zlib-ng 2)"] = _time(compress, pages, viewer)
         row["run encoder"] = _time(lambda b, p=period: zlib_compress(b, p), pages, viewer)
+        peer = row["zlib-1"]
+        row["fast time / zlib-1"] = round(
+            row["fast (zlib-ng 2)"]["ms_per_page"] / peer["ms_per_page"], 3
+        )
+        row["fast size / zlib-1"] = round(
+            row["fast (zlib-ng 2)"]["bytes_per_page"] / peer["bytes_per_page"], 3
+        )
         if isal_zlib is not None:
             row["isal-1"] = _time(lambda b: isal_zlib.compress(b, 1), pages, viewer)
-            peer = row["zlib-1"]
             row["isal time / zlib-1"] = round(row["isal-1"]["ms_per_page"] / peer["ms_per_page"], 3)
             row["isal size / zlib-1"] = round(
                 row["isal-1"]["bytes_per_page"] / peer["bytes_per_page"], 3

@@ -347,7 +347,7 @@ class KeySlices:
     first_row : {"max_y", "min_y"}
         Which end of the y axis is image row 0.
     level : int or None
-        Of the PNG data: None, the fast setting (:mod:`voxel.igzip`), or zlib's level.
+        Of the PNG data: None, the fast setting (:mod:`voxel.compression`), or zlib's level.
     """
 
     lut: NDArray[np.uint32]

@@ -54,7 +54,7 @@ class PngSliceWriter(SliceWriter):
     threads : int
         Slices encoded in parallel.
     level : int, optional
-        Of the PNG data: None (default), the fast setting (:mod:`voxel.igzip`), or zlib's.
+        Of the PNG data: None (default), the fast setting (:mod:`voxel.compression`), or zlib's.
     queue_slabs : int
         Slabs that may wait for the writer thread.
     """

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel.compression import compress
 from voxel.deflate import pixel_bytes
 from voxel.gcvf_writer import KeySlices
-from voxel.igzip import compress
 
 
 def compress_page(page: NDArray[np.uint8], level: int | None) -> bytes:
@@ -27,7 +27,7 @@ def compress_page(page: NDArray[np.uint8], level: int | None) -> bytes:
     ----------
     page : (Y, X) or (Y, X, S) uint8
     level : int or None
-        zlib level 1..9; None: the fast setting (:mod:`voxel.igzip`, ISA-L).
+        zlib level 1..9; None: the fast setting (:mod:`voxel.compression`).
     """
     return compress(pixel_bytes(page).data, level)
 
@@ -42,7 +42,7 @@ class PageEncoder:
         3 (RGB) or 4 (RGBA) samples of ``colour.tif``; None: the build writes no TIFF
         stacks (nor ``materials.tif``).
     level : int or None
-        zlib level of the stacks; None: the fast setting (:mod:`voxel.igzip`).
+        zlib level of the stacks; None: the fast setting (:mod:`voxel.compression`).
     materials_tif : bool
         The build writes ``materials.tif`` (with the same level).
     slices : KeySlices, optional

@@ -7,9 +7,9 @@ one per z, deflate (zlib) compressed, with ImageJ metadata ``spacing`` (z), ``un
 and TIFF resolution tags (pixels per mm in x and y) so Fiji shows true size.
 
 Each page is one strip, compressed in the writer thread before tifffile writes it as
-is: by default at the fast setting of :mod:`voxel.igzip` (ISA-L, GIL released, 5 to 10
-times zlib's speed on voxel slices and smaller than zlib's level 1), or with zlib at a
-given level (smaller files, slower). Both are TIFF compression 8 (deflate).
+is: by default at the fast setting of :mod:`voxel.compression` (zlib-ng, GIL released, 3 to
+4 times zlib level 1's speed on voxel slices and smaller), or at a given zlib level
+(smaller files, slower). Both are TIFF compression 8 (deflate).
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ class TiffStackWriter(ClosingWriter):
     samples : int
         0 for a grey stack ``(Z, Y, X)``; 3 (RGB) or 4 (RGBA) for colour ``(Z, Y, X, S)``.
     compression_level : int, optional
-        zlib level 1..9; None (default): the fast setting (:mod:`voxel.igzip`, ISA-L).
+        zlib level 1..9; None (default): the fast setting (:mod:`voxel.compression`).
     queue_slabs : int
         Slabs that may wait for the writer thread.
 

@@ -19,8 +19,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel.compression import compress
 from voxel.deflate import compress_segments
-from voxel.igzip import compress
 
 #: io::writeCompressedValues metadata: inactive values are all the background; inactive
 #: values are +-background, chosen by a selection mask (on: +background).
@@ -116,11 +116,11 @@ class GridSpool:
         inside : (n, 512) bool, optional
             Level sets: where inactive values are -background.
         level : int or None
-            Of the values: None, the fast setting (:mod:`voxel.igzip`); zlib's level; 0:
+            Of the values: None, the fast setting (:mod:`voxel.compression`); zlib's level; 0:
             stored raw.
         runs : bool
             Values are runs of equal numbers (density, layer): the compiled run encoder
-            packs them as well as zlib in one call; otherwise ISA-L or zlib per leaf.
+            packs them as well as zlib in one call; otherwise zlib-ng per leaf.
         """
         if len(origin) == 0:
             return
@@ -137,7 +137,7 @@ class GridSpool:
             raw = np.ascontiguousarray(values[active], dtype="<f4").reshape(-1).view(np.uint8)
             body, body_lengths = _zipped_all(raw, bounds, level)
         else:
-            # io::zipToStream per leaf with ISA-L or zlib: colours and halftoned materials
+            # io::zipToStream per leaf with zlib-ng: colours and halftoned materials
             # need matches at any distance.
             packed = np.ascontiguousarray(values[active], dtype="<f4").tobytes()
             bodies = [zipped(packed[a:b], level) for a, b in itertools.pairwise(bounds)]
@@ -166,7 +166,7 @@ def zipped(raw: bytes, level: int | None) -> bytes:
     """Return ``raw`` as io::zipToStream writes it: int64 size, then zlib data or raw bytes.
 
     A negative (or zero) size marks raw bytes, used when compression does not make them
-    smaller and for ``level`` 0 (None: the fast setting of :mod:`voxel.igzip`).
+    smaller and for ``level`` 0 (None: the fast setting of :mod:`voxel.compression`).
     """
     if raw and level != 0:
         packed = compress(raw, level)

@@ -61,7 +61,7 @@ class VdbStackWriter:
         Where the leaf spools go (default: the system's temporary folder); they are
         removed by :meth:`write` or :meth:`close`.
     compression_level : int, optional
-        Of the leaf values: None (default), the fast setting of :mod:`voxel.igzip`, or
+        Of the leaf values: None (default), the fast setting of :mod:`voxel.compression`, or
         zlib's level 1-9 (hardly smaller on these grids: constant densities, integer
         layers and texture colours). Level-set values hardly compress (about 0.92) and
         are stored raw.

@@ -160,7 +160,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--compression-level",
         type=int,
         default=None,
-        help="zlib level of the TIFFs, 1..9 (smaller files, slower); default: zlib level 1",
+        help="zlib level of the TIFFs, 1..9 (smaller files, slower); default: zlib-ng level 2",
     )
     parser.add_argument(
         "--workers",
