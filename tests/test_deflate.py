@@ -37,9 +37,17 @@ def test_runs_compress_like_zlib() -> None:
 
 
 def test_pixel_bytes_of_a_channel_slice() -> None:
-    rgba = np.random.default_rng(0).integers(0, 256, (17, 23, 4)).astype(np.uint8)
-    np.testing.assert_array_equal(pixel_bytes(rgba[..., :3]), rgba[..., :3].reshape(-1))
-    np.testing.assert_array_equal(pixel_bytes(rgba[:, ::2, 0]), rgba[:, ::2, 0].reshape(-1))
+    """Every view's bytes are numpy's copy of it: channel prefixes of whole rows (the
+    flat path), windows, reversed rows and strided columns (the general path)."""
+    slab = np.random.default_rng(0).integers(0, 256, (3, 17, 23, 4)).astype(np.uint8)
+    rgba = slab[2]  # the last page: a read past the last pixel would leave the buffer
+    views = [
+        rgba[..., :3], rgba[..., :2], rgba[..., :1], rgba[..., 1:3], rgba[:, ::2, 0],
+        rgba[2:9, 3:20, :3], rgba[::-1, :, :3], rgba[:, ::-1, :3], rgba[:1, :1, :3],
+        slab[1, ..., :3], slab[2, :, :, 0], rgba,
+    ]  # fmt: skip
+    for view in views:
+        np.testing.assert_array_equal(pixel_bytes(view), np.ascontiguousarray(view).reshape(-1))
 
 
 @pytest.mark.parametrize("level", [None, 1, 9])

@@ -287,13 +287,13 @@ def test_aborted_writers_leave_no_file(tmp_path):
 def test_a_failure_in_the_writer_thread_reaches_the_caller(tmp_path, monkeypatch):
     calls = []
 
-    def failing(image, **options):
+    def failing(indices, lut, **options):
         calls.append(1)
         if len(calls) == 3:
             raise OSError("disk full")
         return b""
 
-    monkeypatch.setattr(gcvf_writer, "encode_png", failing)
+    monkeypatch.setattr(gcvf_writer, "encode_indexed_png", failing)
     volume = _volume()
 
     def write() -> None:

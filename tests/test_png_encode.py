@@ -47,3 +47,31 @@ def test_png_data_split_over_several_idat_chunks(monkeypatch):
     assert data.count(b"IDAT") > 10
     with Image.open(io.BytesIO(data)) as image:
         np.testing.assert_array_equal(np.asarray(image), pixels)
+
+
+@pytest.mark.parametrize(("samples", "mode"), [(1, "L"), (3, "RGB"), (4, "RGBA")])
+@pytest.mark.parametrize("bottom_up", [False, True])
+def test_indexed_png_is_the_lookup_of_its_indices(samples, mode, bottom_up):
+    """Read back by Pillow: the picture is numpy's ``lut[indices]``, flipped if bottom up."""
+    rng = np.random.default_rng(samples)
+    lut = rng.integers(0, 256, (256, samples)).astype(np.uint8)
+    indices = rng.integers(0, 256, (37, 29)).astype(np.uint8)
+    indices[:10] = 3
+    expected = lut[indices[::-1] if bottom_up else indices]
+    if samples == 1:
+        expected = expected[..., 0]
+    data = png_encode.encode_indexed_png(indices, lut, bottom_up=bottom_up)
+    assert data == encode_png(expected)
+    with Image.open(io.BytesIO(data)) as image:
+        assert image.mode == mode
+        np.testing.assert_array_equal(np.asarray(image), expected)
+
+
+def test_indexed_png_bad_input():
+    lut = np.zeros((256, 4), np.uint8)
+    with pytest.raises(ValueError, match=r"indices must be uint8 \(H, W\), got int64"):
+        png_encode.encode_indexed_png(np.zeros((2, 3), np.int64), lut)
+    with pytest.raises(ValueError, match=r"lut must be uint8 \(256, S\), got uint8 \(255, 4\)"):
+        png_encode.encode_indexed_png(np.zeros((2, 3), np.uint8), lut[:255])
+    with pytest.raises(ValueError, match="lut must have 1, 3 or 4 samples, got 2"):
+        png_encode.encode_indexed_png(np.zeros((2, 3), np.uint8), lut[:, :2])

@@ -232,15 +232,40 @@ def pixel_bytes(page: NDArray[np.uint8]) -> NDArray[np.uint8]:
     """Return a ``(Y, X[, C])`` uint8 page as contiguous bytes (compiled strided copy).
 
     numpy copies a channel slice such as ``rgba[..., :3]`` byte by byte at about
-    0.2 GB/s; this loop runs at memory speed.
+    0.4 GB/s. Such a slice of whole contiguous rows (the colour pages) is copied from a
+    flat view of its parent's bytes, about 10 times faster; other strides by a general loop.
     """
     if page.flags.c_contiguous:
         return page.reshape(-1)
     if page.ndim == 2:
         page = page[:, :, None]
+    n_y, n_x, n_c = page.shape
+    s_y, s_x, s_c = page.strides
+    if s_c == 1 and n_c < s_x and s_y == s_x * n_x and n_y * n_x > 0:
+        # The bytes from the first sample to the last one read, all inside the parent.
+        span = s_y * n_y - (s_x - n_c)
+        flat = np.lib.stride_tricks.as_strided(page, shape=(span,), strides=(1,), writeable=False)
+        out = np.empty(n_y * n_x * n_c, dtype=np.uint8)
+        _copy_samples(flat, s_x, n_c, out)
+        return out
     out = np.empty(page.shape, dtype=np.uint8)
     _copy_pixels(page, out)
     return out.reshape(-1)
+
+
+@numba.njit(cache=True, nogil=True)
+def _copy_samples(flat: NDArray[np.uint8], step: int, n_c: int, out: NDArray[np.uint8]) -> None:
+    """Copy the first ``n_c`` of every ``step`` bytes of ``flat`` into ``out``."""
+    n = len(out) // n_c
+    if n_c == 3 and step == 4:  # RGB of RGBA: constant strides, which LLVM vectorises (7x)
+        for k in range(n):
+            out[3 * k] = flat[4 * k]
+            out[3 * k + 1] = flat[4 * k + 1]
+            out[3 * k + 2] = flat[4 * k + 2]
+    else:
+        for k in range(n):
+            for c in range(n_c):
+                out[n_c * k + c] = flat[step * k + c]
 
 
 @numba.njit(cache=True, nogil=True)

@@ -55,7 +55,7 @@ from voxel.gcvf_job import (
     material_table,
 )
 from voxel.grid import GridSpec
-from voxel.png_encode import encode_png
+from voxel.png_encode import encode_indexed_png
 from voxel.slab_thread import FirstRow, SliceWriter
 
 CONFIG_NAME = "ConfigFile.xml"
@@ -342,15 +342,15 @@ class KeySlices:
 
     Parameters
     ----------
-    lut : (256,) uint32
-        The RGBA key of each material index, as the key's bytes in memory order.
+    lut : (256, 4) uint8
+        The RGBA key of each material index.
     first_row : {"max_y", "min_y"}
         Which end of the y axis is image row 0.
     level : int or None
         Of the PNG data: None, the fast setting (:mod:`voxel.compression`), or zlib's level.
     """
 
-    lut: NDArray[np.uint32]
+    lut: NDArray[np.uint8]
     first_row: FirstRow
     level: int | None
 
@@ -363,14 +363,12 @@ class KeySlices:
         lut[0] = background
         for material in materials:
             lut[material.index] = material.rgba
-        return cls(np.ascontiguousarray(lut).view(np.uint32).ravel(), first_row, level)
+        return cls(lut, first_row, level)
 
     def encode(self, plane: NDArray[np.uint8]) -> bytes:
         """One slice ``(Y, X)`` of indices -> PNG of keys, rows in the chosen order."""
-        if self.first_row == "max_y":
-            plane = plane[::-1]
-        keys = np.take(self.lut, plane).view(np.uint8).reshape(*plane.shape, 4)
-        return encode_png(keys, level=self.level)
+        bottom_up = self.first_row == "max_y"
+        return encode_indexed_png(plane, self.lut, bottom_up=bottom_up, level=self.level)
 
 
 def _zip_info(name: str) -> zipfile.ZipInfo:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import struct
 import zlib
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -83,6 +84,81 @@ def encode_png(
     rows = np.empty((height, 1 + width * samples), dtype=np.uint8)
     rows[:, 0] = 0  # filter type None
     rows[:, 1:] = pixels.reshape(height, width * samples)
+    return _png(rows, width, samples, level, pixels_per_metre)
+
+
+def encode_indexed_png(
+    indices: NDArray[np.uint8],
+    lut: NDArray[np.uint8],
+    *,
+    bottom_up: bool = False,
+    level: int | None = None,
+    pixels_per_metre: tuple[int, int] | None = None,
+) -> bytes:
+    """Return a PNG file of the pixels ``lut[indices]``, made in one compiled pass.
+
+    What :func:`encode_png` of ``lut[indices]`` (rows reversed if `bottom_up`) writes,
+    without the gathered image and its copy into rows: a printer slice of material
+    indices becomes a PNG of their keys.
+
+    Parameters
+    ----------
+    indices : (H, W) uint8
+        Index of each pixel's row in `lut`.
+    lut : (256, S) uint8
+        The samples (1, 3 or 4) of each index.
+    bottom_up : bool
+        Row 0 of `indices` is the bottom of the picture (the last PNG row).
+    level, pixels_per_metre
+        As for :func:`encode_png`.
+    """
+    if indices.dtype != np.uint8 or indices.ndim != 2 or 0 in indices.shape:
+        raise ValueError(f"indices must be uint8 (H, W), got {indices.dtype} {indices.shape}")
+    if lut.dtype != np.uint8 or lut.ndim != 2 or lut.shape[0] != 256:
+        raise ValueError(f"lut must be uint8 (256, S), got {lut.dtype} {lut.shape}")
+    samples = lut.shape[1]
+    if samples not in _COLOUR_TYPE:
+        raise ValueError(f"lut must have 1, 3 or 4 samples, got {samples}")
+    check_level(level)
+    height, width = indices.shape
+    rows = np.empty((height, 1 + width * samples), dtype=np.uint8)
+    _indexed_rows(indices, np.ascontiguousarray(lut), bottom_up, rows)
+    return _png(rows, width, samples, level, pixels_per_metre)
+
+
+@numba.njit(cache=True, nogil=True)
+def _indexed_rows(
+    indices: NDArray[np.uint8], lut: NDArray[np.uint8], bottom_up: bool, rows: NDArray[np.uint8]
+) -> None:
+    """Fill ``rows (H, 1 + W * S)``: filter type 0, then ``lut[indices]`` of the row."""
+    height, width = indices.shape
+    samples = lut.shape[1]
+    for r in range(height):
+        j = height - 1 - r if bottom_up else r
+        rows[r, 0] = 0
+        if samples == 4:  # constant strides, which LLVM vectorises
+            for i in range(width):
+                k = indices[j, i]
+                rows[r, 1 + 4 * i] = lut[k, 0]
+                rows[r, 2 + 4 * i] = lut[k, 1]
+                rows[r, 3 + 4 * i] = lut[k, 2]
+                rows[r, 4 + 4 * i] = lut[k, 3]
+        else:
+            for i in range(width):
+                k = indices[j, i]
+                for c in range(samples):
+                    rows[r, 1 + samples * i + c] = lut[k, c]
+
+
+def _png(
+    rows: NDArray[np.uint8],
+    width: int,
+    samples: int,
+    level: int | None,
+    pixels_per_metre: tuple[int, int] | None,
+) -> bytes:
+    """Return the PNG file of ``rows (H, 1 + W * S)``, each led by its filter type."""
+    height = rows.shape[0]
     packer = compressobj(level)
     data = packer.compress(rows.data) + packer.flush()
     header = struct.pack(">IIBBBBB", width, height, 8, _COLOUR_TYPE[samples], 0, 0, 0)
