@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -104,129 +105,78 @@ class VdbEncoder:
     ) -> None:
         """Cut rows ``z0 .. z0 + 8`` (fewer at the top) into leaves and tiles of every grid.
 
-        Blocks are classified from reductions over the rows and then over 8 x 8 columns;
-        only the blocks that become leaves are gathered, reordered and converted.
+        One compiled pass classifies the 8^3 blocks (rows past the top and columns past the
+        grid's edge count as background); only the blocks that become leaves are gathered,
+        in OpenVDB's voxel order, and converted.
         """
         hw = self._half_width
-        inside = layers > 0
-        in_band = np.abs(sdf) < hw
-        # Only the columns holding non-background voxels, from a multiple of 8 on.
-        content = (inside | in_band).any(axis=0)
-        if materials is not None:  # void is outside; any other material counts as content
-            content |= (materials > 0).any(axis=0)
-        ys = np.flatnonzero(content.any(axis=1))
-        if len(ys) == 0:
-            return
-        xs = np.flatnonzero(content.any(axis=0))
-        n_y, n_x = content.shape
-        y0, x0 = int(ys[0]) // LEAF * LEAF, int(xs[0]) // LEAF * LEAF
-        y1 = min(n_y, -(-(int(ys[-1]) + 1) // LEAF) * LEAF)
-        x1 = min(n_x, -(-(int(xs[-1]) + 1) // LEAF) * LEAF)
-        box = (slice(None), slice(y0, y1), slice(x0, x1))
-        blocks = _Blocks((x0, y0, z0))
-        layers = blocks.pad(layers[box], 0)
-        rgb = blocks.pad(rgb[box], 0)
-        coloured = blocks.pad(coloured[box], False)
-        sdf = blocks.pad(sdf[box], hw)
-        inside, in_band = blocks.pad(inside[box], False), blocks.pad(in_band[box], False)
-        any_in, all_in = blocks.any(inside), blocks.all(inside)
-        any_band = blocks.any(in_band)
-        low, high = blocks.reduce(layers, np.min), blocks.reduce(layers, np.max)
+        mats = np.zeros((0, 0, 0), np.uint8) if materials is None else materials
+        stats = _block_stats(layers, sdf, coloured, mats, hw)
+        any_in, all_in, any_band, any_col = (stats[..., k] > 0 for k in range(4))
+        low, high = stats[..., 4], stats[..., 5]
+        blocks = _Blocks((0, 0, z0), (layers, sdf, coloured, rgb, mats))
         density, layer, color, level = spools[:4]
         # density and layer: the core's constant blocks are active tiles.
         density.add_tiles(blocks.origins(all_in), np.ones(int(all_in.sum()), np.float32), True)
-        self._leaves(density, blocks, any_in & ~all_in, inside, inside)
+        leaf = any_in & ~all_in
+        inside = blocks.gather(0, leaf, 0) > 0
+        density.add_leaves(blocks.origins(leaf), inside.astype(np.float32), inside, None,
+                           self._level, True)  # fmt: skip
         tile = all_in & (low == high)
         layer.add_tiles(blocks.origins(tile), low[tile].astype(np.float32), True)
-        self._leaves(layer, blocks, any_in & ~tile, layers, inside)
+        leaf = any_in & ~tile
+        values = blocks.gather(0, leaf, 0)
+        layer.add_leaves(blocks.origins(leaf), values.astype(np.float32), values > 0, None,
+                         self._level, True)  # fmt: skip
         # color: leaves wherever a colour voxel is; black ones stay active (background 0).
-        leaf = blocks.any(coloured)
-        linear = codes_to_linear(blocks.gather(rgb, leaf))
-        on = blocks.gather(coloured, leaf)
-        linear[on] = np.maximum(linear[on], np.float32(1e-7))
+        leaf = any_col
+        linear = codes_to_linear(blocks.gather(3, leaf, 0))
+        on = blocks.gather(2, leaf, False)
+        np.maximum(linear, np.float32(1e-7), out=linear, where=on[..., None])
         color.add_leaves(blocks.origins(leaf), linear, on, None, self._level)
         # sdf: inactive values are -hw inside, +hw (the background) outside.
         tile = all_in & ~any_band
         level.add_tiles(blocks.origins(tile), np.full(int(tile.sum()), -hw), False)
         leaf = any_band | (any_in & ~all_in)
-        band, solid = blocks.gather(in_band, leaf), blocks.gather(inside, leaf)
-        values = np.where(band, blocks.gather(sdf, leaf), np.where(solid, -hw, hw))
+        sdf_values = blocks.gather(1, leaf, hw)
+        band, solid = np.abs(sdf_values) < hw, blocks.gather(0, leaf, 0) > 0
+        values = np.where(band, sdf_values, np.where(solid, -hw, hw))
         # Level-set values hardly compress (about 0.92): stored raw.
         level.add_leaves(blocks.origins(leaf), values.astype(np.float32), band, solid, 0)
         if materials is not None:
             # material: like layer, constant wholly non-void blocks are active tiles.
-            materials = blocks.pad(materials[box], 0)
-            solid = materials > 0
-            any_on, all_on = blocks.any(solid), blocks.all(solid)
-            low, high = blocks.reduce(materials, np.min), blocks.reduce(materials, np.max)
+            any_on, all_on = stats[..., 6] > 0, stats[..., 7] > 0
+            low, high = stats[..., 8], stats[..., 9]
             tile = all_on & (low == high)
             spools[4].add_tiles(blocks.origins(tile), low[tile].astype(np.float32), True)
-            self._leaves(spools[4], blocks, any_on & ~tile, materials, solid)
-
-    def _leaves(
-        self,
-        spool: GridSpool,
-        blocks: _Blocks,
-        which: NDArray[np.bool_],
-        values: NDArray[Any],
-        active: NDArray[np.bool_],
-    ) -> None:
-        """Spool the blocks `which` of a grid whose inactive values are its background."""
-        spool.add_leaves(
-            blocks.origins(which),
-            blocks.gather(values, which).astype(np.float32),
-            blocks.gather(active, which),
-            None,
-            self._level,
-            spool.name in RUN_GRIDS,
-        )
+            leaf = any_on & ~tile
+            values = blocks.gather(4, leaf, 0)
+            spools[4].add_leaves(blocks.origins(leaf), values.astype(np.float32), values > 0,
+                                 None, self._level, False)  # fmt: skip
 
 
 class _Blocks:
-    """8^3 blocks of a group of rows ``(8, Y, X[, 3])`` (Y, X multiples of 8) at `corner`.
+    """The 8^3 blocks of a group of rows ``(Zs <= 8, Y, X[, 3])`` whose first row is `z0`.
 
-    Reductions run on the blocked view ``(8, Y/8, 8, X/8, 8)`` without copies; gathered
-    leaves are in OpenVDB's voxel order ``x << 6 | y << 3 | z``.
+    Block ``(b_y, b_x)`` holds voxels ``8 b_y ..`` and ``8 b_x ..``; voxels past the group's
+    rows or the grid's edge are a given fill. Gathered leaves are in OpenVDB's voxel order
+    ``x << 6 | y << 3 | z``.
     """
 
-    def __init__(self, corner: tuple[int, int, int]) -> None:
-        self.corner = corner  # (x, y, z) index of the first voxel
+    def __init__(self, corner: tuple[int, int, int], volumes: tuple[NDArray[Any], ...]) -> None:
+        self.corner = corner  # (x, y, z) index of block (0, 0)'s first voxel
+        self.volumes = volumes
 
-    @staticmethod
-    def pad(volume: NDArray[Any], fill: Any) -> NDArray[Any]:
-        """Pad ``(Zs <= 8, Ys, Xs[, 3])`` to whole blocks with `fill`."""
-        pads = [
-            (0, LEAF - volume.shape[0]),
-            (0, -volume.shape[1] % LEAF),
-            (0, -volume.shape[2] % LEAF),
-        ] + [(0, 0)] * (volume.ndim - 3)
-        if any(after for _, after in pads):
-            return np.pad(volume, pads, constant_values=fill)
-        return volume
-
-    @staticmethod
-    def view(volume: NDArray[Any]) -> NDArray[Any]:
-        _, n_y, n_x = volume.shape[:3]
-        return volume.reshape(LEAF, n_y // LEAF, LEAF, n_x // LEAF, LEAF, *volume.shape[3:])
-
-    def reduce(self, volume: NDArray[Any], how: Any) -> NDArray[Any]:
-        """Return ``how`` over each block: ``(Y/8, X/8)`` (over the rows first, contiguous)."""
-        columns = how(volume, axis=0)
-        n_y, n_x = columns.shape
-        return np.asarray(how(columns.reshape(n_y // LEAF, LEAF, n_x // LEAF, LEAF), axis=(1, 3)))
-
-    def any(self, volume: NDArray[np.bool_]) -> NDArray[np.bool_]:
-        return self.reduce(volume, np.any)
-
-    def all(self, volume: NDArray[np.bool_]) -> NDArray[np.bool_]:
-        return self.reduce(volume, np.all)
-
-    def gather(self, volume: NDArray[Any], which: NDArray[np.bool_]) -> NDArray[Any]:
-        """Return the blocks `which` ``(Y/8, X/8)`` as leaves ``(n, 512[, 3])``."""
+    def gather(self, which_volume: int, which: NDArray[np.bool_], fill: Any) -> NDArray[Any]:
+        """Return the blocks `which` ``(Y/8, X/8)`` of a volume as leaves ``(n, 512[, 3])``."""
+        volume = self.volumes[which_volume]
         b_y, b_x = np.nonzero(which)
-        picked = self.view(volume)[:, b_y, :, b_x, :]  # (n, 8 z, 8 y, 8 x[, 3])
-        axes = (0, 3, 2, 1, *range(4, picked.ndim))
-        return picked.transpose(axes).reshape(len(b_y), LEAF**3, *volume.shape[3:])
+        shape = (len(b_y), LEAF**3, *volume.shape[3:])
+        out = np.empty(shape, dtype=volume.dtype)
+        n_c = volume.shape[3] if volume.ndim == 4 else 1
+        flat = volume.reshape(*volume.shape[:3], n_c)
+        _gather(flat, b_y, b_x, volume.dtype.type(fill), out.reshape(len(b_y), LEAF**3, n_c))
+        return out
 
     def origins(self, which: NDArray[np.bool_]) -> NDArray[np.int32]:
         """Return ``(n, 3)`` int32 index coordinates ``(x, y, z)`` of the blocks `which`."""
@@ -234,3 +184,103 @@ class _Blocks:
         x0, y0, z0 = self.corner
         origin = np.stack([x0 + b_x * LEAF, y0 + b_y * LEAF, np.full(len(b_y), z0)], axis=1)
         return np.asarray(origin, dtype=np.int32)
+
+
+@numba.njit(cache=True, nogil=True)
+def _block_stats(
+    layers: NDArray[np.uint8],
+    sdf: NDArray[np.float32],
+    coloured: NDArray[np.bool_],
+    materials: NDArray[np.uint8],
+    hw: np.float32,
+) -> NDArray[np.int32]:
+    """Classify the 8^3 blocks of rows ``(Zs <= 8, Y, X)`` in one pass.
+
+    Returns ``(ceil(Y/8), ceil(X/8), 10)`` int32: any inside, all inside, any in the
+    distance band, any coloured, lowest and highest layer, then (with materials, else 0)
+    any non-void material, all non-void, lowest and highest material. Voxels past the
+    rows or the edge count as layer 0, material 0, outside the band, not coloured.
+    Each block row is first reduced over its voxel rows into columns (contiguous loops
+    that LLVM vectorises), then the columns over each block's 8.
+    """
+    n_z, n_y, n_x = layers.shape
+    b_y, b_x = -(-n_y // LEAF), -(-n_x // LEAF)
+    has_materials = materials.shape[0] > 0
+    stats = np.zeros((b_y, b_x, 10), np.int32)
+    n_in, low, high = np.empty(n_x, np.int32), np.empty(n_x, np.uint8), np.empty(n_x, np.uint8)
+    band, colour = np.empty(n_x, np.uint8), np.empty(n_x, np.uint8)
+    n_on, m_low = np.empty(n_x, np.int32), np.empty(n_x, np.uint8)
+    m_high = np.empty(n_x, np.uint8)
+    for j in range(b_y):
+        n_in[:], low[:], high[:], band[:], colour[:] = 0, 255, 0, 0, 0
+        n_on[:], m_low[:], m_high[:] = 0, 255, 0
+        y_end = min(n_y, (j + 1) * LEAF)
+        for z in range(n_z):
+            for y in range(j * LEAF, y_end):
+                layer_row, sdf_row, colour_row = layers[z, y], sdf[z, y], coloured[z, y]
+                for x in range(n_x):
+                    value = layer_row[x]
+                    n_in[x] += np.int32(value > 0)
+                    low[x] = min(low[x], value)
+                    high[x] = max(high[x], value)
+                    band[x] |= np.uint8(abs(sdf_row[x]) < hw)
+                    colour[x] |= np.uint8(colour_row[x])
+                if has_materials:
+                    material_row = materials[z, y]
+                    for x in range(n_x):
+                        material = material_row[x]
+                        n_on[x] += np.int32(material > 0)
+                        m_low[x] = min(m_low[x], material)
+                        m_high[x] = max(m_high[x], material)
+        for i in range(b_x):
+            x_end = min(n_x, (i + 1) * LEAF)
+            whole = n_z == LEAF and y_end - j * LEAF == LEAF and x_end - i * LEAF == LEAF
+            count, lo, hi, in_band, any_colour = 0, 255, 0, 0, 0
+            count_on, lo_on, hi_on = 0, 255, 0
+            for x in range(i * LEAF, x_end):
+                count += n_in[x]
+                lo, hi = min(lo, low[x]), max(hi, high[x])
+                in_band |= band[x]
+                any_colour |= colour[x]
+                count_on += n_on[x]
+                lo_on, hi_on = min(lo_on, m_low[x]), max(hi_on, m_high[x])
+            stats[j, i, 0] = count > 0
+            stats[j, i, 1] = whole and count == LEAF**3
+            stats[j, i, 2] = in_band
+            stats[j, i, 3] = any_colour
+            stats[j, i, 4] = lo if whole else 0  # a block past the edge holds layer 0
+            stats[j, i, 5] = hi
+            if has_materials:
+                stats[j, i, 6] = count_on > 0
+                stats[j, i, 7] = whole and count_on == LEAF**3
+                stats[j, i, 8] = lo_on if whole else 0
+                stats[j, i, 9] = hi_on
+    return stats
+
+
+@numba.njit(cache=True, nogil=True)
+def _gather(
+    volume: NDArray[Any],
+    b_y: NDArray[np.int64],
+    b_x: NDArray[np.int64],
+    fill: Any,
+    out: NDArray[Any],
+) -> None:
+    """Copy blocks ``(b_y, b_x)`` of ``volume (Zs, Y, X, C)`` to ``out (n, 512, C)``.
+
+    Voxel order ``x << 6 | y << 3 | z``; voxels past the rows or the edge are `fill`.
+    """
+    n_z, n_y, n_x, n_c = volume.shape
+    for n in range(len(b_y)):
+        y0, x0 = b_y[n] * LEAF, b_x[n] * LEAF
+        for dx in range(LEAF):
+            for dy in range(LEAF):
+                for dz in range(LEAF):
+                    at = dx << 6 | dy << 3 | dz
+                    x, y = x0 + dx, y0 + dy
+                    if dz < n_z and y < n_y and x < n_x:
+                        for c in range(n_c):
+                            out[n, at, c] = volume[dz, y, x, c]
+                    else:
+                        for c in range(n_c):
+                            out[n, at, c] = fill

@@ -152,14 +152,30 @@ class GridSpool:
         self.leaf_offset.append(offsets.astype(np.int64))
         self.leaf_length.append(lengths)
         self.active_voxels += int(counts.sum())
-        # Active extent of each leaf from its voxel offsets x << 6 | y << 3 | z.
-        some = counts > 0
-        offset = np.arange(LEAF**3)
-        local = np.stack([offset >> 6, (offset >> 3) & 7, offset & 7], axis=1)
-        on = active[some]
-        low = np.stack([np.where(on, local[:, a], LEAF).min(axis=1) for a in range(3)], axis=1)
-        high = np.stack([np.where(on, local[:, a], -1).max(axis=1) for a in range(3)], axis=1)
-        self.extend(origin[some].astype(np.int64) + low, origin[some].astype(np.int64) + high)
+        if counts.any():
+            low, high = _active_box(origin, np.ascontiguousarray(active))
+            self.extend(low[None], high[None])
+
+
+@numba.njit(cache=True, nogil=True)
+def _active_box(
+    origin: NDArray[np.int32], active: NDArray[np.bool_]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Return the inclusive ``(x, y, z)`` index box of the active voxels of leaves.
+
+    `origin` is ``(n, 3)``; ``active (n, 512)`` in voxel order ``x << 6 | y << 3 | z``.
+    """
+    low = np.full(3, 2**62, np.int64)
+    high = np.full(3, -(2**62), np.int64)
+    for n in range(active.shape[0]):
+        for offset in range(LEAF**3):
+            if active[n, offset]:
+                local = (offset >> 6, (offset >> 3) & 7, offset & 7)
+                for a in range(3):
+                    at = np.int64(origin[n, a]) + local[a]
+                    low[a] = min(low[a], at)
+                    high[a] = max(high[a], at)
+    return low, high
 
 
 def zipped(raw: bytes, level: int | None) -> bytes:
