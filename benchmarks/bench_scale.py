@@ -50,7 +50,8 @@ def _scale_for(model: Path, size_mm: float) -> float:
 
 
 def _sample(main: psutil.Process, peaks: dict[int, dict[str, float]], cpu: dict[int, float],
-            roles: dict[int, str]) -> None:  # fmt: skip
+            roles: dict[int, str], smaps: bool) -> None:  # fmt: skip
+    """CPU times and RSS of the tree (cheap), and USS and PSS if `smaps` (not cheap)."""
     try:
         tree = [main, *main.children(recursive=True)]
     except psutil.Error:
@@ -60,14 +61,14 @@ def _sample(main: psutil.Process, peaks: dict[int, dict[str, float]], cpu: dict[
             with process.oneshot():
                 times = process.cpu_times()
                 cpu[process.pid] = times.user + times.system
-                info = process.memory_full_info()
+                info = process.memory_full_info() if smaps else process.memory_info()
                 role = "main" if process.pid == main.pid else _role(process, main)
         except psutil.Error:
             continue
         roles[process.pid] = role
         peak = peaks.setdefault(process.pid, {"rss": 0.0, "uss": 0.0, "pss": 0.0})
         peak["rss"] = max(peak["rss"], info.rss / 2**20)
-        peak["uss"] = max(peak["uss"], info.uss / 2**20)
+        peak["uss"] = max(peak["uss"], getattr(info, "uss", 0.0) / 2**20)
         peak["pss"] = max(peak["pss"], getattr(info, "pss", 0.0) / 2**20)
 
 
@@ -82,7 +83,15 @@ def _role(process: psutil.Process, main: psutil.Process) -> str:
     return "other"
 
 
-def run_config(name: str, models: list[Path], options: list[str], scale: float) -> dict[str, Any]:
+def run_config(
+    name: str, models: list[Path], options: list[str], scale: float, smaps_every: float = 2.0
+) -> dict[str, Any]:
+    """Run one build, sampling every 0.25 s; USS and PSS every `smaps_every` seconds.
+
+    Reading a process's smaps (USS, PSS) costs about 50 ms of CPU for the build's tree;
+    every 0.25 s that took a fifth of a core, which two workers on two cores lose and
+    one worker does not (its second core has room): a bias against the speed-up.
+    """
     with tempfile.TemporaryDirectory(prefix="bench_scale_") as folder:
         out = Path(folder) / "out"
         argv = [sys.executable, "-m", "pipeline.cli", "build", *map(str, models), "-o", str(out),
@@ -93,8 +102,11 @@ def run_config(name: str, models: list[Path], options: list[str], scale: float) 
         peaks: dict[int, dict[str, float]] = {}
         cpu: dict[int, float] = {}
         roles: dict[int, str] = {}
+        every = max(1, round(smaps_every / 0.25))
+        n = 0
         while child.poll() is None:
-            _sample(child, peaks, cpu, roles)
+            _sample(child, peaks, cpu, roles, smaps=n % every == 0)
+            n += 1
             time.sleep(0.25)
         wall = time.perf_counter() - started
         stderr = child.stderr.read().decode() if child.stderr else ""
@@ -165,6 +177,10 @@ def main() -> None:
     parser.add_argument(
         "--repeat", type=int, default=1, help="rounds of every configuration (order alternates)"
     )
+    parser.add_argument(
+        "--smaps-every", type=float, default=2.0,
+        help="seconds between USS/PSS readings (0.25: each sample, for memory studies)",
+    )  # fmt: skip
     args, extra = parser.parse_known_args()  # the rest: more build options
     scale = _scale_for(args.models[0], args.size_mm)
     results = []
@@ -177,7 +193,8 @@ def main() -> None:
             # Alternate the order: a machine that speeds up or slows down during the
             # rounds favours neither configuration.
             for name in configs if round_ % 2 == 0 else configs[::-1]:
-                result = run_config(name, args.models, [*CONFIGS[name], *tray, *extra], scale)
+                options = [*CONFIGS[name], *tray, *extra]
+                result = run_config(name, args.models, options, scale, args.smaps_every)
                 result["copies"], result["round"] = copies, round_
                 print(json.dumps(result), flush=True)
                 done.append(result)
@@ -188,6 +205,7 @@ def main() -> None:
         "size_mm": args.size_mm,
         "copies": args.copies,
         "repeat": args.repeat,
+        "smaps_every_s": args.smaps_every,
         "extra_options": extra,
         "cores": len(os.sched_getaffinity(0)),
         "load_average": os.getloadavg(),
