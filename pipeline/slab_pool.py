@@ -87,4 +87,4 @@ def _worker_slab(z_start: int, z_stop: int, slot: int) -> SlabInSlot:
     done = job.run((z_start, z_stop))
     if run is not None:
         run.save((z_start, z_stop), done, job.send)
-    return slots.store(slot, done.slab, done.materials, done.tally, done.vdb, done.pages)
+    return slots.store(slot, done.slab, done.materials, done.tally, done.vdb, done.pages, job.send)

@@ -24,6 +24,8 @@ from numpy.typing import NDArray
 from voxel.slab import SlabResult
 from voxel.vdb_leaves import GridSpool
 
+#: The slab's voxel arrays (:class:`voxel.slab.SlabResult` fields) a slot can hold.
+_VOXEL_ARRAYS: tuple[str, ...] = ("layers", "rgba", "sdf", "sdf_band")
 #: Byte alignment of each array in a slot.
 _ALIGN = 64
 #: Slot states: free, sent to a worker, loaded by the parent (free once no view is left).
@@ -40,6 +42,8 @@ class SlabInSlot(NamedTuple):
     tally: NDArray[np.int64] | None
     vdb: list[GridSpool] | None
     pages: dict[str, list[bytes]] | None = None
+    #: The voxel arrays copied into the slot (the others load as empty arrays).
+    sent: tuple[str, ...] = ("layers", "rgba", "sdf", "sdf_band")
 
 
 def _layout(shape: tuple[int, int, int]) -> list[tuple[str, int, tuple[int, ...], str]]:
@@ -88,14 +92,20 @@ class SlabSlots:
     def store(self, slot: int, result: SlabResult, materials: NDArray[np.uint8] | None,
               tally: NDArray[np.int64] | None,
               vdb: list[GridSpool] | None = None,
-              pages: dict[str, list[bytes]] | None = None) -> SlabInSlot:  # fmt: skip
-        """Copy a slab into ``slot`` (worker side); return what to send back."""
+              pages: dict[str, list[bytes]] | None = None,
+              send: tuple[str, ...] | None = None) -> SlabInSlot:  # fmt: skip
+        """Copy a slab into ``slot`` (worker side); return what to send back.
+
+        With `send` and pages, of the voxel arrays only those named in `send` are copied
+        (what the parent still uses; the pages carry the rest), as on the Dask wire.
+        """
         shape = (result.layers.shape[0], result.layers.shape[1], result.layers.shape[2])
+        sent: tuple[str, ...] = _VOXEL_ARRAYS
+        if send is not None and pages is not None:
+            sent = tuple(name for name in _VOXEL_ARRAYS if name in send)
         views = self._views(slot, shape)
-        views["layers"][...] = result.layers
-        views["rgba"][...] = result.rgba
-        views["sdf"][...] = result.sdf
-        views["sdf_band"][...] = result.sdf_band
+        for name in sent:
+            views[name][...] = getattr(result, name)
         if materials is not None:
             views["materials"][...] = materials
         del views
@@ -106,18 +116,14 @@ class SlabSlots:
             sdf=np.zeros((0, 0, 0), np.float32),
             sdf_band=np.zeros((0, 0, 0), bool),
         )
-        return SlabInSlot(slot, shape, small, materials is not None, tally, vdb, pages)
+        return SlabInSlot(slot, shape, small, materials is not None, tally, vdb, pages, sent)
 
     def load(self, item: SlabInSlot) -> tuple[SlabResult, NDArray[np.uint8] | None]:
         """Return the slab and its materials as views of the slot (parent side)."""
         self._state[item.slot] = _LOADED
         views = self._views(item.slot, item.shape)
-        result = item.result._replace(
-            layers=views["layers"],
-            rgba=views["rgba"],
-            sdf=views["sdf"],
-            sdf_band=views["sdf_band"],
-        )
+        arrays: dict[str, Any] = {name: views[name] for name in item.sent}
+        result = item.result._replace(**arrays)  # the others: the worker's empty arrays
         return result, views["materials"] if item.has_materials else None
 
     def take(self, timeout_s: float = 3600.0) -> int:
