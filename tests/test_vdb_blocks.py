@@ -60,13 +60,12 @@ def test_block_stats_are_numpys_reductions_of_the_padded_blocks(shape, with_mate
 def test_gathered_leaves_are_in_openvdb_voxel_order_with_the_fill_past_the_edge(shape):
     layers, sdf, coloured, _ = _rows(shape, 7)
     rgb = np.random.default_rng(1).integers(0, 256, (*shape, 4)).astype(np.uint8)[..., :3]
-    blocks = _Blocks((0, 0, 16), (layers, sdf, coloured, rgb))
+    blocks = _Blocks(16)
     which = np.random.default_rng(2).random((-(-shape[1] // 8), -(-shape[2] // 8))) < 0.5
     b_y, b_x = np.nonzero(which)
-    for index, volume, fill in ((0, layers, 9), (1, sdf, np.float32(2.5)), (2, coloured, True),
-                                (3, rgb, 7)):  # fmt: skip
+    for volume, fill in ((layers, 9), (sdf, np.float32(2.5)), (coloured, True), (rgb, 7)):
         padded = _padded(volume, fill)
-        got = blocks.gather(index, which, fill)
+        got = blocks.gather(volume, which, fill)
         for n, (j, i) in enumerate(zip(b_y, b_x, strict=True)):
             block = padded[:, 8 * j : 8 * j + 8, 8 * i : 8 * i + 8]  # (z, y, x[, c])
             leaf = block.transpose(2, 1, 0, *range(3, block.ndim))  # (x, y, z[, c])

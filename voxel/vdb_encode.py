@@ -114,32 +114,30 @@ class VdbEncoder:
         stats = _block_stats(layers, sdf, coloured, mats, hw)
         any_in, all_in, any_band, any_col = (stats[..., k] > 0 for k in range(4))
         low, high = stats[..., 4], stats[..., 5]
-        blocks = _Blocks((0, 0, z0), (layers, sdf, coloured, rgb, mats))
+        blocks = _Blocks(z0)
         density, layer, color, level = spools[:4]
         # density and layer: the core's constant blocks are active tiles.
         density.add_tiles(blocks.origins(all_in), np.ones(int(all_in.sum()), np.float32), True)
         leaf = any_in & ~all_in
-        inside = blocks.gather(0, leaf, 0) > 0
-        density.add_leaves(blocks.origins(leaf), inside.astype(np.float32), inside, None,
-                           self._level, True)  # fmt: skip
+        inside = blocks.gather(layers, leaf, 0) > 0
+        self._leaves(density, blocks, leaf, inside, inside)
         tile = all_in & (low == high)
         layer.add_tiles(blocks.origins(tile), low[tile].astype(np.float32), True)
         leaf = any_in & ~tile
-        values = blocks.gather(0, leaf, 0)
-        layer.add_leaves(blocks.origins(leaf), values.astype(np.float32), values > 0, None,
-                         self._level, True)  # fmt: skip
+        values = blocks.gather(layers, leaf, 0)
+        self._leaves(layer, blocks, leaf, values, values > 0)
         # color: leaves wherever a colour voxel is; black ones stay active (background 0).
         leaf = any_col
-        linear = codes_to_linear(blocks.gather(3, leaf, 0))
-        on = blocks.gather(2, leaf, False)
+        linear = codes_to_linear(blocks.gather(rgb, leaf, 0))
+        on = blocks.gather(coloured, leaf, False)
         np.maximum(linear, np.float32(1e-7), out=linear, where=on[..., None])
         color.add_leaves(blocks.origins(leaf), linear, on, None, self._level)
         # sdf: inactive values are -hw inside, +hw (the background) outside.
         tile = all_in & ~any_band
         level.add_tiles(blocks.origins(tile), np.full(int(tile.sum()), -hw), False)
         leaf = any_band | (any_in & ~all_in)
-        sdf_values = blocks.gather(1, leaf, hw)
-        band, solid = np.abs(sdf_values) < hw, blocks.gather(0, leaf, 0) > 0
+        sdf_values = blocks.gather(sdf, leaf, hw)
+        band, solid = np.abs(sdf_values) < hw, blocks.gather(layers, leaf, 0) > 0
         values = np.where(band, sdf_values, np.where(solid, -hw, hw))
         # Level-set values hardly compress (about 0.92): stored raw.
         level.add_leaves(blocks.origins(leaf), values.astype(np.float32), band, solid, 0)
@@ -150,26 +148,37 @@ class VdbEncoder:
             tile = all_on & (low == high)
             spools[4].add_tiles(blocks.origins(tile), low[tile].astype(np.float32), True)
             leaf = any_on & ~tile
-            values = blocks.gather(4, leaf, 0)
-            spools[4].add_leaves(blocks.origins(leaf), values.astype(np.float32), values > 0,
-                                 None, self._level, False)  # fmt: skip
+            values = blocks.gather(materials, leaf, 0)
+            self._leaves(spools[4], blocks, leaf, values, values > 0)
+
+    def _leaves(
+        self,
+        spool: GridSpool,
+        blocks: _Blocks,
+        which: NDArray[np.bool_],
+        values: NDArray[Any],
+        active: NDArray[np.bool_],
+    ) -> None:
+        """Spool gathered leaves ``(n, 512)`` of a grid whose inactive values are its background."""
+        spool.add_leaves(
+            blocks.origins(which), values.astype(np.float32), active, None, self._level,
+            spool.name in RUN_GRIDS,
+        )  # fmt: skip
 
 
 class _Blocks:
-    """The 8^3 blocks of a group of rows ``(Zs <= 8, Y, X[, 3])`` whose first row is `z0`.
+    """The 8^3 blocks of a group of rows ``(Zs <= 8, Y, X[, C])`` whose first row is `z0`.
 
     Block ``(b_y, b_x)`` holds voxels ``8 b_y ..`` and ``8 b_x ..``; voxels past the group's
     rows or the grid's edge are a given fill. Gathered leaves are in OpenVDB's voxel order
     ``x << 6 | y << 3 | z``.
     """
 
-    def __init__(self, corner: tuple[int, int, int], volumes: tuple[NDArray[Any], ...]) -> None:
-        self.corner = corner  # (x, y, z) index of block (0, 0)'s first voxel
-        self.volumes = volumes
+    def __init__(self, z0: int) -> None:
+        self.z0 = z0
 
-    def gather(self, which_volume: int, which: NDArray[np.bool_], fill: Any) -> NDArray[Any]:
-        """Return the blocks `which` ``(Y/8, X/8)`` of a volume as leaves ``(n, 512[, 3])``."""
-        volume = self.volumes[which_volume]
+    def gather(self, volume: NDArray[Any], which: NDArray[np.bool_], fill: Any) -> NDArray[Any]:
+        """Return the blocks `which` ``(Y/8, X/8)`` of `volume` as leaves ``(n, 512[, C])``."""
         b_y, b_x = np.nonzero(which)
         shape = (len(b_y), LEAF**3, *volume.shape[3:])
         out = np.empty(shape, dtype=volume.dtype)
@@ -181,8 +190,7 @@ class _Blocks:
     def origins(self, which: NDArray[np.bool_]) -> NDArray[np.int32]:
         """Return ``(n, 3)`` int32 index coordinates ``(x, y, z)`` of the blocks `which`."""
         b_y, b_x = np.nonzero(which)
-        x0, y0, z0 = self.corner
-        origin = np.stack([x0 + b_x * LEAF, y0 + b_y * LEAF, np.full(len(b_y), z0)], axis=1)
+        origin = np.stack([b_x * LEAF, b_y * LEAF, np.full(len(b_y), self.z0)], axis=1)
         return np.asarray(origin, dtype=np.int32)
 
 
