@@ -21,11 +21,10 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.slab_runner import SLAB_ARRAYS
 from voxel.slab import SlabResult
 from voxel.vdb_leaves import GridSpool
 
-#: The slab's voxel arrays (:class:`voxel.slab.SlabResult` fields) a slot can hold.
-_VOXEL_ARRAYS: tuple[str, ...] = ("layers", "rgba", "sdf", "sdf_band")
 #: Byte alignment of each array in a slot.
 _ALIGN = 64
 #: Slot states: free, sent to a worker, loaded by the parent (free once no view is left).
@@ -43,7 +42,7 @@ class SlabInSlot(NamedTuple):
     vdb: list[GridSpool] | None
     pages: dict[str, list[bytes]] | None = None
     #: The voxel arrays copied into the slot (the others load as empty arrays).
-    sent: tuple[str, ...] = ("layers", "rgba", "sdf", "sdf_band")
+    sent: tuple[str, ...] = SLAB_ARRAYS
 
 
 def _layout(shape: tuple[int, int, int]) -> list[tuple[str, int, tuple[int, ...], str]]:
@@ -100,9 +99,9 @@ class SlabSlots:
         (what the parent still uses; the pages carry the rest), as on the Dask wire.
         """
         shape = (result.layers.shape[0], result.layers.shape[1], result.layers.shape[2])
-        sent: tuple[str, ...] = _VOXEL_ARRAYS
+        sent: tuple[str, ...] = SLAB_ARRAYS
         if send is not None and pages is not None:
-            sent = tuple(name for name in _VOXEL_ARRAYS if name in send)
+            sent = tuple(name for name in SLAB_ARRAYS if name in send)
         views = self._views(slot, shape)
         for name in sent:
             views[name][...] = getattr(result, name)
