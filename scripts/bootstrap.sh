@@ -16,7 +16,10 @@ if [ ${#need[@]} -gt 0 ]; then
     sudo_cmd=""
     [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
     $sudo_cmd apt-get update -qq
-    if ! installed chromium && ! apt-cache policy chromium 2>/dev/null | grep -q "Candidate: [0-9]"; then
+    # the policy read whole first: under pipefail, grep -q closing the pipe early makes
+    # apt-cache die of SIGPIPE and the candidate look missing
+    policy="$(apt-cache policy chromium 2>/dev/null || true)"
+    if ! installed chromium && ! grep -q "Candidate: [0-9]" <<< "$policy"; then
         echo "shellvox set-up: apt has no chromium here; the browser test will skip" >&2
         need=("${need[@]/chromium}")
         read -r -a need <<< "${need[*]}"
