@@ -317,3 +317,61 @@ def test_info_reports_the_colour_kind(tmp_path, capsys, pids, expected):
     captured = capsys.readouterr()
     assert json.loads(captured.out)["colour"] == expected
     assert "compositematerials" in captured.err
+
+
+def test_multiproperties_over_two_texture_groups_and_object_level_properties(tmp_path):
+    # A colour group layered over two texture groups (mix: the opaque texture shows),
+    # triangles on the multiproperties, on the colour group with only p1, and on the
+    # object's pid/pindex (a pid without p1 takes the object's, as lib3mf reads it); the
+    # build item names the mesh object, another object only wraps it in <components>.
+    rng = np.random.default_rng(7)
+    image = rng.integers(0, 256, (8, 8, 4), dtype=np.uint8)
+    image[..., 3] = 255
+    uv = [(0.1, 0.1), (0.9, 0.1), (0.1, 0.9), (0.9, 0.9)]
+    coords = "".join(f'<m:tex2coord u="{u}" v="{v}"/>' for u, v in uv)
+    resources = (
+        '<m:colorgroup id="1"><m:color color="#80C0FF"/></m:colorgroup>'
+        '<m:texture2d id="2" path="/3D/Textures/tex.png" contenttype="image/png" '
+        'filter="nearest"/>'
+        f'<m:texture2dgroup id="4" texid="2">{coords}</m:texture2dgroup>'
+        f'<m:texture2dgroup id="5" texid="2">{coords}</m:texture2dgroup>'
+        '<m:multiproperties id="6" pids="1 4 5">'
+        + "".join(f'<m:multi pindices="0 {i} {i}"/>' for i in range(4))
+        + '</m:multiproperties><object id="3" type="model" pid="6" pindex="3">'
+        + _mesh(
+            ['pid="6" p1="0" p2="1" p3="2"', 'pid="1" p1="0"', 'pid="6" p1="1" p2="3"', 'pid="1"']
+        )
+        + '</object><object id="7" type="model"><components><component objectid="3"/>'
+        "</components></object>"
+    )
+    path = tmp_path / "layers.3mf"
+    _write(path, _model(resources, '<item objectid="3"/>'), texture=image)
+    with pytest.warns(ShellvoxWarning, match="layer 2 textures"):
+        mesh = load_model(path)
+    model = _lib3mf_model(path)
+    colours = model.GetColorGroups()
+    assert colours.MoveNext()
+    colour_group = colours.GetCurrentColorGroup()
+    groups = model.GetMultiPropertyGroups()
+    assert groups.MoveNext()
+    multi = groups.GetCurrentMultiPropertyGroup()
+    textures = model.GetTexture2DGroups()
+    assert textures.MoveNext()
+    texture_group = textures.GetCurrentTexture2DGroup()
+    obj = _mesh_object(model)
+    kinds = []
+    for face in range(4):
+        properties = obj.GetTriangleProperties(face)
+        for corner, property_id in enumerate(properties.PropertyIDs):
+            if properties.ResourceID == colour_group.GetResourceID():
+                c = colour_group.GetColor(property_id)
+                expected = [c.Red, c.Green, c.Blue, c.Alpha]
+                kinds.append("colour")
+            else:
+                assert properties.ResourceID == multi.GetResourceID()
+                coord = texture_group.GetTex2Coord(_multi(multi, property_id, 3)[1])
+                row, col = int((1 - coord.V) * 8), int(coord.U * 8)  # nearest texel, v up
+                expected = image[row, col].tolist()
+                kinds.append("texture")
+            assert _corner_colour(mesh, face, corner) == expected, (face, corner)
+    assert kinds.count("colour") == 3  # face 1 only: face 3's pid without p1 is the object's

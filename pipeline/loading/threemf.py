@@ -276,15 +276,7 @@ def _mesh_part(
         )
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused by load_model
         vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
-    default_pid, default_index = obj.get("pid", ""), obj.get("pindex", "")
-    pid = np.array([t.get("pid", default_pid) for t in triangles], dtype=object)
-    p1 = [t.get("p1", default_index if t.get("pid") is None else "") for t in triangles]
-    indices = [
-        str(value)
-        for a, t in zip(p1, triangles, strict=True)
-        for value in (a or -1, t.get("p2", a or -1), t.get("p3", a or -1))
-    ]
-    index = parse_numbers(path, "property index", indices, int).astype(np.int64).reshape(-1, 3)
+    pid, index = _triangle_properties(path, obj, triangles)
     n = len(faces)
     rgba = np.full((n, 3, 4), 255, dtype=np.uint8)
     uv = np.zeros((n, 3, 2))
@@ -319,6 +311,29 @@ def _mesh_part(
         "paint": paint,
         "trail": trail,
     }
+
+
+def _triangle_properties(
+    path: Path, obj: ElementTree.Element, triangles: list[ElementTree.Element]
+) -> tuple[NDArray[np.object_], NDArray[np.int64]]:
+    """Property group ``(n,)`` (``""`` for none) and indices ``(n, 3)`` of each triangle.
+
+    As lib3mf (the 3MF Consortium's reader) reads them: a triangle's own ``pid`` applies
+    only with its ``p1`` (``p2`` and ``p3`` default to ``p1``); any other triangle takes
+    the object's ``pid`` and ``pindex`` (0 when missing) at all three corners.
+    """
+    default_pid, default_index = obj.get("pid", ""), obj.get("pindex") or "0"
+    own = [t.get("pid") is not None and t.get("p1") is not None for t in triangles]
+    pid = np.array(
+        [t.get("pid") if mine else default_pid for t, mine in zip(triangles, own, strict=True)],
+        dtype=object,
+    )
+    indices = []
+    for t, mine in zip(triangles, own, strict=True):  # attribute strings, not arithmetic
+        p1 = t.get("p1", "") if mine else default_index
+        indices += [p1, t.get("p2", p1), t.get("p3", p1)] if mine else [p1] * 3
+    index = parse_numbers(path, "property index", indices, int).astype(np.int64).reshape(-1, 3)
+    return pid, index
 
 
 def _layered(
