@@ -15,6 +15,7 @@ from corpus_files import (
     Case,
     obj_absolute_texture,
     obj_coordinates,
+    obj_face,
     obj_outside_mtl,
     obj_outside_texture,
     obj_two_libraries_one_missing,
@@ -133,6 +134,16 @@ CASES = [
     Case("obj coordinate 2e6", obj_coordinates("2e6"), "error", ("far.obj", "--force")),
     Case("obj coordinate inf", obj_coordinates("inf"), "error", ("far.obj", "infinite")),
     Case("obj coordinate nan", obj_coordinates("nan"), "error", ("far.obj", "NaN")),
+    *(
+        Case(f"obj face index {line}", obj_face(line), "error", ("index.obj", "out of range"))
+        for line in (
+            "f 1 2 99999999999999999999",
+            "f 1 2 -99999999999999999999",
+            "f 1/1 2/1 3/99999999999999999999",
+            "f 1 2 9223372036854775807",
+            "f 1 2 -9223372036854775808",
+        )
+    ),
     Case(
         "obj --scale overflowing to infinity",
         obj_coordinates("1e300"),

@@ -132,6 +132,20 @@ def obj_coordinates(value: str) -> Callable:
     return build
 
 
+def obj_face(line: str) -> Callable:
+    """A tetrahedron OBJ whose last face line is `line` (one ``vt``, used by every face
+    when `line` has one)."""
+
+    def build(folder: Path) -> Path:
+        lines = [f"v {x} {y} {z}" for x, y, z in TET_VERTICES] + ["vt 0 0"]
+        slash = "/1" if "/" in line else ""
+        lines += ["f " + " ".join(f"{v + 1}{slash}" for v in face) for face in TET_FACES[:3]]
+        (folder / "index.obj").write_text("\n".join([*lines, line]) + "\n")
+        return folder / "index.obj"
+
+    return build
+
+
 def obj_two_libraries_one_missing(folder: Path) -> Path:
     text = obj_text(uv=False).replace("mtllib model.mtl", "mtllib model.mtl\nmtllib gone.mtl")
     (folder / "model.obj").write_text(text)

@@ -259,6 +259,10 @@ def _corner_indices(
         pos = np.array([int(p[0]) for p in parts], dtype=np.int64)
         uv_ok = all(len(p) > 1 and p[1] != "" for p in parts)
         uv = np.array([int(p[1]) for p in parts], dtype=np.int64) if uv_ok else None
+    except OverflowError:  # beyond int64: no file has that many vertices
+        raise InputError(
+            path, "has a face with an index out of range (beyond 64 bits)", "re-export it"
+        ) from None
     except ValueError:
         raise InputError(path, "has a malformed 'f' line", "re-export the mesh") from None
     return pos, uv

@@ -84,6 +84,8 @@ def parse_numbers(path: Path, what: str, values: list[str], dtype: type) -> NDAr
     """Parse XML attribute strings as numbers, or refuse naming what they are."""
     try:
         array: NDArray[np.generic] = np.array(values, dtype=np.str_).astype(dtype)
+    except OverflowError:  # an integer beyond int64
+        raise InputError(path, f"has a {what} out of range (beyond 64 bits)", FIX) from None
     except ValueError:
         bad = next((v for v in values if not _parses(v, dtype)), "?")
         raise InputError(path, f"has a non-numeric {what} {bad!r}", FIX) from None
