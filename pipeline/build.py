@@ -46,6 +46,8 @@ from pipeline.outdir import OutputFolder
 from pipeline.printer_profile import PrinterProfile
 from pipeline.run_folder import (
     CHECKPOINT_AFTER_S,
+    JOURNAL,
+    RUN_FOLDER,
     RunFolder,
     RunSettings,
     check_resumable,
@@ -167,8 +169,15 @@ def run_job(job: _Job, out_dir: Path, key: dict[str, str], started: float) -> di
     ``--resume`` whose key differs from the unfinished run's is refused before the lock,
     so the folder is left as it is.
     """
-    if job.running.resume:
-        check_resumable(out_dir, key)
+    if job.running.resume and not check_resumable(out_dir, key):
+        warnings.warn(
+            f"{out_dir}: no checkpoints to resume (no {RUN_FOLDER}/{JOURNAL}: the killed "
+            "run wrote none, or this is a new folder); building from the start",
+            ShellvoxWarning,
+            stacklevel=2,
+        )
+        running = dataclasses.replace(job.running, resume=False, checkpoint=True)
+        job = dataclasses.replace(job, running=running)
     with OutputFolder(out_dir) as locked, checkpoints(locked.path, key, job.running) as run:
         with contextlib.ExitStack() as stack:
             folder = BuildFolder(locked, stack, started)
@@ -210,7 +219,14 @@ class _Job:
     def run(self, folder: BuildFolder, run: RunFolder | None) -> dict[str, Any]:
         """Compute and write every slab, then the shells and the manifest (no files yet)."""
         mesh, config, plan, stack = self.mesh, self.config, self.plan, folder.stack
-        shell_job = ShellJob(mesh, plan.thickness, config, self.seconds)
+        shell_job = ShellJob(
+            mesh,
+            plan.thickness,
+            config,
+            self.seconds,
+            estimate_s=plan.estimate.shell_seconds,
+            progress=self.progress,
+        )
         model = self._model(shell_job.shells)
         # Before any other thread (shell process, writers, progress bar) starts: the slab
         # workers are forked.
@@ -246,7 +262,7 @@ class _Job:
         if self.faces is not None:
             folder.write_thickness(mesh, self.faces)
         agreement = None
-        if shells is not None:
+        if shells is not None and config.shell_meshes:
             shells = folder.write_shells(shells)
             if sampler is not None:
                 agreement = self._agreement(model, sampler, shells)

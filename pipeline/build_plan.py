@@ -112,6 +112,10 @@ def plan_build(
         n_faces=mesh.n_faces,
         slab_rows=rows,
         workers=min(workers, -(-grid.shape_zyx[0] // rows)),
+        shell_face_layers=(
+            thickness.size if config.shell_meshes or config.layer_rule == "shells" else 0
+        ),
+        shell_method=config.shell_method,
     )
     check_resources(estimate, out_dir, force=force)
     return BuildPlan(grid, thickness, depth, rows, workers, estimate)

@@ -127,9 +127,9 @@ class BuildConfig:
         to the surface with the depths of its nearest face (the ideal offset, sampled
         exactly); ``"shells"`` counts the offset shells holding the voxel centre.
     shell_meshes : bool
-        Also compute the offset shells and write them to ``shells/`` (with the
-        ``"distance"`` rule they run beside the voxels, in another process, and the
-        manifest reports how well the two realisations agree).
+        Also write the offset shells to ``shells/`` (the ``"shells"`` rule computes them
+        anyway; with the ``"distance"`` rule they run beside the voxels, in another
+        process, and the manifest reports how well the two realisations agree).
     shell_method : {"robust", "paper"}
         Offset construction (see :mod:`offset`).
     margin_mm : float, mm
@@ -165,7 +165,7 @@ class BuildConfig:
     thickness_source: str = "--thickness"
     colour_layers: tuple[int, ...] = (1,)
     layer_rule: LayerRule = "distance"
-    shell_meshes: bool = True
+    shell_meshes: bool = False
     shell_method: Literal["robust", "paper"] = "robust"
     margin_mm: float = 0.5
     sdf_half_width_voxels: float = 3.0

@@ -44,6 +44,11 @@ BYTES_PER_FACE = 600
 SECONDS_PER_VOXEL = 6e-8
 SECONDS_PER_BAND_VOXEL = 7e-7
 
+#: Seconds on one core per face and layer of the offset shells, by method: the robust
+#: shells of bench_offset.json's real meshes took 2.8-12.5 ms (icosphere, spot, bunny,
+#: duck, airplane at 50-100 mm, two layers); the paper's construction about 20 us.
+SECONDS_PER_SHELL_FACE = {"robust": 1e-2, "paper": 2e-5}
+
 #: Bytes on disk per voxel of the whole grid (compressed TIFF pages, VDB topology) and per
 #: voxel of the surface band (colour, level-set values), measured on the demo and spot.
 DISK_PER_VOXEL = 0.02
@@ -73,7 +78,10 @@ class BuildEstimate:
     disk_bytes : int
         Size of the output files (estimated).
     seconds : float
-        Wall time (estimated).
+        Wall time of the voxels (estimated).
+    shell_seconds : float
+        Time of the offset shells (estimated; 0 without them): before the voxels with
+        the ``"shells"`` layer rule, beside them in another process otherwise.
     """
 
     shape_zyx: tuple[int, int, int]
@@ -84,6 +92,7 @@ class BuildEstimate:
     memory_bytes: int
     disk_bytes: int
     seconds: float
+    shell_seconds: float = 0.0
 
     def line(self) -> str:
         """One line for the user: grid, voxels, memory, disk and time."""
@@ -93,6 +102,11 @@ class BuildEstimate:
             f"{_size(self.memory_bytes)} of memory ({self.workers} workers, slabs of "
             f"{self.slab_rows} rows), {_size(self.disk_bytes)} on disk, "
             f"{_duration(self.seconds)}"
+            + (
+                f", and {_duration(self.shell_seconds)} for the shell meshes"
+                if self.shell_seconds > 0
+                else ""
+            )
         )
 
 
@@ -104,6 +118,8 @@ def estimate_build(
     n_faces: int,
     slab_rows: int,
     workers: int,
+    shell_face_layers: int = 0,
+    shell_method: str = "robust",
 ) -> BuildEstimate:
     """Estimate a build's cost from its grid and its models' surfaces.
 
@@ -123,6 +139,10 @@ def estimate_build(
         Rows per slab.
     workers : int
         Slab processes.
+    shell_face_layers : int
+        Faces times layers of the offset shells to compute (0: none).
+    shell_method : {"robust", "paper"}
+        Their construction.
     """
     z, y, x = (int(n) for n in shape_zyx)
     voxels = z * y * x
@@ -135,7 +155,10 @@ def estimate_build(
     ) + n_faces * BYTES_PER_FACE * (workers + 2)
     disk = int(voxels * DISK_PER_VOXEL + band * DISK_PER_BAND_VOXEL)
     seconds = (voxels * SECONDS_PER_VOXEL + band * SECONDS_PER_BAND_VOXEL) / max(1, workers)
-    return BuildEstimate((z, y, x), voxels, band, slab_rows, workers, memory, disk, seconds)
+    shell_seconds = shell_face_layers * SECONDS_PER_SHELL_FACE[shell_method]
+    return BuildEstimate(
+        (z, y, x), voxels, band, slab_rows, workers, memory, disk, seconds, shell_seconds
+    )
 
 
 def check_resources(estimate: BuildEstimate, out_dir: Path, *, force: bool) -> None:

@@ -202,27 +202,28 @@ _NAMES = {
 }
 
 
-def check_resumable(out_dir: Path, key: dict[str, str]) -> None:
-    """Refuse ``--resume`` unless `out_dir` holds an unfinished run of the same `key`.
+def check_resumable(out_dir: Path, key: dict[str, str]) -> bool:
+    """Whether ``--resume`` continues an unfinished run in `out_dir` (False: none there).
 
     Called before the output folder is locked (and again once it is): a refused resume
     leaves the folder untouched.
+
+    Raises
+    ------
+    InputError
+        `out_dir` holds a finished build, or an unfinished run of another `key`.
     """
     journal = Path(out_dir) / RUN_FOLDER / JOURNAL
     if journal.is_file():
         _check_key(journal, key)
-        return
+        return True
     if (Path(out_dir) / "manifest.json").is_file():
         raise InputError(
             "--resume",
             f"{out_dir} holds a finished build (manifest.json) and nothing to resume",
             "rerun without --resume to build it again",
         )
-    raise InputError(
-        "--resume",
-        f"{out_dir} holds no unfinished build to resume (no {RUN_FOLDER}/{JOURNAL})",
-        "rerun without --resume",
-    )
+    return False
 
 
 @contextlib.contextmanager
@@ -241,9 +242,7 @@ def checkpoints(
         shutil.rmtree(path, ignore_errors=True)  # a plain run starts afresh
         yield None
         return
-    if settings.resume:
-        check_resumable(out_dir, key)
-    else:
+    if not (settings.resume and check_resumable(out_dir, key)):
         shutil.rmtree(path, ignore_errors=True)
         path.mkdir()
         write_text_atomic(path / JOURNAL, json.dumps({"key": key}, indent=2))

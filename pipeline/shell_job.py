@@ -10,12 +10,15 @@ on them, so a failure there is a warning, not an error.
 from __future__ import annotations
 
 import contextlib
+import threading
 import time
 import warnings
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from tqdm import tqdm
 
 from offset import offset_shells
 from offset.shells import Shell
@@ -23,6 +26,9 @@ from pipeline.children import ChildCall
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
 from pipeline.mesh import ColouredMesh
+
+#: Seconds between updates of the shells' progress bar.
+TICK_S = 0.5
 
 
 class ShellJob:
@@ -38,6 +44,11 @@ class ShellJob:
         ``layer_rule``, ``shell_meshes`` and ``shell_method``.
     seconds : dict
         Receives ``shells`` (and ``shells_wait``): the build's timings.
+    estimate_s : float
+        Their estimated time (:attr:`pipeline.estimate.BuildEstimate.shell_seconds`),
+        the length of their progress bar.
+    progress : bool or None
+        Show the progress bar; ``None``: only on a terminal.
     """
 
     def __init__(
@@ -46,18 +57,25 @@ class ShellJob:
         thickness: NDArray[np.float64],
         config: BuildConfig,
         seconds: dict[str, float],
+        *,
+        estimate_s: float = 0.0,
+        progress: bool | None = None,
     ) -> None:
         self.mesh = mesh
         self.thickness = thickness
         self.config = config
         self.seconds = seconds
+        self.estimate_s = estimate_s
+        self.progress = progress
         self._pending: ChildCall[tuple[list[Shell], float]] | None = None
+        self._started = 0.0
         #: The shells, once computed (at once with the "shells" rule).
         self.shells: list[Shell] | None = None
         if config.layer_rule == "shells":
-            self.shells, seconds["shells"] = timed_shells(
-                mesh.vertices, mesh.faces, thickness, config
-            )
+            with self._bar(time.perf_counter()):
+                self.shells, seconds["shells"] = timed_shells(
+                    mesh.vertices, mesh.faces, thickness, config
+                )
 
     @property
     def writes_meshes(self) -> bool:
@@ -75,6 +93,7 @@ class ShellJob:
                 timed_shells, self.mesh.vertices, self.mesh.faces, self.thickness, self.config
             )
             self._pending = stack.enter_context(call)
+            self._started = time.perf_counter()
 
     def wait(self) -> list[Shell] | None:
         """Return the shells (waiting for the other process), or None (none or failed)."""
@@ -82,7 +101,8 @@ class ShellJob:
             return self.shells
         tick = time.perf_counter()
         try:
-            self.shells, self.seconds["shells"] = self._pending.result()
+            with self._bar(self._started):
+                self.shells, self.seconds["shells"] = self._pending.result()
         except Exception as error:  # the voxels do not depend on the shell meshes
             warnings.warn(
                 f"{self.mesh.source}: the shell meshes failed ({error}); the voxel stack "
@@ -93,6 +113,37 @@ class ShellJob:
         self.seconds["shells_wait"] = time.perf_counter() - tick
         self._pending = None
         return self.shells
+
+    @contextlib.contextmanager
+    def _bar(self, started: float) -> Iterator[None]:
+        """Show the seconds spent on the shells since `started` against their estimate."""
+        disable = None if self.progress is None else not self.progress
+        done = threading.Event()
+        bar = tqdm(
+            total=max(self.estimate_s, 1.0),
+            desc="shell meshes",
+            unit="s",
+            disable=disable,
+            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f} of about {total:.0f} s",
+        )
+
+        def tick() -> None:
+            while not done.wait(TICK_S):
+                elapsed = time.perf_counter() - started
+                if elapsed > 0.95 * bar.total:  # longer than estimated: the end moves on
+                    bar.total = elapsed / 0.95
+                bar.n = elapsed
+                bar.refresh()
+
+        ticker = threading.Thread(target=tick, name="shell-progress", daemon=True)
+        ticker.start()
+        try:
+            yield
+        finally:
+            done.set()
+            ticker.join()
+            bar.n = bar.total
+            bar.close()
 
 
 def timed_shells(

@@ -79,3 +79,25 @@ def test_bad_options_exit_2(tmp_path, model, capsys, extra, message):
 def test_inspect_refuses_unfinished(tmp_path, capsys):
     assert main(["inspect", str(tmp_path)]) == 2
     assert "manifest.json" in capsys.readouterr().err
+
+
+def test_shell_meshes_only_when_asked_and_estimated(tmp_path, model, capsys):
+    common = ["--voxel-size", "0.2,0.2,0.15", "--thickness", "0.3,0.4", "--colour", "200,30,30"]
+    out = tmp_path / "plain"
+    assert main(["build", str(model), "-o", str(out), *common, "--no-progress"]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert not any(name.startswith("shells/") for name in manifest["files"])
+    assert manifest["estimate"]["shell_seconds"] == 0
+    assert "shell meshes" not in capsys.readouterr().err
+
+    out = tmp_path / "shells"
+    argv = ["build", str(model), "-o", str(out), *common, "--shell-meshes", "--progress"]
+    assert main(argv) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert {"shells/shell_1.ply", "shells/shell_2.ply"} <= set(manifest["files"])
+    n_faces = len(trimesh.load(model, process=False).faces)
+    # the estimate counts every face of both layers at the robust method's rate
+    assert manifest["estimate"]["shell_seconds"] == pytest.approx(n_faces * 2 * 1e-2)
+    err = capsys.readouterr().err
+    assert "for the shell meshes" in err  # the up-front estimate line
+    assert "shell meshes:" in err  # the progress bar

@@ -114,10 +114,36 @@ def test_resumed_slabs_stream_as_computed_ones(tmp_path, monkeypatch, halftone):
     assert differences(manifest_core(out), manifest_core(reference)) == []
 
 
-def test_resume_without_an_unfinished_build_is_refused(tmp_path, capsys):
-    assert _build(tmp_path / "empty", *SMALL, "--resume") == 2
-    assert "holds no unfinished build" in capsys.readouterr().err
-    assert not (tmp_path / "empty").exists() or not any((tmp_path / "empty").iterdir())
+@pytest.mark.slow
+def test_resume_of_a_killed_build_without_checkpoints_builds_from_the_start(tmp_path, capsys):
+    """A short build (no checkpoints) SIGKILLed, then rerun with --resume: one line says
+    there is nothing to resume, the build runs from the start and gives the files of an
+    uninterrupted build."""
+    reference, out = tmp_path / "reference", tmp_path / "out"
+    options = [o for o in KILLABLE if o != "--checkpoint"]
+    assert _build(reference, *options) == 0
+    command = Command(["build", str(MODEL), "-o", str(out), *options], tmp_path / "run")
+    wait_for(lambda: any(".partial" in p.name for p in temporary_files(out)), what="a file")
+    os.killpg(command.pid, signal.SIGKILL)
+    result = command.finish(timeout=60, grace=1.0)
+    assert result.status == -signal.SIGKILL, "the build finished before the kill"
+    assert not (out / RUN_FOLDER).exists()
+    capsys.readouterr()
+    assert _build(out, *options, "--resume") == 0
+    warning = [line for line in capsys.readouterr().err.splitlines() if "resume" in line]
+    assert len(warning) == 1 and "building from the start" in warning[0], warning
+    assert output_digests(out) == output_digests(reference)
+    assert differences(manifest_core(out), manifest_core(reference)) == []
+    assert not (out / RUN_FOLDER).exists()
+
+
+def test_resume_in_an_empty_folder_builds_from_the_start(tmp_path, capsys):
+    out = tmp_path / "empty"
+    assert _build(out, *SMALL, "--resume") == 0
+    err = capsys.readouterr().err
+    assert "no checkpoints to resume" in err and "building from the start" in err
+    assert (out / "manifest.json").is_file()
+    assert json.loads((out / "manifest.json").read_text())["run"]["resumed_slabs"] == 0
 
 
 def test_a_chunk_decodes_to_the_slab_it_encodes(tmp_path):

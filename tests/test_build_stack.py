@@ -29,7 +29,9 @@ def _ball(radius: float = 3.0) -> ColouredMesh:
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     out = tmp_path_factory.mktemp("build")
-    config = BuildConfig(voxel_mm=(0.1, 0.15, 0.08), thickness_mm=(0.4, 0.6), slab_mb=2.0)
+    config = BuildConfig(
+        voxel_mm=(0.1, 0.15, 0.08), thickness_mm=(0.4, 0.6), slab_mb=2.0, shell_meshes=True
+    )
     manifest = build_stack(_ball(), config, out, progress=False)
     return out, config, manifest
 

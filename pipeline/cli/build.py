@@ -143,9 +143,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--shell-meshes",
         action=argparse.BooleanOptionalAction,
-        default=None,
-        help="also write the offset shells to DIR/shells/ (default: with --thickness only; "
-        "shells of a per-face thickness take minutes: `shellvox shells` makes them alone)",
+        default=False,
+        help="also write the offset shells to DIR/shells/ (off by default: the robust "
+        "shells of a large model take minutes; the estimate says how long; `shellvox "
+        "shells` makes them alone)",
     )
     parser.add_argument("--method", choices=METHODS, default="robust", help="offset construction")
     parser.add_argument("--alpha", action="store_true", help="write colour.tif as RGBA")
@@ -213,11 +214,7 @@ def config_from_args(
         thickness_source=source,
         colour_layers=colour_layers,
         layer_rule=args.layers,
-        shell_meshes=(
-            args.layers == "shells"
-            or args.shell_meshes
-            or (args.shell_meshes is None and source == "--thickness")
-        ),
+        shell_meshes=args.shell_meshes,
         shell_method=args.method,
         alpha=args.alpha,
         formats=_formats(args, profile, voxel),
