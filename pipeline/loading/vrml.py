@@ -86,6 +86,8 @@ def read_vrml(path: Path, options: LoadOptions) -> ColouredMesh:
         raise
     except (ValueError, IndexError, TypeError) as error:  # a safety net: checks name the rest
         raise InputError(path, f"is malformed ({type(error).__name__}: {error})", FIX) from None
+    except RecursionError:  # the parser and the scene walk recurse once per level
+        raise InputError(path, "nests its nodes or lists too deeply to read", FIX) from None
 
 
 def _read_vrml(path: Path, options: LoadOptions) -> ColouredMesh:
