@@ -108,6 +108,8 @@ def read_gltf(path: Path, options: LoadOptions) -> ColouredMesh:
         raise InputError(
             path, f"has a malformed glTF document ({type(error).__name__}: {error})", FIX
         ) from None
+    except RecursionError:  # JSON nested past Python's recursion limit
+        raise InputError(path, "nests its JSON too deeply to read", FIX) from None
 
 
 def _read_gltf(path: Path, options: LoadOptions) -> ColouredMesh:
