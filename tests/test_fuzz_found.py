@@ -6,8 +6,11 @@ Each file is written by hand; ``shellvox info`` must refuse it in one line (exit
 from __future__ import annotations
 
 import json
+import struct
 
-from builders import glb_chunks, gltf_parts
+import pytest
+from builders import glb_bytes, glb_chunks, gltf_parts
+from corpus_files import ply_text
 
 from pipeline.cli import main
 
@@ -38,3 +41,19 @@ def test_gltf_json_nested_too_deep(tmp_path, capsys):
     _refused(tmp_path / "deep.glb", capsys, "deep.glb", "JSON too deeply")
     (tmp_path / "deep.gltf").write_text(text)
     _refused(tmp_path / "deep.gltf", capsys, "deep.gltf", "JSON too deeply")
+
+
+@pytest.mark.parametrize("index", ["99", "-5"])
+def test_ply_face_index_out_of_range(tmp_path, capsys, index):
+    text = ply_text(texture_file=None, uv=False, extra="red green blue")
+    (tmp_path / "far.ply").write_text(text.replace("3 9 10 11", f"3 9 10 {index}"))
+    _refused(tmp_path / "far.ply", capsys, "far.ply", "vertex index out of range")
+
+
+def test_gltf_index_out_of_range(tmp_path, capsys):
+    document, binary = gltf_parts()
+    view = document["bufferViews"][2]
+    at = view["byteOffset"] + view["byteLength"] - 4
+    binary = binary[:at] + struct.pack("<I", 1000) + binary[at + 4 :]
+    (tmp_path / "far.glb").write_bytes(glb_bytes(document, binary))
+    _refused(tmp_path / "far.glb", capsys, "far.glb", "vertex index out of range")

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading.combine import combine_parts
+from pipeline.loading.combine import checked_faces, combine_parts
 from pipeline.loading.images import TextureRef, read_textures
 from pipeline.loading.references import check_inside
 from pipeline.mesh import ColouredMesh
@@ -167,7 +167,7 @@ def _part(
     texture: NDArray[np.uint8] | None,
     options: LoadOptions,
 ) -> dict[str, Any]:
-    faces = np.asarray(mesh.faces, dtype=np.int64)
+    faces = checked_faces(path, len(mesh.vertices), np.asarray(mesh.faces, dtype=np.int64))
     part: dict[str, Any] = {"vertices": np.asarray(mesh.vertices, np.float64), "faces": faces}
     visual: Any = mesh.visual
     kind = getattr(visual, "kind", None)
