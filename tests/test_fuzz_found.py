@@ -10,7 +10,7 @@ import struct
 
 import pytest
 from builders import glb_bytes, glb_chunks, gltf_parts
-from corpus_files import ply_text
+from corpus_files import RELS, model_xml, ply_text, threemf
 
 from pipeline.cli import main
 
@@ -57,3 +57,14 @@ def test_gltf_index_out_of_range(tmp_path, capsys):
     binary = binary[:at] + struct.pack("<I", 1000) + binary[at + 4 :]
     (tmp_path / "far.glb").write_bytes(glb_bytes(document, binary))
     _refused(tmp_path / "far.glb", capsys, "far.glb", "vertex index out of range")
+
+
+@pytest.mark.parametrize("entry", ["model", "rels"])
+def test_3mf_unknown_xml_encoding(tmp_path, capsys, entry):
+    model, rels = model_xml(), RELS
+    if entry == "model":
+        model = model.replace('encoding="UTF-8"', 'encoding="UTF0"')
+    else:
+        rels = rels.replace('encoding="UTF-8"', 'encoding="UTF0"')
+    path = threemf(model, rels)(tmp_path)
+    _refused(path, capsys, "m.3mf", "malformed", "UTF0")
