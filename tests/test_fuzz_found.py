@@ -68,3 +68,12 @@ def test_3mf_unknown_xml_encoding(tmp_path, capsys, entry):
         rels = rels.replace('encoding="UTF-8"', 'encoding="UTF0"')
     path = threemf(model, rels)(tmp_path)
     _refused(path, capsys, "m.3mf", "malformed", "UTF0")
+
+
+@pytest.mark.parametrize(
+    ("old", "new"),
+    [('v3="1"', 'v3="99999999999999999999"'), ('p1="0"', 'p1="-99999999999999999999"')],
+)
+def test_3mf_integer_past_int64(tmp_path, capsys, old, new):
+    path = threemf(model_xml().replace(old, new, 1))(tmp_path)
+    _refused(path, capsys, "m.3mf", "too large for a 64-bit integer", new.split('"')[1][:27])
