@@ -10,7 +10,7 @@ import struct
 
 import pytest
 from builders import glb_bytes, glb_chunks, gltf_parts
-from corpus_files import RELS, model_xml, ply_text, threemf
+from corpus_files import RELS, model_xml, obj_text, ply_text, threemf, write_gltf
 
 from pipeline.cli import main
 
@@ -77,3 +77,36 @@ def test_3mf_unknown_xml_encoding(tmp_path, capsys, entry):
 def test_3mf_integer_past_int64(tmp_path, capsys, old, new):
     path = threemf(model_xml().replace(old, new, 1))(tmp_path)
     _refused(path, capsys, "m.3mf", "too large for a 64-bit integer", new.split('"')[1][:27])
+
+
+LONG = "a" * 5000 + ".png"  # past NAME_MAX: looking it up fails with ENAMETOOLONG
+SHAPE = (
+    "geometry IndexedFaceSet { coord Coordinate { point [0 0 0, 10 0 0, 0 10 0, 0 0 10] } "
+    "coordIndex [0 2 1 -1 0 1 3 -1 0 3 2 -1 1 2 3 -1] "
+    "texCoord TextureCoordinate { point [0 0, 1 0, 0 1, 1 1] } }"
+)
+
+
+def _long_names(folder, where):
+    if where == "mtllib":
+        (folder / "m.obj").write_text(obj_text().replace("model.mtl", LONG))
+    elif where == "map_Kd":
+        (folder / "m.obj").write_text(obj_text())
+        (folder / "model.mtl").write_text(f"newmtl painted\nmap_Kd {LONG}\n")
+    elif where == "TextureFile":
+        (folder / "m.ply").write_text(ply_text(texture_file=LONG))
+    elif where == "buffer":
+        document, _ = gltf_parts()
+        document["buffers"][0]["uri"] = LONG
+        (folder / "m.gltf").write_text(json.dumps(document))
+    elif where == "image":
+        write_gltf(folder, *gltf_parts(image={"uri": LONG}), name="m.gltf")
+    else:
+        texture = f'appearance Appearance {{ texture ImageTexture {{ url "{LONG}" }} }}'
+        (folder / "m.wrl").write_text(f"#VRML V2.0 utf8\nShape {{ {texture} {SHAPE} }}\n")
+    return next(folder.glob("m.*"))
+
+
+@pytest.mark.parametrize("where", ["mtllib", "map_Kd", "TextureFile", "buffer", "image", "url"])
+def test_referenced_name_too_long(tmp_path, capsys, where):
+    _refused(_long_names(tmp_path, where), capsys, "aaaa.png'", "missing")

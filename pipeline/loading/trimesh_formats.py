@@ -24,7 +24,7 @@ from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.combine import checked_faces, combine_parts
 from pipeline.loading.images import TextureRef, read_textures
-from pipeline.loading.references import check_inside
+from pipeline.loading.references import check_inside, is_file
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import Material
 
@@ -154,7 +154,7 @@ def _ply_header(path: Path, options: LoadOptions) -> tuple[str | None, NDArray[n
     what = f"TextureFile {texture_name!r}"
     candidate = path.parent / texture_name
     source = (
-        check_inside(path, candidate, what, force=options.force) if candidate.is_file() else None
+        check_inside(path, candidate, what, force=options.force) if is_file(candidate) else None
     )
     ref = TextureRef(path, what, source, "put the image beside the PLY")
     return texture_name, read_textures([ref], colour=options.colour, force=options.force)[0]

@@ -40,7 +40,7 @@ from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.combine import combine_parts
 from pipeline.loading.images import TextureRef, read_textures
-from pipeline.loading.references import check_inside
+from pipeline.loading.references import check_inside, is_file
 from pipeline.loading.vrml_parse import FIX, Node, Value, parse_vrml
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import Material, WrapMode
@@ -290,7 +290,7 @@ class _Walk:
         urls = node.fields.get("url")
         names = [u for u in (urls if isinstance(urls, list) else [urls]) if isinstance(u, str)]
         files = [self.path.parent / n for n in names if "://" not in n]
-        found = next((f for f in files if f.is_file()), None)
+        found = next((f for f in files if is_file(f)), None)
         if found is not None:
             what = f"texture {found.name!r}"
             found = check_inside(self.path, found, what, force=self.options.force)
