@@ -7,12 +7,14 @@ from __future__ import annotations
 
 import json
 import struct
+import time
 
 import pytest
 from builders import glb_bytes, glb_chunks, gltf_parts
 from corpus_files import RELS, model_xml, obj_text, ply_text, threemf, write_gltf
 
 from pipeline.cli import main
+from pipeline.loading.vrml_parse import parse_vrml
 
 
 def _refused(path, capsys, *needles):
@@ -110,3 +112,24 @@ def _long_names(folder, where):
 @pytest.mark.parametrize("where", ["mtllib", "map_Kd", "TextureFile", "buffer", "image", "url"])
 def test_referenced_name_too_long(tmp_path, capsys, where):
     _refused(_long_names(tmp_path, where), capsys, "aaaa.png'", "missing")
+
+
+def _nested_scene(depth: int, comment_chars: int) -> str:
+    opened = "Group { children [\n" * depth
+    return f"#VRML V2.0 utf8\n{opened}# {'x' * comment_chars}\n{SHAPE_NODE}\n" + "] }\n" * depth
+
+
+SHAPE_NODE = f"Shape {{ {SHAPE} }}"
+
+
+def test_vrml_nested_lists_parse_in_linear_time(tmp_path):
+    """Each list scanned on to the next ']' (and its comments removed) made nested
+    lists quadratic: 150 groups around a 4 MB comment took 150 scans of it."""
+    times = []
+    for depth in (1, 150):
+        text = _nested_scene(depth, 4_000_000)
+        started = time.perf_counter()
+        scene = parse_vrml(tmp_path / "deep.wrl", text)
+        times.append(time.perf_counter() - started)
+        assert len(scene.nodes) == 1
+    assert times[1] < 10 * times[0] + 0.5, times
