@@ -133,3 +133,12 @@ def test_vrml_nested_lists_parse_in_linear_time(tmp_path):
         times.append(time.perf_counter() - started)
         assert len(scene.nodes) == 1
     assert times[1] < 10 * times[0] + 0.5, times
+
+
+def test_3mf_zip_version_too_new(tmp_path, capsys):
+    path = threemf(model_xml())(tmp_path)
+    data = bytearray(path.read_bytes())
+    at = data.index(b"PK\x01\x02") + 6  # the central directory's "version needed to extract"
+    data[at : at + 2] = struct.pack("<H", 255)
+    path.write_bytes(bytes(data))
+    _refused(path, capsys, "m.3mf", "cannot be read", "zip file version 25.5")

@@ -182,6 +182,10 @@ def _read_3mf(path: Path, options: LoadOptions) -> tuple[ColouredMesh, float]:
         raise InputError(
             path, "is not a 3MF package (not a zip archive)", "re-export it as 3MF"
         ) from None
+    except NotImplementedError as error:  # e.g. an entry needs a newer zip version
+        raise InputError(
+            path, f"is a zip archive that cannot be read ({error})", "re-export it as 3MF"
+        ) from None
     with archive:
         check_archive(path, archive)
         package = _Package(path, archive, options)
