@@ -214,14 +214,14 @@ def gltf_models(draw: st.DrawFn) -> Model:
 # ---------------------------------------------------------------------------- 3MF
 
 
-def _mesh_object(object_id: int, triangle_attributes: list[str]) -> str:
+def _mesh_object(object_id: int, triangle_attributes: list[str], own: str = "") -> str:
     vertices = "".join(f'<vertex x="{x}" y="{y}" z="{z}"/>' for x, y, z in TET_VERTICES)
     triangles = "".join(
         f'<triangle v1="{a}" v2="{b}" v3="{c}"{extra}/>'
         for (a, b, c), extra in zip(TET_FACES, triangle_attributes, strict=True)
     )
     return (
-        f'<object id="{object_id}" type="model"><mesh><vertices>{vertices}</vertices>'
+        f'<object id="{object_id}" type="model"{own}><mesh><vertices>{vertices}</vertices>'
         f"<triangles>{triangles}</triangles></mesh></object>"
     )
 
@@ -232,6 +232,11 @@ def _model_part(resources: str, build: str) -> bytes:
         f'xmlns="{CORE_NS}" xmlns:m="{MATERIAL_NS}" xmlns:p="{PRODUCTION_NS}">'
         f"<resources>{resources}</resources><build>{build}</build></model>"
     ).encode()
+
+
+#: A triangle's property attributes: mostly all three corners, sometimes p1 alone, rarely
+#: no p1 (the object's pid and pindex then apply).
+STYLES = ["corners"] * 10 + ["p1"] * 5 + ["pid only"]
 
 
 @st.composite
@@ -266,15 +271,25 @@ def threemf_models(draw: st.DrawFn) -> Model:
         resources += "".join(f'<m:multi pindices="{row}"/>' for row in rows)
         resources += "</m:multiproperties>"
         groups["6"] = n_multi
+    # The object's pid and pindex apply to triangles without a pid, or with a pid but no p1
+    # (as lib3mf reads them); a triangle's p2 and p3 default to its p1.
+    own = draw(st.sampled_from(["", *groups]))
+    pindex = f' pindex="{draw(st.integers(0, groups[own] - 1))}"' if own else ""
     attributes = []
     for _ in TET_FACES:
         pid = draw(st.sampled_from(["", *groups]))
-        if pid:
-            corners = [draw(st.integers(0, groups[pid] - 1)) for _ in range(3)]
-            attributes.append(f' pid="{pid}" p1="{corners[0]}" p2="{corners[1]}" p3="{corners[2]}"')
-        else:
-            attributes.append("")
-    mesh = _mesh_object(1, attributes)
+        style = draw(st.sampled_from(STYLES)) if pid else ""
+        corners = [draw(st.integers(0, groups[pid] - 1)) for _ in range(3)] if pid else []
+        attributes.append(
+            {
+                "": "",
+                "pid only": f' pid="{pid}"',
+                "p1": f' pid="{pid}" p1="{corners[0] if corners else 0}"',
+                "corners": f' pid="{pid}"'
+                + "".join(f' p{k + 1}="{c}"' for k, c in enumerate(corners)),
+            }[style]
+        )
+    mesh = _mesh_object(1, attributes, f' pid="{own}"{pindex}' if own else "")
     transform = ' transform="1 0 0 0 1 0 0 0 1 5 6 7"' if draw(st.booleans()) else ""
     layout = draw(st.sampled_from(["item", "component", "part"]))
     if layout == "item":

@@ -16,6 +16,7 @@ import io
 import re
 import shutil
 import signal
+import sys
 import time
 from collections import Counter
 from dataclasses import dataclass, field
@@ -66,7 +67,7 @@ def run_info(model: Path, *, valid: bool) -> Outcome:
     """Run ``shellvox info model`` in process and classify what it did (see the module)."""
     out, err = io.StringIO(), io.StringIO()
     previous = signal.signal(signal.SIGALRM, _alarm)
-    faulthandler.dump_traceback_later(WATCHDOG_SECONDS, exit=True)
+    faulthandler.dump_traceback_later(WATCHDOG_SECONDS, exit=True, file=sys.__stderr__)
     started = time.perf_counter()
     hung = False
     try:
@@ -139,5 +140,5 @@ class Tally:
         return (
             f"fuzz {self.fmt}: {total} cases, loaded {self.counts['loaded']}, refused "
             f"{self.counts['refused']}, known failures {known_count}; {others}; slowest "
-            f"{self.slowest:.2f} s"
+            f"{self.slowest:.3f} s"
         )
