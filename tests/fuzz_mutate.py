@@ -83,13 +83,21 @@ def put(model: Model, name: str, data: bytes | None) -> Model:
 
 
 @dataclass(frozen=True)
-class Text:
-    """Replace the ``at``-th number or word of a file, or drop or repeat its ``at``-th line."""
+class Edit:
+    """A mutation: ``what`` it does, in which ``file``, ``at`` which place, with which ``value``
+    (the integers are taken modulo what there is)."""
 
-    what: str  # "number", "word", "drop line", "repeat line"
+    what: str
     file: int
     at: int
     value: int
+
+
+class Text(Edit):
+    """Replace the ``at``-th number or word of a file, or drop or repeat its ``at``-th line.
+
+    ``what``: "number", "word", "drop line", "repeat line".
+    """
 
     def apply(self, model: Model) -> Model:
         name = _target(model, self.file)
@@ -107,14 +115,11 @@ class Text:
         return put(model, name, b"\n".join(lines))
 
 
-@dataclass(frozen=True)
-class Bytes:
-    """Truncate a file, flip bytes, insert a token, or overwrite a 4-byte binary field."""
+class Bytes(Edit):
+    """Truncate a file, flip bytes, insert a token, or overwrite a 4-byte binary field.
 
-    what: str  # "truncate", "noise", "insert", "field"
-    file: int
-    at: int
-    value: int
+    ``what``: "truncate", "noise", "insert", "field".
+    """
 
     def apply(self, model: Model) -> Model:
         model = model.packed()
@@ -171,11 +176,15 @@ def _nodes(node: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
 
 
 def _json_parts(model: Model) -> tuple[Any, bytes] | None:
+    """The document and binary chunk; None after an earlier edit nested it too deep to read."""
     data = model.files[model.name]
-    if model.name.endswith(".glb"):
-        (length,) = struct.unpack_from("<I", data, 12)
-        return json.loads(data[20 : 20 + length]), data[28 + length :]
-    return json.loads(data), b""
+    try:
+        if model.name.endswith(".glb"):
+            (length,) = struct.unpack_from("<I", data, 12)
+            return json.loads(data[20 : 20 + length]), data[28 + length :]
+        return json.loads(data), b""
+    except RecursionError:
+        return None
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ from fuzz_mutate import (
     EVIL_ATTRIBUTES,
     Bytes,
     Companion,
+    Edit,
     Json,
     Text,
     pick,
@@ -40,20 +41,19 @@ def _parts(model: Model) -> list[str]:
 
 
 @dataclass(frozen=True)
-class Xml:
-    """Set or delete an attribute of a 3MF element, or drop or repeat the element."""
+class Xml(Edit):
+    """Set or delete an attribute of a 3MF element, or drop or repeat the element.
 
-    what: str  # "set", "delete", "drop", "repeat"
-    part: int
-    at: int
+    ``what``: "set", "delete", "drop", "repeat"; ``file`` picks the model part.
+    """
+
     attribute: int
-    value: int
 
     def apply(self, model: Model) -> Model:
         parts = _parts(model)
         if not parts:
             return model
-        name = pick(parts, self.part)
+        name = pick(parts, self.file)
         root = ElementTree.fromstring(read(model, name))
         pairs = [(parent, child) for parent in root.iter() for child in parent]
         parent, element = pick(pairs, self.at)
