@@ -148,3 +148,11 @@ def test_3mf_zip_version_too_new(tmp_path, capsys):
     data[at : at + 2] = struct.pack("<H", 255)
     path.write_bytes(bytes(data))
     _refused(path, capsys, "m.3mf", "cannot be read", "zip file version 25.5")
+
+
+@pytest.mark.parametrize(
+    "transform", ["1 0 0 0 1 0 -1e308 0 1 5 6 7", "1e300 0 0 0 1 0 0 0 1 0 0 0"]
+)
+def test_3mf_transform_of_1e308(tmp_path, capsys, transform):
+    path = threemf(model_xml(transform=transform))(tmp_path)
+    _refused(path, capsys, "m.3mf", f"singular transform {transform!r}")
