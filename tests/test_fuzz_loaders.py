@@ -12,7 +12,9 @@ default, in ``make test``: 60 cases per format, derandomized, no example databas
 ``long`` (``make fuzz``: ``SHELLVOX_FUZZ_CASES`` cases per format, default 10,000,
 seeded by ``SHELLVOX_FUZZ_SEED``). Failing cases are not shrunk: every one is copied,
 with its description, to ``SHELLVOX_FUZZ_KEEP`` (default a temporary folder) and the
-test fails at the end listing them; each line of counts is printed.
+test fails at the end listing them; each line of counts is printed (and appended to
+``SHELLVOX_FUZZ_REPORT`` if set). Known failures fixed on another branch are counted
+apart, not failed (:data:`fuzz_oracle.KNOWN_FAILURES`).
 """
 
 from __future__ import annotations
