@@ -80,6 +80,8 @@ class Deep:
 
     def apply(self, model: Model) -> Model:
         depth = pick(DEEP, self.depth)
+        if self.what == "components":  # a chain of objects: 10,000 is far past the limit of
+            depth = min(depth, 10_000)  # 32 and keeps the part's XML under 2 MB
         if self.what in ("components", "elements"):
             name = pick(_parts(model), self.at) if _parts(model) else None
             if name is None:
