@@ -200,7 +200,10 @@ class Json:
         if parts is None:
             return model
         document, binary = parts
-        path = pick(_nodes(document), self.at)
+        paths = _nodes(document)
+        if not paths:  # earlier edits left an empty document
+            return model
+        path = pick(paths, self.at)
         parent = document
         for key in path[:-1]:
             parent = parent[key]

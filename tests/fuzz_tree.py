@@ -56,6 +56,8 @@ class Xml(Edit):
         name = pick(parts, self.file)
         root = ElementTree.fromstring(read(model, name))
         pairs = [(parent, child) for parent in root.iter() for child in parent]
+        if not pairs:  # earlier edits dropped every element
+            return model
         parent, element = pick(pairs, self.at)
         key = pick(sorted(element.attrib) + ATTRIBUTES, self.attribute)
         if self.what == "set":
