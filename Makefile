@@ -6,7 +6,7 @@ BIN := $(VENV)/bin
 OUT ?= out/demo
 MODEL ?= data/colour_target/colour_target.obj
 
-.PHONY: setup demo test test-fast lint clean
+.PHONY: setup demo test test-fast fuzz lint clean
 
 setup:
 	@bash scripts/bootstrap.sh
@@ -28,6 +28,17 @@ test-fast: setup
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -m "not slow"
+
+# The long fuzz run of every loader (tests/test_fuzz_loaders.py; `make test` runs a short one):
+# FUZZ_CASES damaged files a format in one process; the counts per format are printed and
+# written to out/fuzz/report.txt, every failing case is kept in out/fuzz/kept/.
+FUZZ_CASES ?= 10000
+FUZZ_SEED ?= 0
+fuzz: setup
+	rm -rf out/fuzz && mkdir -p out/fuzz
+	SHELLVOX_FUZZ=long SHELLVOX_FUZZ_CASES=$(FUZZ_CASES) SHELLVOX_FUZZ_SEED=$(FUZZ_SEED) \
+	SHELLVOX_FUZZ_KEEP=out/fuzz/kept SHELLVOX_FUZZ_REPORT=out/fuzz/report.txt \
+	$(BIN)/python -m pytest tests/test_fuzz_loaders.py -p no:xdist -p no:cacheprovider
 
 lint: setup
 	$(BIN)/ruff check .

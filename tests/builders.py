@@ -163,7 +163,11 @@ def gltf_parts(
 
 
 def glb_bytes(document: dict, binary: bytes) -> bytes:
-    text = json.dumps(document).encode()
+    return glb_chunks(json.dumps(document).encode(), binary)
+
+
+def glb_chunks(text: bytes, binary: bytes) -> bytes:
+    """A GLB of a JSON chunk ``text`` (any bytes, padded with spaces) and a BIN chunk."""
     text += b" " * (-len(text) % 4)
     body = struct.pack("<I4s", len(text), b"JSON") + text
     body += struct.pack("<I4s", len(binary), b"BIN\0") + binary

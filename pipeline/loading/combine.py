@@ -18,10 +18,22 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import ShellvoxWarning
+from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import Material
 from voxel.srgb import decode_uint8
+
+
+def checked_faces(path: Path, n_vertices: int, faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Return ``faces (F, 3) int64`` if every index names one of ``n_vertices`` vertices.
+
+    trimesh (``process=False``) keeps a file's indices as they are, so an index past the
+    vertices, or a negative one (which numpy would silently count from the end), is
+    refused here before any colour is gathered by it.
+    """
+    if len(faces) and (faces.min() < 0 or faces.max() >= n_vertices):
+        raise InputError(path, "has a face with a vertex index out of range", "re-export the mesh")
+    return faces
 
 
 def stack_parts(

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 
 from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading.combine import combine_parts
+from pipeline.loading.combine import checked_faces, combine_parts
 from pipeline.loading.gltf_document import (
     FIX,
     GltfDocument,
@@ -108,6 +108,8 @@ def read_gltf(path: Path, options: LoadOptions) -> ColouredMesh:
         raise InputError(
             path, f"has a malformed glTF document ({type(error).__name__}: {error})", FIX
         ) from None
+    except RecursionError:  # JSON nested past Python's recursion limit
+        raise InputError(path, "nests its JSON too deeply to read", FIX) from None
 
 
 def _read_gltf(path: Path, options: LoadOptions) -> ColouredMesh:
@@ -317,7 +319,7 @@ def _part(
     """
     path = document.path
     buffers, options = context
-    faces = np.asarray(geometry.faces, dtype=np.int64)
+    faces = checked_faces(path, len(geometry.vertices), np.asarray(geometry.faces, np.int64))
     if np.linalg.det(matrix[:3, :3]) < 0:
         faces = faces[:, ::-1]
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused by load_model

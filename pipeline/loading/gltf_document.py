@@ -21,7 +21,7 @@ from urllib.parse import unquote
 
 from pipeline.config import LoadOptions
 from pipeline.errors import InputError
-from pipeline.loading.references import check_inside
+from pipeline.loading.references import check_inside, is_file
 
 COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
 TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
@@ -109,7 +109,7 @@ def check_buffers(document: GltfDocument, options: LoadOptions) -> list[Path | b
             held, where = len(source), "its data: URI"
         else:
             file = external_file(document, str(uri), f"buffer {index} ({uri!r})", options)
-            if not file.is_file():
+            if not is_file(file):
                 raise InputError(
                     path,
                     f"buffer file {uri!r} is missing",

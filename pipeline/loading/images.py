@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from PIL import Image, UnidentifiedImageError
 
 from pipeline.errors import InputError, ShellvoxWarning
+from pipeline.loading.references import is_file
 
 #: Most texture pixels accepted over all textures of one model without ``--force``.
 MAX_TEXTURE_PIXELS = 8192 * 8192
@@ -140,7 +141,7 @@ def _fall_back(ref: TextureRef, problem: str, colour: tuple[int, int, int, int] 
 def _open(ref: TextureRef) -> Iterator[Image.Image]:
     """Open an image (header only) with Pillow's own pixel limit replaced by ours."""
     source = ref.source
-    if source is None or (isinstance(source, Path) and not source.is_file()):
+    if source is None or (isinstance(source, Path) and not is_file(source)):
         raise _Unusable("is missing")
     saved = Image.MAX_IMAGE_PIXELS
     Image.MAX_IMAGE_PIXELS = None  # the budget of read_textures is checked instead

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.images import TextureRef, read_textures
-from pipeline.loading.references import check_inside, is_inside
+from pipeline.loading.references import check_inside, is_file, is_inside
 from pipeline.texture import Material, WrapMode
 from voxel.srgb import srgb_to_linear
 
@@ -57,17 +57,17 @@ def resolve(
     """
     cleaned = name.strip().strip('"').replace("\\", "/")
     declared = base / cleaned
-    if declared.is_file() and is_inside(model.parent, declared):
+    if is_file(declared) and is_inside(model.parent, declared):
         return declared
     local = base / Path(cleaned).name
-    if local.is_file() and is_inside(model.parent, local):
+    if is_file(local) and is_inside(model.parent, local):
         return local
     wanted = Path(cleaned).name.lower()
     if base.is_dir():
         for entry in sorted(base.iterdir()):
             if entry.name.lower() == wanted and entry.is_file() and is_inside(model.parent, entry):
                 return entry
-    if declared.is_file():  # only the file outside the folder exists
+    if is_file(declared):  # only the file outside the folder exists
         return check_inside(model, declared, what, force=force, alternative=alternative)
     return None
 

@@ -18,6 +18,18 @@ from pathlib import Path
 from pipeline.errors import InputError, ShellvoxWarning
 
 
+def is_file(candidate: Path) -> bool:
+    """Return whether a referenced ``candidate`` is a file.
+
+    A name too long for the system to look up (``ENAMETOOLONG``, for which
+    ``Path.is_file`` raises) is no file.
+    """
+    try:
+        return candidate.is_file()
+    except OSError:
+        return False
+
+
 def is_inside(folder: Path, candidate: Path) -> bool:
     """Return whether ``candidate`` resolves to a path inside ``folder`` (symlinks followed)."""
     try:

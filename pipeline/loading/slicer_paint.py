@@ -246,7 +246,7 @@ def _colours(path: Path, values: list[str]) -> NDArray[np.uint8]:
 def _xml(path: Path, archive: zipfile.ZipFile, name: str) -> ElementTree.Element:
     try:
         return ElementTree.fromstring(read_entry(path, archive, name))
-    except ElementTree.ParseError as error:
+    except (ElementTree.ParseError, LookupError) as error:  # Lookup: an unknown encoding
         raise InputError(path, f"{name} is malformed XML ({error})", "re-save it") from None
 
 

@@ -182,6 +182,10 @@ def _read_3mf(path: Path, options: LoadOptions) -> tuple[ColouredMesh, float]:
         raise InputError(
             path, "is not a 3MF package (not a zip archive)", "re-export it as 3MF"
         ) from None
+    except NotImplementedError as error:  # e.g. an entry needs a newer zip version
+        raise InputError(
+            path, f"is a zip archive that cannot be read ({error})", "re-export it as 3MF"
+        ) from None
     with archive:
         check_archive(path, archive)
         package = _Package(path, archive, options)
@@ -370,7 +374,8 @@ def _transform(path: Path, text: str | None) -> NDArray[np.float64]:
     matrix[:3, :3] = values[:3].T
     matrix[:3, 3] = values[3]
     scale = float(np.abs(matrix[:3, :3]).max())
-    if scale == 0 or abs(np.linalg.det(matrix[:3, :3])) <= 1e-12 * scale**3:
+    # det(M / scale) <= 1e-12 is det(M) <= 1e-12 scale^3 without scale^3 overflowing
+    if scale == 0 or abs(np.linalg.det(matrix[:3, :3] / scale)) <= 1e-12:
         raise InputError(
             path,
             f"has a singular transform {text!r} (it flattens the object)",

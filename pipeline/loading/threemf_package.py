@@ -52,7 +52,7 @@ def root_model_part(path: Path, archive: zipfile.ZipFile) -> str:
     if "_rels/.rels" in names:
         try:
             rels = ElementTree.fromstring(read_entry(path, archive, "_rels/.rels"))
-        except ElementTree.ParseError as error:
+        except (ElementTree.ParseError, LookupError) as error:  # Lookup: an unknown encoding
             raise InputError(
                 path, f"its _rels/.rels is malformed XML ({error})", "re-export it as 3MF"
             ) from None
@@ -90,5 +90,5 @@ def parse_xml(path: Path, archive: zipfile.ZipFile, name: str) -> ElementTree.El
     """Parse an entry as XML; malformed XML is an InputError."""
     try:
         return ElementTree.fromstring(read_entry(path, archive, name))
-    except ElementTree.ParseError as error:
+    except (ElementTree.ParseError, LookupError) as error:  # Lookup: an unknown encoding
         raise InputError(path, f"model XML is malformed ({error})", "re-export it") from None

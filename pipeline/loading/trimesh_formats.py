@@ -22,9 +22,9 @@ from numpy.typing import NDArray
 
 from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading.combine import combine_parts
+from pipeline.loading.combine import checked_faces, combine_parts
 from pipeline.loading.images import TextureRef, read_textures
-from pipeline.loading.references import check_inside
+from pipeline.loading.references import check_inside, is_file
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import Material
 
@@ -154,7 +154,7 @@ def _ply_header(path: Path, options: LoadOptions) -> tuple[str | None, NDArray[n
     what = f"TextureFile {texture_name!r}"
     candidate = path.parent / texture_name
     source = (
-        check_inside(path, candidate, what, force=options.force) if candidate.is_file() else None
+        check_inside(path, candidate, what, force=options.force) if is_file(candidate) else None
     )
     ref = TextureRef(path, what, source, "put the image beside the PLY")
     return texture_name, read_textures([ref], colour=options.colour, force=options.force)[0]
@@ -167,7 +167,7 @@ def _part(
     texture: NDArray[np.uint8] | None,
     options: LoadOptions,
 ) -> dict[str, Any]:
-    faces = np.asarray(mesh.faces, dtype=np.int64)
+    faces = checked_faces(path, len(mesh.vertices), np.asarray(mesh.faces, dtype=np.int64))
     part: dict[str, Any] = {"vertices": np.asarray(mesh.vertices, np.float64), "faces": faces}
     visual: Any = mesh.visual
     kind = getattr(visual, "kind", None)

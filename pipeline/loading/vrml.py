@@ -40,7 +40,7 @@ from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.combine import combine_parts
 from pipeline.loading.images import TextureRef, read_textures
-from pipeline.loading.references import check_inside
+from pipeline.loading.references import check_inside, is_file
 from pipeline.loading.vrml_parse import FIX, Node, Value, parse_vrml
 from pipeline.mesh import ColouredMesh
 from pipeline.texture import Material, WrapMode
@@ -86,6 +86,8 @@ def read_vrml(path: Path, options: LoadOptions) -> ColouredMesh:
         raise
     except (ValueError, IndexError, TypeError) as error:  # a safety net: checks name the rest
         raise InputError(path, f"is malformed ({type(error).__name__}: {error})", FIX) from None
+    except RecursionError:  # the parser and the scene walk recurse once per level
+        raise InputError(path, "nests its nodes or lists too deeply to read", FIX) from None
 
 
 def _read_vrml(path: Path, options: LoadOptions) -> ColouredMesh:
@@ -288,7 +290,7 @@ class _Walk:
         urls = node.fields.get("url")
         names = [u for u in (urls if isinstance(urls, list) else [urls]) if isinstance(u, str)]
         files = [self.path.parent / n for n in names if "://" not in n]
-        found = next((f for f in files if f.is_file()), None)
+        found = next((f for f in files if is_file(f)), None)
         if found is not None:
             what = f"texture {found.name!r}"
             found = check_inside(self.path, found, what, force=self.options.force)

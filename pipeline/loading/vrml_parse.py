@@ -26,7 +26,9 @@ _SPACE = re.compile(r"(?:[\s,]+|#[^\n\r]*)*")
 _WORD = re.compile(r"[^\x00-\x20\"'#,.\[\]\\{}0-9+\-][^\x00-\x20\"'#,.\[\]\\{}]*")
 _NUMBER = re.compile(r"[+\-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+\-]?\d+)?|0[xX][0-9a-fA-F]+")
 _STRING = re.compile(r'"((?:[^"\\]|\\.)*)"', re.S)
-_NUMERIC_LIST = re.compile(r"[\s,0-9eE+\-.]*")
+# Numbers, separators and comments, possessive: linear, and it stops at the first other
+# character instead of scanning on to the list's end (nested lists would be quadratic).
+_NUMERIC_LIST = re.compile(r"(?:[\s,0-9eE+\-.]++|#[^\n\r]*+)*+")
 
 Value = Union["Node", None, str, bool, float, NDArray[np.float64], list["Value"]]
 
@@ -208,11 +210,12 @@ class _Parser:
 
     def list_value(self) -> Value:
         self.expect("[")
-        end = self.text.find("]", self.at)
-        chunk = self.text[self.at : end] if end >= 0 else ""
-        if "#" in chunk:
-            chunk = re.sub(r"#[^\n\r]*", " ", chunk)
-        if end >= 0 and _NUMERIC_LIST.fullmatch(chunk):
+        match = _NUMERIC_LIST.match(self.text, self.at)
+        end = match.end() if match else -1
+        if end >= 0 and self.text.startswith("]", end):
+            chunk = self.text[self.at : end]
+            if "#" in chunk:
+                chunk = re.sub(r"#[^\n\r]*", " ", chunk)
             try:
                 numbers = np.array(chunk.replace(",", " ").split(), dtype=np.float64)
             except ValueError:
