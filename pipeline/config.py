@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any, Literal, get_args
 
 from pipeline.errors import InputError
-from pipeline.material_plan import MaterialSettings
+from pipeline.printer.material_plan import MaterialSettings
 from voxel.slab import LayerRule
 
 Unit = Literal["micron", "mm", "cm", "m", "inch", "foot"]
@@ -145,7 +145,7 @@ class BuildConfig:
         Write ``colour.tif`` as RGBA instead of RGB.
     compression_level : int, optional
         zlib level of the TIFFs (1 fast .. 9 small); None (default): the fast
-        setting of :mod:`voxel.compression` (zlib-ng's level 2).
+        setting of :mod:`voxel.io.compression` (zlib-ng's level 2).
     formats : tuple of {"tiff", "vdb", "gcvf", "png"}
         Files to write: ``tiff`` = ``layers.tif``, ``colour.tif`` and ``materials.tif``;
         ``vdb`` = ``volume.vdb``; ``gcvf`` = ``job.gcvf`` (GrabCAD Voxel Print);
@@ -156,7 +156,7 @@ class BuildConfig:
     report_samples : int
         Surface samples of the colour report (0: none).
     optical_depth_mm : float, mm
-        Optical depth ``L`` of the colour report's model (:mod:`voxel.colour_report`).
+        Optical depth ``L`` of the colour report's model (:mod:`voxel.colour.report`).
     """
 
     voxel_mm: tuple[float, float, float]

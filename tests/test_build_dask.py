@@ -74,7 +74,7 @@ def _dask_worker(process: psutil.Process) -> bool:
 
 
 def test_an_unreachable_scheduler_is_one_line_and_status_2(tmp_path, monkeypatch, capsys):
-    import pipeline.slab_dask as slab_dask
+    import pipeline.run.cluster as slab_dask
 
     monkeypatch.setattr(slab_dask, "CONNECT_S", 2.0)
     argv = ["build", str(MODEL), "-o", str(tmp_path / "out"), *OPTIONS,
@@ -91,11 +91,11 @@ def _slab_job():
 
     from pipeline.config import LoadOptions
     from pipeline.loading import load_model
-    from pipeline.slab_runner import SlabJob
+    from pipeline.run.runner import SlabJob
+    from voxel.geometry.nearest import SurfaceIndex
     from voxel.grid import GridSpec
-    from voxel.nearest import SurfaceIndex
+    from voxel.io.vdb.encode import VdbEncoder
     from voxel.slab import StackModel
-    from voxel.vdb_encode import VdbEncoder
 
     mesh = load_model(MODEL, LoadOptions())
     depth = np.cumsum(np.full((2, mesh.n_faces), 0.5), axis=0)

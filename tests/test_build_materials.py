@@ -19,14 +19,14 @@ import tifffile
 import trimesh
 from PIL import Image
 
-from pipeline.build import build_stack
+from pipeline.build.stack import build_stack
 from pipeline.cli import main
 from pipeline.config import BuildConfig
-from pipeline.face_thickness import face_thickness
-from pipeline.material_plan import MaterialSettings, build_material_plan
-from pipeline.mesh import ColouredMesh
-from pipeline.printer_profile import load_profile
-from pipeline.thickness_rule import DEFAULT_RULE
+from pipeline.model.mesh import ColouredMesh
+from pipeline.printer.material_plan import MaterialSettings, build_material_plan
+from pipeline.printer.profile import load_profile
+from pipeline.thickness.face_thickness import face_thickness
+from pipeline.thickness.rule import DEFAULT_RULE
 
 J750 = load_profile("j750")
 DEFAULT_MODEL = "data/colour_target/colour_target.obj"

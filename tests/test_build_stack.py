@@ -9,10 +9,10 @@ import trimesh
 from skimage import measure
 from vdb_checks import describe_grids
 
-from pipeline.build import build_stack
+from pipeline.build.stack import build_stack
 from pipeline.config import BuildConfig
 from pipeline.errors import SlabWorkerDied
-from pipeline.mesh import ColouredMesh
+from pipeline.model.mesh import ColouredMesh
 from voxel.openvdb_module import load_openvdb
 
 
@@ -122,7 +122,7 @@ def test_vdb_matches_manifest(built):
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch, workers):
-    import pipeline.slab_runner as slab_runner
+    import pipeline.run.runner as slab_runner
 
     def boom(*args, **kwargs):
         raise RuntimeError("slab failed")
@@ -140,7 +140,7 @@ def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch, workers):
 def test_a_dead_worker_fails_the_build_instead_of_hanging(tmp_path, monkeypatch):
     import os
 
-    import pipeline.slab_runner as slab_runner
+    import pipeline.run.runner as slab_runner
 
     def die(*args, **kwargs):
         os._exit(9)  # as when the kernel kills a worker for lack of memory

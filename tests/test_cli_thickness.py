@@ -13,10 +13,10 @@ from matplotlib.colors import Normalize
 from PIL import Image
 
 from pipeline.cli import main
-from pipeline.face_thickness import face_thickness
 from pipeline.loading import load_model
-from pipeline.thickness_picture import COLOUR_MAP
-from pipeline.thickness_rule import DEFAULT_RULE
+from pipeline.report.thickness_picture import COLOUR_MAP
+from pipeline.thickness.face_thickness import face_thickness
+from pipeline.thickness.rule import DEFAULT_RULE
 
 
 @pytest.fixture

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from voxel.colour_report import ColourReport, colour_regions, delta_e_2000, sample_surface
+from voxel.colour.report import ColourReport, colour_regions, delta_e_2000, sample_surface
 from voxel.grid import GridSpec
 
 
@@ -70,7 +70,7 @@ def test_regions_name_lightness_and_hue():
 
 
 def test_layer_model_limits_and_thickness_effect():
-    from voxel.colour_report import layer_model_srgb, thickness_effect
+    from voxel.colour.report import layer_model_srgb, thickness_effect
 
     ideal = colour.cctf_decoding(np.array([[0.8, 0.1, 0.1], [0.1, 0.1, 0.8]]), "sRGB")
     backing = np.ones(3)

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import tifffile
 
-from voxel.deflate import pixel_bytes, zlib_compress
 from voxel.grid import GridSpec
-from voxel.tiff_writer import TiffStackWriter
+from voxel.io.deflate import pixel_bytes, zlib_compress
+from voxel.io.tiff_writer import TiffStackWriter
 
 
 @pytest.mark.parametrize("period", [1, 2, 3, 4])

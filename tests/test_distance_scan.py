@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from voxel.distance_scan import nearest_in_reach, nearest_within
+from voxel.geometry.distance_scan import nearest_in_reach, nearest_within
+from voxel.geometry.nearest import SurfaceIndex, nearest_faces
+from voxel.geometry.voronoi import voronoi_regions
+from voxel.geometry.winding import inside_slab, winding_slab
 from voxel.grid import GridSpec
-from voxel.nearest import SurfaceIndex, nearest_faces
-from voxel.voronoi import voronoi_regions
-from voxel.winding import inside_slab, winding_slab
 
 
 def _bumpy(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

@@ -8,12 +8,12 @@ import pytest
 import trimesh
 
 from pipeline.errors import InputError
-from pipeline.face_colour import face_colour
-from pipeline.face_split import split_faces, split_for_thickness
-from pipeline.mesh import ColouredMesh
-from pipeline.texture import Material
-from pipeline.thickness_rule import DEFAULT_RULE, SplitRule, ThicknessRule
-from pipeline.topology import edge_report, face_areas, signed_volume
+from pipeline.model.mesh import ColouredMesh
+from pipeline.model.texture import Material
+from pipeline.model.topology import edge_report, face_areas, signed_volume
+from pipeline.thickness.face_colour import face_colour
+from pipeline.thickness.face_split import split_faces, split_for_thickness
+from pipeline.thickness.rule import DEFAULT_RULE, SplitRule, ThicknessRule
 
 
 def _edge_lengths(mesh: ColouredMesh) -> np.ndarray:

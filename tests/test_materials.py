@@ -7,10 +7,10 @@ import colour
 import numpy as np
 import pytest
 
-from pipeline.material_plan import MaterialSettings, build_material_plan
-from pipeline.printer_profile import load_profile
-from voxel.blue_noise import blue_noise_tile
-from voxel.materials import MaterialPlan, materials_for_slab
+from pipeline.printer.material_plan import MaterialSettings, build_material_plan
+from pipeline.printer.profile import load_profile
+from voxel.colour.blue_noise import blue_noise_tile
+from voxel.colour.materials import MaterialPlan, materials_for_slab
 
 SRGB = colour.RGB_COLOURSPACES["sRGB"]
 WINDOW = 16

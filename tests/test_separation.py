@@ -9,11 +9,11 @@ from PIL import Image, ImageCms
 from scipy import ndimage, optimize
 
 from pipeline.errors import InputError
-from pipeline.material_plan import MaterialSettings, build_material_plan
-from pipeline.printer_profile import load_profile
-from pipeline.table_cache import DiskTables
-from voxel.mixing import mix_proportions
-from voxel.separation import (
+from pipeline.printer.material_plan import MaterialSettings, build_material_plan
+from pipeline.printer.profile import load_profile
+from pipeline.printer.table_cache import DiskTables
+from voxel.colour.mixing import mix_proportions
+from voxel.colour.separation import (
     SeparationError,
     cmyk_to_proportions,
     icc_separation,
@@ -190,7 +190,7 @@ def test_icc_must_be_a_readable_cmyk_profile(tmp_path):
 
 
 def test_mixing_table_disk_cache_round_trip(tmp_path, monkeypatch):
-    from voxel import separation
+    from voxel.colour import separation
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     store = DiskTables.default()

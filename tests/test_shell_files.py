@@ -24,7 +24,7 @@ from offset.robust import ShellDefectWarning
 from offset.shells import Shell
 from pipeline.cli import main
 from pipeline.errors import ShellvoxWarning
-from pipeline.shell_files import read_ply, save_shells, write_ply, write_shell
+from pipeline.output.shells import read_ply, save_shells, write_ply, write_shell
 
 
 def _euler(faces):

@@ -1,4 +1,4 @@
-"""sRGB transfer and CIELAB of voxel.srgb against colour-science (an independent reference)."""
+"""sRGB transfer and CIELAB of voxel.colour.srgb against colour-science (independent reference)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import colour
 import numpy as np
 import pytest
 
-from voxel.srgb import (
+from voxel.colour.srgb import (
     DECODE_LUT,
     codes_to_linear,
     decode_uint8,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.texture import Material
-from voxel.srgb import decode_uint8, encode_uint8
+from pipeline.model.texture import Material
+from voxel.colour.srgb import decode_uint8, encode_uint8
 
 
 def _material(wrap=("repeat", "repeat"), filt="linear"):

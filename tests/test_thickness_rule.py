@@ -14,18 +14,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pipeline.errors import InputError
-from pipeline.face_colour import face_colour
-from pipeline.face_split import split_faces
-from pipeline.face_thickness import (
+from pipeline.model.mesh import ColouredMesh
+from pipeline.model.texture import Material
+from pipeline.model.topology import face_areas
+from pipeline.thickness.face_colour import face_colour
+from pipeline.thickness.face_split import split_faces
+from pipeline.thickness.face_thickness import (
     face_thickness,
     mean_curvature,
     smooth_over_faces,
     thickness_summary,
 )
-from pipeline.mesh import ColouredMesh
-from pipeline.rule_file import load_rule
-from pipeline.texture import Material
-from pipeline.thickness_rule import (
+from pipeline.thickness.rule import (
     DEFAULT_RULE,
     ColourLayerRule,
     CurvatureRule,
@@ -33,7 +33,7 @@ from pipeline.thickness_rule import (
     SmoothingRule,
     ThicknessRule,
 )
-from pipeline.topology import face_areas
+from pipeline.thickness.rule_file import load_rule
 
 NO_SMOOTHING_NO_CAP = ThicknessRule(
     curvature=CurvatureRule(max_depth_per_radius=0.0), smoothing=SmoothingRule(iterations=0)

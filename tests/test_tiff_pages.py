@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 import tifffile
 
-from pipeline.slab_chunks import decode_chunk, encode_chunk
-from pipeline.slab_runner import StackSlab
+from pipeline.run.chunks import decode_chunk, encode_chunk
+from pipeline.run.runner import StackSlab
 from voxel.grid import GridSpec
+from voxel.io.tiff_pages import PageEncoder
+from voxel.io.tiff_writer import TiffStackWriter
 from voxel.slab import SlabResult
-from voxel.tiff_pages import PageEncoder
-from voxel.tiff_writer import TiffStackWriter
 
 GRID = GridSpec((0.0, 0.0, 0.0), (0.05, 0.1, 0.02), (11, 23, 37))
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pipeline.viewer.inflate import InflateError, pick_bytes
-from voxel.deflate import zlib_compress
+from voxel.io.deflate import zlib_compress
 
 
 def _voxel_like(rng: np.random.Generator, n: int, period: int) -> bytes:

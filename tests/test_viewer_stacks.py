@@ -8,7 +8,7 @@ import tifffile
 
 from pipeline.viewer.stacks import StackError, TiffStack
 from voxel.grid import GridSpec
-from voxel.tiff_writer import TiffStackWriter
+from voxel.io.tiff_writer import TiffStackWriter
 
 SHAPE = (23, 37, 41)
 

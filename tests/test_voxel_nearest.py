@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from voxel.nearest import (
+from voxel.geometry.nearest import (
     SurfaceIndex,
     closest_barycentric,
     distance_to_surface,

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import trimesh
 
+from voxel.geometry.nearest import SurfaceIndex
 from voxel.grid import GridSpec
-from voxel.nearest import SurfaceIndex
 from voxel.slab import StackModel, compute_slab
 
 

@@ -8,8 +8,8 @@ import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from voxel.geometry.winding import winding_slab
 from voxel.grid import GridSpec
-from voxel.winding import winding_slab
 
 
 def _centres(grid: GridSpec) -> np.ndarray:

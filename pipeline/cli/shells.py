@@ -21,10 +21,10 @@ from pipeline.cli.thicknessargs import (
 from pipeline.cli.values import parse_lengths
 from pipeline.config import ShellConfig, as_json
 from pipeline.errors import InputError
-from pipeline.face_thickness import thickness_summary, write_thickness_ply
 from pipeline.loading import load_model
-from pipeline.outdir import SHELL_OUTPUTS, OutputFolder, sha256
-from pipeline.shell_files import save_shells
+from pipeline.output.outdir import SHELL_OUTPUTS, OutputFolder, sha256
+from pipeline.output.shells import save_shells
+from pipeline.thickness.face_thickness import thickness_summary, write_thickness_ply
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -1,8 +1,8 @@
-"""Load any coloured model users bring into a :class:`~pipeline.mesh.ColouredMesh` in mm.
+"""Load any coloured model users bring into a :class:`~pipeline.model.mesh.ColouredMesh` in mm.
 
 Formats: OBJ (+MTL, textures), PLY, glTF/GLB, 3MF, STL, OFF, VRML 2.0. Every loader returns the
 raw mesh in file units; this module converts units, applies ``--colour``, checks for
-NaN/inf and absurd sizes, then :func:`pipeline.topology.prepare` merges and checks it.
+NaN/inf and absurd sizes, then :func:`pipeline.model.topology.prepare` merges and checks it.
 
 Every problem ends in a correct load, an :class:`~pipeline.errors.InputError` (one line:
 file, problem, fix), or a :class:`~pipeline.errors.ShellvoxWarning` saying what was
@@ -33,14 +33,14 @@ from numpy.typing import NDArray
 
 from pipeline.config import UNIT_MM, LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading.gltf import read_gltf
+from pipeline.loading.gltf.reader import read_gltf
 from pipeline.loading.images import MAX_TEXTURE_PIXELS
-from pipeline.loading.obj import read_obj
-from pipeline.loading.threemf import read_3mf
+from pipeline.loading.obj.reader import read_obj
+from pipeline.loading.threemf.reader import read_3mf
 from pipeline.loading.trimesh_formats import read_with_trimesh
-from pipeline.loading.vrml import read_vrml
-from pipeline.mesh import ColouredMesh
-from pipeline.topology import prepare
+from pipeline.loading.vrml.reader import read_vrml
+from pipeline.model.mesh import ColouredMesh
+from pipeline.model.topology import prepare
 
 __all__ = ["FORMATS", "MAX_COORDINATE_MM", "MAX_TEXTURE_PIXELS", "load_model"]
 

@@ -5,7 +5,7 @@ page is a deflate stream (RFC 1951), which has no random access: zlib writes out
 byte before the ones asked for (0.4 GB/s on voxel pages). :func:`decode` reads a
 stream's *symbols* instead and writes no output: a run of literals is kept as its
 bytes, a match at a distance of 1 to 4 bytes (the runs of a voxel page;
-:mod:`voxel.deflate` writes no other kind) as its repeating pattern of 1 to 4 bytes, and
+:mod:`voxel.io.deflate` writes no other kind) as its repeating pattern of 1 to 4 bytes, and
 a match from further back (zlib's general matches) as copies of the symbols it
 repeats. The result, :class:`Symbols`, is a run-length description of the inflated
 bytes, about as large as the compressed stream; :func:`pick` reads any bytes of it by

@@ -1,0 +1,107 @@
+"""The offset shells of a build (:func:`offset.offset_shells`), before the voxels or beside them.
+
+With the ``"shells"`` layer rule the voxels are counted between the shells, so the shells
+come first, in this process. With the ``"distance"`` rule and ``shell_meshes`` they are a
+second realisation of the layers, computed beside the voxels in a spawned process
+(:class:`pipeline.run.children.ChildCall`: it dies with the build); the voxels do not depend
+on them, so a failure there is a warning, not an error.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+import warnings
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from offset import offset_shells
+from offset.shells import Shell
+from pipeline.config import BuildConfig
+from pipeline.errors import ShellvoxWarning
+from pipeline.model.mesh import ColouredMesh
+from pipeline.run.children import ChildCall
+
+
+class ShellJob:
+    """Offset shells of a build and the seconds they took.
+
+    Parameters
+    ----------
+    mesh : ColouredMesh
+        The model.
+    thickness : (K, F) float64, mm
+        Thickness of each layer per face.
+    config : BuildConfig
+        ``layer_rule``, ``shell_meshes`` and ``shell_method``.
+    seconds : dict
+        Receives ``shells`` (and ``shells_wait``): the build's timings.
+    """
+
+    def __init__(
+        self,
+        mesh: ColouredMesh,
+        thickness: NDArray[np.float64],
+        config: BuildConfig,
+        seconds: dict[str, float],
+    ) -> None:
+        self.mesh = mesh
+        self.thickness = thickness
+        self.config = config
+        self.seconds = seconds
+        self._pending: ChildCall[tuple[list[Shell], float]] | None = None
+        #: The shells, once computed (at once with the "shells" rule).
+        self.shells: list[Shell] | None = None
+        if config.layer_rule == "shells":
+            self.shells, seconds["shells"] = timed_shells(
+                mesh.vertices, mesh.faces, thickness, config
+            )
+
+    @property
+    def writes_meshes(self) -> bool:
+        """The distance layers' build computes shell meshes beside the slabs."""
+        return self.config.layer_rule == "distance" and self.config.shell_meshes
+
+    def start_beside(self, stack: contextlib.ExitStack) -> None:
+        """Start the shells in another process, with the distance rule and shell meshes.
+
+        Call after the slab workers are forked; `stack` stops the process if the build
+        fails.
+        """
+        if self.writes_meshes:
+            call = ChildCall(  # a process that dies fails the call instead of hanging it
+                timed_shells, self.mesh.vertices, self.mesh.faces, self.thickness, self.config
+            )
+            self._pending = stack.enter_context(call)
+
+    def wait(self) -> list[Shell] | None:
+        """Return the shells (waiting for the other process), or None (none or failed)."""
+        if self._pending is None:
+            return self.shells
+        tick = time.perf_counter()
+        try:
+            self.shells, self.seconds["shells"] = self._pending.result()
+        except Exception as error:  # the voxels do not depend on the shell meshes
+            warnings.warn(
+                f"{self.mesh.source}: the shell meshes failed ({error}); the voxel stack "
+                "is complete without shells/; rerun with --layers shells to see the error",
+                ShellvoxWarning,
+                stacklevel=3,
+            )
+        self.seconds["shells_wait"] = time.perf_counter() - tick
+        self._pending = None
+        return self.shells
+
+
+def timed_shells(
+    vertices: np.ndarray[Any, Any],
+    faces: np.ndarray[Any, Any],
+    thickness: np.ndarray[Any, Any],
+    config: BuildConfig,
+) -> tuple[list[Shell], float]:
+    """Return the offset shells of the model and the seconds they took (picklable)."""
+    tick = time.perf_counter()
+    shells = offset_shells(vertices, faces, thickness, method=config.shell_method)
+    return shells, time.perf_counter() - tick
