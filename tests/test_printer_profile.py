@@ -13,7 +13,8 @@ from pipeline.printer.profile import (
     shipped_profiles,
 )
 
-PROFILES = Path(__file__).resolve().parents[1] / "pipeline" / "profiles"
+REPO = Path(__file__).resolve().parents[1]
+PROFILES = REPO / "pipeline" / "printer" / "profiles"
 
 
 def test_every_shipped_profile_loads():
@@ -132,6 +133,6 @@ def test_parse_profile_reports_its_source():
 
 
 def test_pyproject_ships_the_profiles():
-    pyproject = tomllib.loads((PROFILES.parents[1] / "pyproject.toml").read_text())
+    pyproject = tomllib.loads((REPO / "pyproject.toml").read_text())
     patterns = pyproject["tool"]["setuptools"]["package-data"]["pipeline"]
-    assert any(sorted(PROFILES.glob("*.toml")) == sorted(PROFILES.parent.glob(p)) for p in patterns)
+    assert any(sorted(PROFILES.glob("*.toml")) == sorted((REPO / "pipeline").glob(p)) for p in patterns)
