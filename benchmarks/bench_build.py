@@ -42,7 +42,7 @@ from pipeline.config import BuildConfig, LoadOptions  # noqa: E402
 from pipeline.loading import load_model  # noqa: E402
 from pipeline.model.mesh import ColouredMesh  # noqa: E402
 from pipeline.printer.profile import load_profile  # noqa: E402
-from pipeline.run.runner import resolve_workers  # noqa: E402
+from pipeline.run.task import resolve_workers  # noqa: E402
 from voxel.geometry.nearest import winding_numbers  # noqa: E402
 from voxel.openvdb_module import load_openvdb  # noqa: E402
 

@@ -30,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.printer.material_plan import MaterialSettings, build_material_plan
+from pipeline.config import MaterialSettings
+from pipeline.printer.material_plan import build_material_plan
 from pipeline.printer.profile import load_profile
 from voxel.colour.materials import materials_for_slab
 

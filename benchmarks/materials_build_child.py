@@ -48,7 +48,7 @@ def instrument() -> dict[str, list[float]]:
     Returns ``{part: [cpu_s, wall_s, calls]}``, filled as the build runs.
     """
     import pipeline.build.stack as build_module
-    import pipeline.run.runner as runner
+    import pipeline.run.task as runner
     from pipeline.build.colour_check import ColourCheck
     from pipeline.output.manifest import Tally
     from pipeline.output.outdir import OutputFolder

@@ -122,12 +122,12 @@ def test_vdb_matches_manifest(built):
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch, workers):
-    import pipeline.run.runner as slab_runner
+    import pipeline.run.task as slab_task
 
     def boom(*args, **kwargs):
         raise RuntimeError("slab failed")
 
-    monkeypatch.setattr(slab_runner, "compute_slab", boom)  # forked workers inherit it
+    monkeypatch.setattr(slab_task, "compute_slab", boom)  # forked workers inherit it
     config = BuildConfig(
         voxel_mm=(0.2, 0.2, 0.2), thickness_mm=(0.5,), slab_mb=0.5, workers=workers
     )
@@ -140,12 +140,12 @@ def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch, workers):
 def test_a_dead_worker_fails_the_build_instead_of_hanging(tmp_path, monkeypatch):
     import os
 
-    import pipeline.run.runner as slab_runner
+    import pipeline.run.task as slab_task
 
     def die(*args, **kwargs):
         os._exit(9)  # as when the kernel kills a worker for lack of memory
 
-    monkeypatch.setattr(slab_runner, "compute_slab", die)  # only forked workers call it
+    monkeypatch.setattr(slab_task, "compute_slab", die)  # only forked workers call it
     config = BuildConfig(voxel_mm=(0.2, 0.2, 0.2), thickness_mm=(0.5,), slab_mb=0.5, workers=2)
     with pytest.raises(SlabWorkerDied, match="smaller --slab-mb"):
         build_stack(_ball(), config, tmp_path, progress=False)

@@ -7,7 +7,8 @@ import colour
 import numpy as np
 import pytest
 
-from pipeline.printer.material_plan import MaterialSettings, build_material_plan
+from pipeline.config import MaterialSettings
+from pipeline.printer.material_plan import build_material_plan
 from pipeline.printer.profile import load_profile
 from voxel.colour.blue_noise import blue_noise_tile
 from voxel.colour.materials import MaterialPlan, materials_for_slab

@@ -8,8 +8,9 @@ import pytest
 from PIL import Image, ImageCms
 from scipy import ndimage, optimize
 
+from pipeline.config import MaterialSettings
 from pipeline.errors import InputError
-from pipeline.printer.material_plan import MaterialSettings, build_material_plan
+from pipeline.printer.material_plan import build_material_plan
 from pipeline.printer.profile import load_profile
 from pipeline.printer.table_cache import DiskTables
 from voxel.colour.mixing import mix_proportions

@@ -10,7 +10,7 @@ import pytest
 import tifffile
 
 from pipeline.run.chunks import decode_chunk, encode_chunk
-from pipeline.run.runner import StackSlab
+from pipeline.run.task import StackSlab
 from voxel.grid import GridSpec
 from voxel.io.tiff_pages import PageEncoder
 from voxel.io.tiff_writer import TiffStackWriter

@@ -15,6 +15,7 @@ import trimesh
 
 from pipeline.cli import main
 from pipeline.errors import InputError
+from pipeline.run.task import stack_slab
 from pipeline.tray.spec import load_tray
 from voxel.geometry.nearest import SurfaceIndex
 from voxel.grid import GridSpec
@@ -173,7 +174,7 @@ def test_tray_slab_rows_are_each_models_rows():
     grid = GridSpec((0.0, 0.0, 0.0), (0.25,) * 3, shape)
     rows = (3, shape[0] - 2)
     slab = compute_tray_slab(tray, grid, *rows)
-    assert compute_slab(tray, grid, *rows).layers.tobytes() == slab.layers.tobytes()
+    assert stack_slab(tray, grid, None, *rows).slab.layers.tobytes() == slab.layers.tobytes()
     for model, model_grid, (z, y, x) in zip(tray.models, tray.grids, offsets, strict=True):
         low, high = max(rows[0], z), min(rows[1], z + model_grid.shape_zyx[0])
         alone = compute_slab(model, model_grid, low - z, high - z)

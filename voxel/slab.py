@@ -19,7 +19,7 @@ Two layer realisations:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, NamedTuple
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,9 +31,6 @@ from voxel.geometry.layer_kernel import assign_layers, colour_voxels
 from voxel.geometry.nearest import SurfaceIndex, nearest_faces, on_faces
 from voxel.geometry.winding import inside_slab
 from voxel.grid import GridSpec
-
-if TYPE_CHECKING:
-    from voxel.tray_slab import TrayStack
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
 
@@ -167,9 +164,7 @@ def reach_mm(model: StackModel) -> float:
     return model.sdf_half_width_mm
 
 
-def compute_slab(
-    model: StackModel | TrayStack, grid: GridSpec, z_start: int, z_stop: int
-) -> SlabResult:
+def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -> SlabResult:
     """Return layers, colours and the signed-distance band of rows ``z_start..z_stop``.
 
     Needs no halo: inside tests run along x rows and every face within reach of the
@@ -178,9 +173,9 @@ def compute_slab(
 
     Parameters
     ----------
-    model : StackModel or TrayStack
-        Surfaces, colour source and options; a tray of models is computed tile by tile
-        (:func:`voxel.tray_slab.compute_tray_slab`).
+    model : StackModel
+        Surfaces, colour source and options (a tray of models is computed tile by tile
+        with :func:`voxel.tray_slab.compute_tray_slab`, which calls this per tile).
     grid : GridSpec
         The voxel grid.
     z_start, z_stop : int
@@ -191,10 +186,6 @@ def compute_slab(
     SlabResult
         Arrays of shape ``(z_stop - z_start, Y, X)``; memory is about 24 bytes a voxel.
     """
-    if not isinstance(model, StackModel):
-        from voxel.tray_slab import compute_tray_slab  # it imports this module
-
-        return compute_tray_slab(model, grid, z_start, z_stop)
     n_z = grid.shape_zyx[0]
     if not 0 <= z_start < z_stop <= n_z:
         raise ValueError(

@@ -18,16 +18,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pipeline.errors import ResourceError
+from pipeline.run.slots import EXTRA_SLOTS
 
 #: Working bytes per voxel of a slab in its worker: the inside test and its crossings (3),
 #: the scan's distance and face (12), layers, colour, signed distance, band and
 #: materials (11), the copy into the shared slot (11), VDB and TIFF encoding temporaries.
 BYTES_PER_VOXEL = 48
 
-#: Shared bytes per voxel of a slab slot (:mod:`pipeline.run.slots`), and the slots
-#: beyond one per worker (slabs the writers still hold).
+#: Shared bytes per voxel of a slab slot (:mod:`pipeline.run.slots`; there are
+#: :data:`~pipeline.run.slots.EXTRA_SLOTS` beyond one per worker).
 SLOT_BYTES_PER_VOXEL = 11
-EXTRA_SLOTS = 4
 
 #: Largest grid side: OpenVDB and TIFF index voxels with signed 32-bit integers.
 MAX_SIDE = 2**31 - 1

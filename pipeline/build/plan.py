@@ -20,7 +20,7 @@ from pipeline.config import BuildConfig
 from pipeline.errors import InputError, ResourceError
 from pipeline.model.mesh import ColouredMesh
 from pipeline.model.topology import face_areas
-from pipeline.run.runner import resolve_workers
+from pipeline.run.task import resolve_workers
 from voxel.grid import GridRangeError, GridSpec
 
 

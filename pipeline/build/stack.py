@@ -53,7 +53,8 @@ from pipeline.run.checkpoints import (
     checkpoints,
     run_key,
 )
-from pipeline.run.runner import SLAB_ARRAYS, SlabRunner, material_tally
+from pipeline.run.runner import SlabRunner
+from pipeline.run.task import SLAB_ARRAYS, material_tally
 from pipeline.thickness.face_thickness import FaceThickness
 from voxel.agreement import shell_agreement
 from voxel.colour.materials import MaterialPlan, materials_for_slab

@@ -19,10 +19,9 @@ from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.runargs import add_running_arguments, running_from_args
 from pipeline.cli.thicknessargs import ThicknessChoice, add_rule_arguments, choose_thickness
 from pipeline.cli.values import parse_lengths, parse_voxel_size
-from pipeline.config import FORMATS, BuildConfig
+from pipeline.config import FORMATS, BuildConfig, MaterialSettings
 from pipeline.errors import InputError
 from pipeline.loading import load_model
-from pipeline.printer.material_plan import MaterialSettings
 from pipeline.printer.profile import PrinterProfile, load_profile, shipped_profiles
 from pipeline.tray.build import build_tray
 from pipeline.tray.layout import LayoutMode

@@ -23,8 +23,9 @@ from pipeline.config import ShellConfig, as_json
 from pipeline.errors import InputError
 from pipeline.loading import load_model
 from pipeline.output.outdir import SHELL_OUTPUTS, OutputFolder, sha256
+from pipeline.output.ply import write_thickness_ply
 from pipeline.output.shells import save_shells
-from pipeline.thickness.face_thickness import thickness_summary, write_thickness_ply
+from pipeline.thickness.face_thickness import thickness_summary
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -21,8 +21,9 @@ from offset.shells import Shell
 from pipeline.atomic import atomic_path, write_text_atomic
 from pipeline.model.mesh import ColouredMesh
 from pipeline.output.outdir import OutputFolder
+from pipeline.output.ply import write_thickness_ply
 from pipeline.output.shells import save_shells
-from pipeline.thickness.face_thickness import FaceThickness, write_thickness_ply
+from pipeline.thickness.face_thickness import FaceThickness
 
 
 class BuildFolder:

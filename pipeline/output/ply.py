@@ -17,6 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.atomic import atomic_path
+from pipeline.model.mesh import ColouredMesh
+from pipeline.thickness.face_thickness import FaceThickness
 
 
 def write_face_ply(
@@ -145,3 +147,26 @@ def read_face_ply(path: str | Path) -> FacePly:
         raise ValueError(f"{path}: faces that are not triangles of its vertices")
     values = {name: rows[name].astype(np.float64) for name in names}
     return FacePly(vertices.astype(np.float64), faces, values)
+
+
+def write_thickness_ply(path: Path, mesh: ColouredMesh, faces: FaceThickness) -> None:
+    """Write the model with per-face ``thickness`` (colour layer) and the rule's inputs.
+
+    Face properties (double): ``thickness`` (colour layer, mm), ``thickness_1`` ..
+    ``thickness_K`` (every layer, mm), ``lightness`` (``L*``), ``chroma`` (``C*``),
+    ``alpha``, ``colour_spread`` (p90 CIEDE2000), ``normal_z``, ``mean_curvature``
+    (1/mm).
+    """
+    values = {"thickness": faces.colour_layer_mm}
+    values.update({f"thickness_{k + 1}": row for k, row in enumerate(faces.thickness_mm)})
+    values.update(
+        lightness=faces.colour.lightness,
+        chroma=faces.colour.chroma,
+        alpha=faces.colour.alpha,
+        colour_spread=faces.colour.spread_de00,
+        normal_z=faces.normal_z,
+        mean_curvature=faces.mean_curvature,
+    )
+    write_face_ply(
+        path, mesh.vertices, mesh.faces, values, comment=f"shellvox thickness of {mesh.source}"
+    )

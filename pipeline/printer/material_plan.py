@@ -1,4 +1,4 @@
-"""Material settings and the :class:`voxel.colour.materials.MaterialPlan` built from a profile.
+"""The :class:`voxel.colour.materials.MaterialPlan` built from a profile and the settings.
 
 The separation's columns (and so the halftone's stacking order) are the profile's
 opaque colour materials in the order black, cyan, magenta, yellow, white, then clear
@@ -9,54 +9,17 @@ the tile, the best spread, and go to black (the most visible on white) and clear
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from pathlib import Path
-
 import numpy as np
 
+from pipeline.config import MaterialSettings, Role
 from pipeline.errors import InputError
-from pipeline.printer.profile import PrinterProfile, Role
+from pipeline.printer.profile import PrinterProfile
 from pipeline.printer.table_cache import DiskTables
-from voxel.colour.blue_noise import DEFAULT_TILE
-from voxel.colour.materials import HALFTONES, Halftone, MaterialPlan
+from voxel.colour.materials import MaterialPlan
 from voxel.colour.separation import Separation, SeparationError, icc_separation, mixing_separation
 
 #: Opaque colour roles in the order the halftone stacks them (see the module).
 OPAQUE_ORDER: tuple[Role, ...] = ("black", "cyan", "magenta", "yellow", "white")
-
-
-@dataclass(frozen=True)
-class MaterialSettings:
-    """User choices for materials; each ``None`` falls back to the profile.
-
-    Parameters
-    ----------
-    halftone : {"blue-noise", "error-diffusion"}
-        See :mod:`voxel.colour.materials`.
-    seed : int
-        Seed of the blue-noise tile (the halftone is deterministic per seed).
-    icc : Path or None
-        CMYK ICC output profile for the separation instead of the mixing model.
-    backing_role, core_role : Role or None
-        Material role of the backing layers and of the core (default: the profile's).
-    tile_size : int
-        Blue-noise tile edge in voxels.
-    """
-
-    halftone: Halftone = "blue-noise"
-    seed: int = 0
-    icc: Path | None = None
-    backing_role: Role | None = None
-    core_role: Role | None = None
-    tile_size: int = DEFAULT_TILE
-
-    def __post_init__(self) -> None:
-        if self.halftone not in HALFTONES:
-            raise InputError(
-                "--halftone", f"must be one of {list(HALFTONES)}, got {self.halftone!r}", "fix it"
-            )
-        if self.seed < 0:
-            raise InputError("--seed", f"must be >= 0, got {self.seed}", "give 0 or more")
 
 
 def build_material_plan(

@@ -24,11 +24,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal, NoReturn, cast, get_args
 
+from pipeline.config import Role
 from pipeline.errors import InputError
 
 MM_PER_INCH = 25.4
 
-Role = Literal["cyan", "magenta", "yellow", "black", "white", "clear", "support", "void"]
 SliceFormat = Literal["gcvf", "png"]
 
 #: Roles of the materials that colour a voxel (the separation's materials).

@@ -15,7 +15,7 @@ Resuming is refused, naming what differs, when the key is not the same. The fold
 removed once the build has committed (its manifest written), and by a run without
 ``--resume`` (which starts afresh). A run that fails, or is stopped by SIGINT or SIGTERM,
 removes it too (one complete build or none: the contract of :mod:`pipeline.output.outdir`),
-except when the Dask cluster was lost (:class:`pipeline.run.cluster.ClusterError`): then
+except when the Dask cluster was lost (:class:`pipeline.errors.ClusterError`): then
 the finished slabs stay for ``--resume``. What cannot clean up (SIGKILL, power loss, the
 kernel's OOM killer) leaves the run folder, and ``--resume`` continues from it.
 The output folder's lock (:mod:`pipeline.output.outdir`) covers it, and temporary chunk names
@@ -40,13 +40,12 @@ import numpy as np
 from pipeline import __version__
 from pipeline.atomic import write_text_atomic
 from pipeline.config import BuildConfig, as_json
-from pipeline.errors import InputError, SlabWorkerDied
+from pipeline.errors import ClusterError, InputError, SlabWorkerDied
 from pipeline.faults import Interrupted, os_error
 from pipeline.model.mesh import ColouredMesh
 from pipeline.output.outdir import sha256
 from pipeline.run.chunks import decode_chunk, encode_chunk, save_chunk
-from pipeline.run.cluster import ClusterError
-from pipeline.run.runner import Rows, StackSlab
+from pipeline.run.task import Rows, StackSlab
 from voxel.grid import GridSpec
 
 #: The run folder's name inside the output folder.

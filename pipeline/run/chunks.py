@@ -1,7 +1,7 @@
 """A finished slab as bytes: the checkpoint of a resumable build and the Dask wire format.
 
 :func:`encode_chunk` packs everything :meth:`pipeline.build.stack._Job._stream` consumes of a
-:class:`~pipeline.run.runner.StackSlab` (the slab's arrays and counters, its materials
+:class:`~pipeline.run.task.StackSlab` (the slab's arrays and counters, its materials
 and tally, its encoded VDB leaves and pages) into a zip of ``.npy`` members (the arrays
 deflated at zlib level 1, the leaves and pages stored as they are, being compressed
 already; no pickles: :func:`decode_chunk` reads it with ``allow_pickle=False``), and
@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.run.runner import SLAB_ARRAYS, StackSlab
+from pipeline.run.task import SLAB_ARRAYS, StackSlab
 from voxel.io.vdb.leaves import GridSpool
 from voxel.slab import SlabResult
 
@@ -32,7 +32,7 @@ from voxel.slab import SlabResult
 CHUNK_LEVEL = 1
 
 _ARRAYS = ("layers", "rgba", "sdf", "sdf_band", "layer_counts")
-#: The voxel arrays a chunk with pages may leave out (:data:`pipeline.run.runner.SLAB_ARRAYS`).
+#: The voxel arrays a chunk with pages may leave out (:data:`pipeline.run.task.SLAB_ARRAYS`).
 _LEFT_OUT = SLAB_ARRAYS
 _COUNTERS = ("z_start", "z_stop", "n_unbalanced_rows", "n_nesting_violations",
              "n_nearest_queries", "n_distance_tests")  # fmt: skip

@@ -1,6 +1,6 @@
 """Slab tasks on a Dask distributed cluster (``--scheduler ADDRESS`` or ``local``).
 
-The same task as the local workers (:func:`pipeline.run.runner.stack_slab`: voxels,
+The same task as the local workers (:func:`pipeline.run.task.stack_slab`: voxels,
 materials when the halftone is order-independent, VDB leaves) runs on the Dask workers.
 The slab job (model, grid, material plan, VDB encoder) is scattered to every worker once
 (``broadcast``), not sent with each task; each task returns its slab as chunk bytes
@@ -25,10 +25,10 @@ import uuid
 from concurrent.futures import CancelledError
 from typing import TYPE_CHECKING
 
-from pipeline.errors import InputError, SlabWorkerDied
+from pipeline.errors import ClusterError, SlabWorkerDied
 from pipeline.faults import raise_if_interrupted
 from pipeline.run.chunks import decode_chunk, encode_chunk
-from pipeline.run.runner import Rows, SlabJob, StackSlab
+from pipeline.run.task import Rows, SlabJob, StackSlab
 
 if TYPE_CHECKING:
     from distributed import Client, Future, LocalCluster
@@ -44,12 +44,8 @@ POLL_S = 1.0
 RESCATTERS = 3
 
 
-class ClusterError(InputError):
-    """The Dask scheduler cannot be reached, was lost, or has no workers."""
-
-
 class DaskPool:
-    """Slab tasks on a Dask cluster (a :class:`pipeline.run.runner.SlabExecutor`).
+    """Slab tasks on a Dask cluster (a :class:`pipeline.run.task.SlabExecutor`).
 
     Parameters
     ----------

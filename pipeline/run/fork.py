@@ -16,11 +16,10 @@ from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
 from typing import TYPE_CHECKING
 
-from pipeline.build.estimate import EXTRA_SLOTS
 from pipeline.errors import SlabWorkerDied
 from pipeline.run.children import ChildPool
-from pipeline.run.runner import Rows, SlabJob, StackSlab
-from pipeline.run.slots import SlabInSlot, SlabSlots
+from pipeline.run.slots import EXTRA_SLOTS, SlabInSlot, SlabSlots
+from pipeline.run.task import Rows, SlabJob, StackSlab
 
 if TYPE_CHECKING:
     from pipeline.run.checkpoints import RunFolder

@@ -21,12 +21,16 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.run.runner import SLAB_ARRAYS
+from pipeline.run.task import SLAB_ARRAYS
 from voxel.io.vdb.leaves import GridSpool
 from voxel.slab import SlabResult
 
 #: Byte alignment of each array in a slot.
 _ALIGN = 64
+
+#: Slots beyond one per worker (slabs the writers still hold).
+EXTRA_SLOTS = 4
+
 #: Slot states: free, sent to a worker, loaded by the parent (free once no view is left).
 _FREE, _SENT, _LOADED = 0, 1, 2
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -23,7 +22,6 @@ from scipy.sparse import linalg as sparse_linalg
 from offset.adjacency import bend_angles, edge_adjacency, face_normals
 from pipeline.config import as_json
 from pipeline.model.mesh import ColouredMesh
-from pipeline.output.ply import write_face_ply
 from pipeline.thickness.face_colour import FaceColour, face_colour
 from pipeline.thickness.rule import (
     DEFAULT_RULE,
@@ -352,26 +350,3 @@ def _stats(
         "p50_mm": float(median),
         "max_mm": float(values.max()),
     }
-
-
-def write_thickness_ply(path: Path, mesh: ColouredMesh, faces: FaceThickness) -> None:
-    """Write the model with per-face ``thickness`` (colour layer) and the rule's inputs.
-
-    Face properties (double): ``thickness`` (colour layer, mm), ``thickness_1`` ..
-    ``thickness_K`` (every layer, mm), ``lightness`` (``L*``), ``chroma`` (``C*``),
-    ``alpha``, ``colour_spread`` (p90 CIEDE2000), ``normal_z``, ``mean_curvature``
-    (1/mm).
-    """
-    values = {"thickness": faces.colour_layer_mm}
-    values.update({f"thickness_{k + 1}": row for k, row in enumerate(faces.thickness_mm)})
-    values.update(
-        lightness=faces.colour.lightness,
-        chroma=faces.colour.chroma,
-        alpha=faces.colour.alpha,
-        colour_spread=faces.colour.spread_de00,
-        normal_z=faces.normal_z,
-        mean_curvature=faces.mean_curvature,
-    )
-    write_face_ply(
-        path, mesh.vertices, mesh.faces, values, comment=f"shellvox thickness of {mesh.source}"
-    )

@@ -27,7 +27,7 @@ from pipeline.errors import ResourceError
 from pipeline.loading import load_model
 from pipeline.model.mesh import ColouredMesh
 from pipeline.output.outdir import sha256
-from pipeline.run.runner import resolve_workers
+from pipeline.run.task import resolve_workers
 from pipeline.thickness.rule import DEFAULT_RULE, ThicknessRule
 from pipeline.tray.layout import Layout, LayoutMode, lay_out
 from pipeline.tray.parts import ThicknessSource, TrayPart, check_same_layers, extent, prepare_part
