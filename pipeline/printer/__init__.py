@@ -1,1 +1,1 @@
-"""printer."""
+"""Printers: profiles (TOML, shipped in ``profiles/``), the material plan, cached tables."""

@@ -1,1 +1,1 @@
-"""report."""
+"""Pictures of a result: the previews of a build folder, the thickness picture."""

@@ -57,8 +57,7 @@ file):
   sphere of 1.5 mm 0.75 mm.
 - **Smoothing**: 3 iterations of area-weighted averaging over the face and its
   edge neighbours, so the depth follows colour regions and not single triangles.
-- **Layers**: one colour layer and one 0.5 mm backing layer (shellvox's earlier constant
-  default was 0.5, 0.5 mm).
+- **Layers**: one colour layer and one 0.5 mm backing layer.
 - **Splitting** (``--max-edge``): faces whose colour spread (p90 CIEDE2000 from their
   median) is 5 or more are split; a CIEDE2000 of about 5 is a clearly visible difference.
 

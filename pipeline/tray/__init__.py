@@ -1,1 +1,1 @@
-"""tray."""
+"""Several models, one job: the tray file, its layout, parts, plan, mesh and build."""

@@ -8,18 +8,22 @@ that reach it, and that face. A voxel whose nearest surface point is closer than
 ``reach`` is reached by its nearest face, so its answer is the exact nearest face and
 distance; voxels farther than ``reach`` from every face keep ``face = -1``.
 
-The scan of a face visits the voxel rows ``(z, y)`` of its bounding box grown by
-``reach`` whose ``(y, z)`` projection lies within ``reach`` of the triangle's own
-projection (projection never increases a distance), and along each row only the
-``x`` interval within ``reach`` of the triangle's plane. A voxel whose plane distance
-already exceeds its best distance so far is skipped without the full test. Faces are
-visited in increasing index and a voxel changes face only for a strictly smaller
-distance, so among exactly equidistant faces the lowest index wins whatever the slab
-split. Point-triangle distances follow Ericson's Voronoi-region test [2]_; a
-degenerate (zero-area) triangle falls back to its three edges.
+The scan goes over the Voronoi regions of the mesh's faces, edges and vertices
+(:mod:`voxel.geometry.voronoi`), not over the faces: a voxel centre whose nearest surface
+point is inside a face, on an edge or at a vertex lies in that feature's region. Each
+region visits the voxel rows ``(z, y)`` of its box grown by ``reach`` (for an edge or a
+vertex, rows whose ``(y, z)`` projection is within ``reach`` of its own), and along each
+row only the ``x`` interval inside the region's half-spaces (and, for a face, within
+``reach`` of its plane). Over a face's prism the distance is that to the face's plane;
+an edge's or a vertex's voxels are tested against the faces of that feature with
+Ericson's point-triangle test [2]_. A voxel takes a face of strictly smaller squared
+distance, or of equal distance and lower index, so among exactly equidistant faces the
+lowest index wins whatever the order of regions and the slab split. A zero-area face
+has no prism; its edges and vertices still have regions.
 
 The kernels are compiled with numba (see the README, "Compiled kernels"): the loops run
-once per voxel a face reaches, 10 to 20 distance tests per band voxel, where a numpy
+once per voxel a region reaches (the duck at 16 mm on the J750: 5.4 million tests for
+12.3 million band voxels, the manifest's ``diagnostics.distance_tests``), where a numpy
 version needs several passes over temporaries of that size.
 
 References

@@ -1,15 +1,19 @@
-"""A fast zlib encoder for voxel images: runs become deflate matches, in compiled code.
+"""A compiled run-length zlib encoder, for the VDB leaves; and a page's bytes in TIFF order.
 
-Slices of a voxel model are mostly long runs (void, the core, one material, repeated
-pixels); zlib's general match finder costs about 4 ns a byte on them (0.25 GB/s here),
-which at printer resolution is most of a build. This encoder emits one deflate block
-(RFC 1951) in a zlib stream (RFC 1950): at each byte it takes the longest run-match at
-distance ``period`` (1, or the bytes per pixel) or 1, of 3 to 258 bytes, else a literal
-(zlib's ``Z_RLE`` strategy). The block's Huffman codes are fixed in advance for such
-data and sent in its header ("dynamic" block type, RFC 1951 section 3.2.7): the longest
-match (258 bytes) at distance 1 costs 2 bits, so runs compress about 1000:1 as with
-zlib's own codes, and a literal costs 9 or 10 bits. Any inflater (zlib, libpng,
-libtiff, Java's) reads it; the tests check round trips with Python's zlib.
+:func:`compress_segments` compresses many short buffers at once (the value buffers of
+:mod:`voxel.io.vdb.leaves`, ``period=4``: 4-byte values), each as its own zlib stream,
+in one call of compiled code; :func:`zlib_compress` does one buffer. The TIFF and PNG
+pages are compressed by :mod:`voxel.io.compression` instead; :func:`pixel_bytes` gives
+their bytes. Voxel data is mostly long runs (void, the core, one value, repeated
+pixels), and zlib's general match finder spends most of its time on them. This encoder
+emits one deflate block (RFC 1951) in a zlib stream (RFC 1950): at each byte it takes
+the longest run-match at distance ``period`` (1, or the bytes per pixel) or 1, of 3 to
+258 bytes, else a literal (zlib's ``Z_RLE`` strategy). The block's Huffman codes are
+fixed in advance for such data and sent in its header ("dynamic" block type, RFC 1951
+section 3.2.7): the longest match (258 bytes) at distance 1 costs 2 bits, so runs
+compress about 1000:1 as with zlib's own codes, and a literal costs 9 or 10 bits. Any
+inflater (zlib, libpng, libtiff, Java's) reads it; the tests check round trips with
+Python's zlib.
 """
 
 from __future__ import annotations

@@ -1,1 +1,1 @@
-"""obj."""
+"""Wavefront OBJ: the reader and the MTL material libraries it names."""

@@ -1,1 +1,1 @@
-"""threemf."""
+"""3MF: the package, property groups, multiproperties, slicer paint and the reader."""
