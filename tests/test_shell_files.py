@@ -19,6 +19,7 @@ from shell_file_checks import HAVE_PYMESHLAB, header, meshlab_checks, needs_mesh
 from offset import offset_shells
 from offset.adjacency import edge_adjacency
 from offset.clean import clean_degenerate, clean_shell, folded_faces
+from offset.for_file import shell_for_file
 from offset.jitter import JITTER_FRACTION
 from offset.robust import ShellDefectWarning
 from offset.shells import Shell
@@ -252,7 +253,10 @@ def test_real_mesh_shell_files_are_valid_outside_shellvox(real_mesh_shells, tmp_
     # At 0.5 and 1.5 mm; computed once per run (shared with test_offset_real_meshes).
     _, shells, caught = real_mesh_shells(relative, size_mm)
     assert [str(w.message) for w in caught] == []
-    written = save_shells(tmp_path, shells)  # a ShellvoxWarning (defective file) fails
+    ready = [shell_for_file(shell) for shell in shells]
+    cleaning = [r.cleaning for r in ready]
+    # a ShellvoxWarning (defective file) fails
+    written = save_shells(tmp_path, [r.shell for r in ready], cleaning=cleaning)
     for w in written:
         assert "property double x" in header(w.path)
         seen = trimesh_checks(w.path)

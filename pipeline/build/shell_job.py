@@ -4,7 +4,9 @@ With the ``"shells"`` layer rule the voxels are counted between the shells, so t
 come first, in this process. With the ``"distance"`` rule and ``shell_meshes`` they are a
 second realisation of the layers, computed beside the voxels in a spawned process
 (:class:`pipeline.run.children.ChildCall`: it dies with the build); the voxels do not depend
-on them, so a failure there is a warning, not an error.
+on them, so a failure there is a warning, not an error. The shells for the files are
+cleaned and jittered here (:func:`offset.for_file.shell_for_file`; in the spawned process
+when there is one); the voxels of the ``"shells"`` rule use them as computed.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from offset import offset_shells
+from offset.for_file import shell_for_file
 from offset.shells import Shell
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
@@ -72,14 +75,25 @@ class ShellJob:
         """
         if self.writes_meshes:
             call = ChildCall(  # a process that dies fails the call instead of hanging it
-                timed_shells, self.mesh.vertices, self.mesh.faces, self.thickness, self.config
+                timed_shells_for_files,
+                self.mesh.vertices,
+                self.mesh.faces,
+                self.thickness,
+                self.config,
             )
             self._pending = stack.enter_context(call)
 
     def wait(self) -> list[Shell] | None:
-        """Return the shells (waiting for the other process), or None (none or failed)."""
+        """Return the shells ready for their files (waiting for the other process).
+
+        None when there are none or they failed. The files' shells are cleaned and
+        jittered (:func:`offset.for_file.shell_for_file`); with the "shells" rule
+        :attr:`shells` stays as computed (the voxels' shells).
+        """
         if self._pending is None:
-            return self.shells
+            if self.shells is None:
+                return None
+            return [shell_for_file(shell).shell for shell in self.shells]
         tick = time.perf_counter()
         try:
             self.shells, self.seconds["shells"] = self._pending.result()
@@ -105,3 +119,15 @@ def timed_shells(
     tick = time.perf_counter()
     shells = offset_shells(vertices, faces, thickness, method=config.shell_method)
     return shells, time.perf_counter() - tick
+
+
+def timed_shells_for_files(
+    vertices: np.ndarray[Any, Any],
+    faces: np.ndarray[Any, Any],
+    thickness: np.ndarray[Any, Any],
+    config: BuildConfig,
+) -> tuple[list[Shell], float]:
+    """Return the shells ready for their files and the seconds they took (picklable)."""
+    tick = time.perf_counter()
+    shells, _ = timed_shells(vertices, faces, thickness, config)
+    return [shell_for_file(shell).shell for shell in shells], time.perf_counter() - tick

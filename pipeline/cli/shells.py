@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from offset import METHODS, offset_shells, shell_report
+from offset.for_file import shell_for_file
 from pipeline import __version__
 from pipeline.atomic import write_text_atomic
 from pipeline.cli.loadargs import add_load_arguments, load_options
@@ -100,7 +101,8 @@ def _write(
     shells = offset_shells(mesh.vertices, mesh.faces, thickness, method=config.method)
     offset_seconds = time.perf_counter() - started
     _say("cleaning, writing and reading back the shell files")
-    written = save_shells(out, shells)
+    ready = [shell_for_file(shell) for shell in shells]
+    written = save_shells(out, [r.shell for r in ready], cleaning=[r.cleaning for r in ready])
     _say("measuring the shells" + ("" if args.no_baselines else " and the baselines"))
     report: dict[str, Any] = {
         "tool": f"shellvox {__version__}",

@@ -57,7 +57,10 @@ class BuildFolder:
         self.written.extend(paths)
 
     def write_shells(self, shells: Sequence[Shell]) -> list[Shell]:
-        """Write ``shells/shell_<k>.ply``; return the shells as read back from the files."""
+        """Write ``shells/shell_<k>.ply`` as given; return the shells as read back.
+
+        The shells come ready for their files (:func:`offset.for_file.shell_for_file`).
+        """
         (self.path / "shells").mkdir(exist_ok=True)
         files = save_shells(self.path / "shells", shells, stack=self.stack)
         self.written.extend(file.path for file in files)

@@ -1,15 +1,10 @@
-"""Shell meshes as files: cleaned, written as float64 PLY, read back and checked.
+"""Shell meshes as files: written as float64 PLY, read back and checked.
 
-A shell (:func:`offset.offset_shells`) is exact in float64 but carries clusters of
-vertices and slivers far below a micrometre; written in float32 (trimesh's PLY export)
-they become zero-area faces and coincident vertices. Its flat regions are also exactly
-coplanar, which a triangle test without a coplanarity tolerance (MeshLab's) reads as
-crossings at random. Here every shell is cleaned (:func:`offset.clean.clean_offset_shell`),
-the vertices of coplanar triangle pairs moved by a tiny random amount
-(:func:`offset.jitter.jitter_vertices`, 1e-8 of the extent), written with
-``property double x/y/z``, read back with trimesh, and checked on what was read
-(:func:`offset.quality.mesh_checks`, after merging coincident vertices), so what is
-reported is what the file holds.
+The shells come ready for their files (:func:`offset.for_file.shell_for_file`: cleaned and
+jittered, by the caller); here each is written as it is given, with
+``property double x/y/z`` (trimesh's PLY export would round to float32), read back with
+trimesh, and checked on what was read (:func:`offset.quality.mesh_checks`, after merging
+coincident vertices), so what is reported is what the file holds.
 """
 
 from __future__ import annotations
@@ -25,8 +20,6 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from offset.clean import clean_offset_shell
-from offset.jitter import jitter_vertices
 from offset.quality import mesh_checks
 from offset.shells import Shell
 from pipeline import __version__
@@ -48,11 +41,8 @@ class WrittenShell:
     path : Path
         Where the file is (or will be, once its temporary name is renamed).
     cleaning : dict
-        ``tol_mm``, ``collapsed_vertices``, ``flipped_edges``, ``max_move_mm``,
-        ``short_edges_left``, ``thin_faces_left`` (see :class:`offset.clean.CleanedMesh`),
-        then ``jitter_mm``, ``jitter_moved_vertices``, ``jitter_kept_vertices`` and
-        ``coplanar_pairs_left`` (see :class:`offset.jitter.JitteredMesh`); a vertex moved
-        at most ``max_move_mm + jitter_mm`` in all.
+        What made the shell ready for the file, as given
+        (:attr:`offset.for_file.ShellForFile.cleaning`; empty when not given).
     checks : dict
         :func:`offset.quality.mesh_checks` of the mesh read back.
     """
@@ -64,7 +54,11 @@ class WrittenShell:
 
 
 def save_shells(
-    out_dir: Path, shells: Sequence[Shell], *, stack: contextlib.ExitStack | None = None
+    out_dir: Path,
+    shells: Sequence[Shell],
+    *,
+    cleaning: Sequence[dict[str, Any]] | None = None,
+    stack: contextlib.ExitStack | None = None,
 ) -> list[WrittenShell]:
     """Write every shell to ``out_dir/shell_<layer>.ply``, each file atomically.
 
@@ -73,6 +67,9 @@ def save_shells(
     out_dir : Path
         Existing folder.
     shells : sequence of Shell
+        Ready for their files (:func:`offset.for_file.shell_for_file`).
+    cleaning : sequence of dict, optional
+        What made each shell ready, for :attr:`WrittenShell.cleaning`.
     stack : contextlib.ExitStack, optional
         Holds the files under their temporary names until it closes (a build renames all
         its files together); without it each file is renamed once written.
@@ -81,25 +78,35 @@ def save_shells(
     -------
     list of WrittenShell
     """
+    records = cleaning if cleaning is not None else [{}] * len(shells)
     written = []
-    for shell in shells:
+    for shell, record in zip(shells, records, strict=True):
         target = Path(out_dir) / f"shell_{shell.layer}.ply"
         with contextlib.ExitStack() as own:
             temporary = (stack or own).enter_context(atomic_path(target))
-            written.append(write_shell(temporary, shell, target=target))
+            written.append(write_shell(temporary, shell, target=target, cleaning=record))
     return written
 
 
-def write_shell(path: Path, shell: Shell, *, target: Path | None = None) -> WrittenShell:
-    """Clean `shell`, write it to `path` as float64 PLY, read it back and check it.
+def write_shell(
+    path: Path,
+    shell: Shell,
+    *,
+    target: Path | None = None,
+    cleaning: dict[str, Any] | None = None,
+) -> WrittenShell:
+    """Write `shell` to `path` as float64 PLY, read it back and check it.
 
     Parameters
     ----------
     path : Path
         File to write (e.g. a temporary name from :func:`pipeline.atomic.atomic_path`).
     shell : Shell
+        Written as given (ready for the file: :func:`offset.for_file.shell_for_file`).
     target : Path, optional
         The name the file will have, for :attr:`WrittenShell.path` and messages.
+    cleaning : dict, optional
+        What made `shell` ready, kept as :attr:`WrittenShell.cleaning`.
 
     Returns
     -------
@@ -112,12 +119,10 @@ def write_shell(path: Path, shell: Shell, *, target: Path | None = None) -> Writ
         crossing triangles.
     """
     name = Path(target if target is not None else path)
-    cleaned_shell, cleaned = clean_offset_shell(shell)
-    jittered = jitter_vertices(cleaned_shell.vertices, cleaned_shell.faces)
     write_ply(
         path,
-        jittered.vertices,
-        cleaned_shell.faces,
+        shell.vertices,
+        shell.faces,
         comment=f"shellvox {__version__} offset shell, layer {shell.layer}",
     )
     vertices, faces = read_ply(path)
@@ -145,18 +150,7 @@ def write_shell(path: Path, shell: Shell, *, target: Path | None = None) -> Writ
     return WrittenShell(
         shell=Shell(vertices=vertices, faces=faces, layer=shell.layer, depth_mm=shell.depth_mm),
         path=name,
-        cleaning={
-            "tol_mm": cleaned.tol_mm,
-            "collapsed_vertices": cleaned.n_collapsed,
-            "flipped_edges": cleaned.n_flipped,
-            "max_move_mm": cleaned.max_move_mm,
-            "short_edges_left": cleaned.short_edges,
-            "thin_faces_left": cleaned.thin_faces,
-            "jitter_mm": jittered.amplitude_mm,
-            "jitter_moved_vertices": jittered.n_moved,
-            "jitter_kept_vertices": jittered.n_kept,
-            "coplanar_pairs_left": jittered.coplanar_pairs,
-        },
+        cleaning=dict(cleaning or {}),
         checks=checks,
     )
 
