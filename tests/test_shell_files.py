@@ -25,7 +25,8 @@ from offset.robust import ShellDefectWarning
 from offset.shells import Shell
 from pipeline.cli import main
 from pipeline.errors import ShellvoxWarning
-from pipeline.output.shells import read_ply, save_shells, write_ply, write_shell
+from pipeline.output.ply import write_ply
+from pipeline.output.shells import read_ply, save_shells, write_shell
 
 
 def _euler(faces):

@@ -1,10 +1,14 @@
-"""Write a triangle mesh with per-face values as a binary PLY (float64 coordinates).
+"""shellvox's one PLY writer: a triangle mesh, float64 coordinates, values per face.
 
-trimesh's PLY exporter stores vertices as 32-bit floats; the thickness PLY keeps the
-model's 64-bit coordinates so that its faces are exactly the faces the shells were made
-from. The file is standard binary little-endian PLY 1.0: ``element vertex`` with
-``double x, y, z``, ``element face`` with ``list uchar int vertex_indices`` and one
-``double`` property per face value. trimesh, MeshLab and plyfile read it.
+trimesh's PLY exporter stores vertices as 32-bit floats; these files keep 64-bit
+coordinates, so the thickness PLY's faces are exactly the faces the shells were made
+from and the shell files hold the shells to the bit. The file is standard binary
+little-endian PLY 1.0: ``element vertex`` with ``double x, y, z``, ``element face`` with
+``list uchar int vertex_indices`` and one ``double`` property per face value. trimesh,
+MeshLab and plyfile read it.
+
+:func:`read_face_ply` reads that layout back (the viewer's depth view);
+:func:`write_thickness_ply` writes ``thickness.ply`` atomically.
 """
 
 from __future__ import annotations
@@ -21,44 +25,54 @@ from pipeline.model.mesh import ColouredMesh
 from pipeline.thickness.face_thickness import FaceThickness
 
 
-def write_face_ply(
+def write_ply(
     path: str | Path,
     vertices: NDArray[np.float64],
     faces: NDArray[np.int64],
-    face_values: Mapping[str, NDArray[np.float64]],
+    face_values: Mapping[str, NDArray[np.float64]] | None = None,
     *,
     comment: str = "",
 ) -> None:
-    """Write ``path`` atomically.
+    """Write a triangle mesh, and values per face, to `path` (as it is: not atomically).
 
     Parameters
     ----------
     path : str or Path
-        Target file.
+        Target file (e.g. a temporary name from :func:`pipeline.atomic.atomic_path`).
     vertices : (V, 3) float64, mm
     faces : (F, 3) int64
-    face_values : mapping of str to (F,) float64
+        Indices below ``2**31`` (stored as ``int``).
+    face_values : mapping of str to (F,) float64, optional
         Per-face properties, written as ``double`` in this order (names must be
         identifiers).
     comment : str, optional
         One header comment line.
     """
-    n_faces = len(faces)
+    face_values = face_values or {}
+    vertex_rows = np.ascontiguousarray(vertices, dtype="<f8")
+    f = np.asarray(faces, dtype=np.int64)
+    if vertex_rows.ndim != 2 or vertex_rows.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
+        raise ValueError(
+            "vertices and faces must have shape (V, 3) and (F, 3), got "
+            f"{vertex_rows.shape} and {f.shape}"
+        )
+    if f.size and (f.min() < 0 or f.max() >= min(len(vertex_rows), 2**31)):
+        raise ValueError(
+            f"faces must index [0, {len(vertex_rows)}), got range [{f.min()}, {f.max()}]"
+        )
+    n_faces = len(f)
     for name, values in face_values.items():
         if not name.isidentifier() or np.shape(values) != (n_faces,):
             raise ValueError(
                 f"face value {name!r} must be an identifier with ({n_faces},) values, "
                 f"got shape {np.shape(values)}"
             )
-    if n_faces and int(faces.max()) > np.iinfo(np.int32).max:
-        raise ValueError(f"vertex indices must fit int32, got {int(faces.max())}")
-    vertex_rows = np.ascontiguousarray(vertices, dtype="<f8")
     face_rows = np.empty(
         n_faces,
         dtype=[("n", "u1"), ("corners", "<i4", (3,))] + [(k, "<f8") for k in face_values],
     )
     face_rows["n"] = 3
-    face_rows["corners"] = faces
+    face_rows["corners"] = f
     for name, values in face_values.items():
         face_rows[name] = values
     header = ["ply", "format binary_little_endian 1.0"]
@@ -74,14 +88,14 @@ def write_face_ply(
         *(f"property double {name}" for name in face_values),
         "end_header",
     ]
-    with atomic_path(path) as temporary, temporary.open("wb") as stream:
+    with open(path, "wb") as stream:
         stream.write(("\n".join(header) + "\n").encode("ascii"))
         stream.write(vertex_rows.tobytes())
         stream.write(face_rows.tobytes())
 
 
 class FacePly(NamedTuple):
-    """A mesh with per-face values, as :func:`write_face_ply` writes it.
+    """A mesh with per-face values, as :func:`write_ply` writes it.
 
     Attributes
     ----------
@@ -97,7 +111,7 @@ class FacePly(NamedTuple):
 
 
 def read_face_ply(path: str | Path) -> FacePly:
-    """Read a PLY written by :func:`write_face_ply` (that layout only, as written).
+    """Read a PLY written by :func:`write_ply` (that layout only, as written).
 
     Raises
     ------
@@ -167,6 +181,11 @@ def write_thickness_ply(path: Path, mesh: ColouredMesh, faces: FaceThickness) ->
         normal_z=faces.normal_z,
         mean_curvature=faces.mean_curvature,
     )
-    write_face_ply(
-        path, mesh.vertices, mesh.faces, values, comment=f"shellvox thickness of {mesh.source}"
-    )
+    with atomic_path(path) as temporary:
+        write_ply(
+            temporary,
+            mesh.vertices,
+            mesh.faces,
+            values,
+            comment=f"shellvox thickness of {mesh.source}",
+        )

@@ -25,9 +25,7 @@ from offset.shells import Shell
 from pipeline import __version__
 from pipeline.atomic import atomic_path
 from pipeline.errors import ShellvoxWarning
-
-#: The PLY header lines of the vertex coordinates.
-DOUBLE_XYZ = ("property double x", "property double y", "property double z")
+from pipeline.output.ply import write_ply
 
 
 @dataclass(frozen=True)
@@ -153,54 +151,6 @@ def write_shell(
         cleaning=dict(cleaning or {}),
         checks=checks,
     )
-
-
-def write_ply(
-    path: Path,
-    vertices: npt.NDArray[np.float64],
-    faces: npt.NDArray[np.int64],
-    *,
-    comment: str = "",
-) -> None:
-    """Write a triangle mesh as binary little-endian PLY with float64 coordinates.
-
-    Parameters
-    ----------
-    path : Path
-    vertices : (V, 3) float64, mm
-    faces : (F, 3) int64
-        Indices below ``2**31`` (stored as ``int``).
-    comment : str, optional
-        One header comment line.
-    """
-    v = np.ascontiguousarray(vertices, dtype="<f8")
-    f = np.asarray(faces, dtype=np.int64)
-    if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
-        raise ValueError(
-            f"vertices and faces must have shape (V, 3) and (F, 3), got {v.shape} and {f.shape}"
-        )
-    if f.size and (f.min() < 0 or f.max() >= min(len(v), 2**31)):
-        raise ValueError(f"faces must index [0, {len(v)}), got range [{f.min()}, {f.max()}]")
-    header = "\n".join(
-        [
-            "ply",
-            "format binary_little_endian 1.0",
-            *([f"comment {comment}"] if comment else []),
-            f"element vertex {len(v)}",
-            *DOUBLE_XYZ,
-            f"element face {len(f)}",
-            "property list uchar int vertex_indices",
-            "end_header",
-            "",
-        ]
-    )
-    rows = np.empty(len(f), dtype=[("n", "u1"), ("index", "<i4", (3,))])
-    rows["n"] = 3
-    rows["index"] = f
-    with open(path, "wb") as stream:
-        stream.write(header.encode("ascii"))
-        stream.write(v.tobytes())
-        stream.write(rows.tobytes())
 
 
 def read_ply(path: Path) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
