@@ -35,7 +35,9 @@ from scipy import ndimage
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))  # vdb_checks
+sys.path.insert(0, str(ROOT / "tests"))  # vdb_checks, openvdb_module
+
+from openvdb_module import load_openvdb  # noqa: E402
 
 from pipeline.build.stack import build_stack  # noqa: E402
 from pipeline.config import BuildConfig, LoadOptions  # noqa: E402
@@ -44,7 +46,6 @@ from pipeline.model.mesh import ColouredMesh  # noqa: E402
 from pipeline.printer.profile import load_profile  # noqa: E402
 from pipeline.run.task import resolve_workers  # noqa: E402
 from voxel.geometry.nearest import winding_numbers  # noqa: E402
-from voxel.openvdb_module import load_openvdb  # noqa: E402
 
 MESHES = ROOT.parent / "shared" / "meshes"
 MODELS = {

@@ -42,6 +42,6 @@ fi
 # Every package pinned with its hashes (scripts/lock.sh writes the lock with uv).
 .venv/bin/python -m pip install -q --require-hashes -r requirements.lock
 .venv/bin/python -m pip install -q --no-deps -e . >/dev/null 2>&1 || .venv/bin/python -m pip install --no-deps -e .
-.venv/bin/python -c "import voxel.openvdb_module as m; m.load_openvdb()" \
+PYTHONPATH=tests .venv/bin/python -c "import openvdb_module as m; m.load_openvdb()" \
     || { echo "shellvox set-up: OpenVDB's Python module does not load in .venv" >&2; exit 1; }
 echo "$want" > "$stamp"

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import tifffile
 import trimesh
+from openvdb_module import load_openvdb
 from skimage import measure
 from vdb_checks import describe_grids
 
@@ -13,7 +14,6 @@ from pipeline.build.stack import build_stack
 from pipeline.config import BuildConfig
 from pipeline.errors import SlabWorkerDied
 from pipeline.model.mesh import ColouredMesh
-from voxel.openvdb_module import load_openvdb
 
 
 def _ball(radius: float = 3.0) -> ColouredMesh:

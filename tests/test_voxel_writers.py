@@ -4,13 +4,13 @@ import colour
 import numpy as np
 import pytest
 import tifffile
+from openvdb_module import load_openvdb
 from vdb_checks import describe_grids
 
 from pipeline.atomic import atomic_path, write_text_atomic
 from voxel.grid import GridSpec
 from voxel.io.tiff_writer import TiffStackWriter
 from voxel.io.vdb.writer import VdbStackWriter
-from voxel.openvdb_module import load_openvdb
 
 GRID = GridSpec((1.0, 2.0, 3.0), (0.0423, 0.0846, 0.027), (10, 20, 30))
 
