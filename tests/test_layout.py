@@ -217,6 +217,14 @@ def test_every_stage_is_a_subpackage() -> None:
         assert (ROOT / "voxel" / part / "__init__.py").is_file(), part
 
 
+def test_no_test_folder_shadows_a_package() -> None:
+    # tests/ is on sys.path (pytest's pythonpath): a folder tests/voxel would be found as a
+    # namespace package ``voxel`` where the editable install's finder comes later.
+    # And pytest never collects a folder named build or dist (its default norecursedirs).
+    folders = {p.name for p in (ROOT / "tests").iterdir() if p.is_dir()}
+    assert folders.isdisjoint({*PACKAGES, "build", "dist"})
+
+
 def test_no_module_over_400_lines() -> None:
     long = {
         name: n

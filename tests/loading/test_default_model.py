@@ -10,7 +10,7 @@ import numpy as np
 
 from pipeline.loading import load_model
 
-DATA = Path(__file__).resolve().parents[1] / "data"
+DATA = Path(__file__).resolve().parents[2] / "data"
 
 
 def test_default_model_is_reproducible(tmp_path):

@@ -15,7 +15,7 @@ from tray_models import tray_models
 
 from pipeline.cli import main
 
-MODEL = Path(__file__).resolve().parents[1] / "data" / "colour_target" / "colour_target.obj"
+MODEL = Path(__file__).resolve().parents[2] / "data" / "colour_target" / "colour_target.obj"
 OPTIONS = ["--voxel-size", "0.2,0.2,0.15", "--thickness", "0.5,0.5", "--no-shell-meshes",
            "--slab-mb", "1", "--no-progress"]  # fmt: skip
 

@@ -30,7 +30,7 @@ from pipeline.errors import InputError
 from pipeline.viewer.folder import BuildFolder
 from pipeline.viewer.server import STATIC
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

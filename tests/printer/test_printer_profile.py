@@ -13,7 +13,7 @@ from pipeline.printer.profile import (
     shipped_profiles,
 )
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 PROFILES = REPO / "pipeline" / "printer" / "profiles"
 
 

@@ -320,7 +320,7 @@ def test_a_rule_file_with_every_default_value_is_the_default_rule(tmp_path):
 
 
 def test_the_shipped_example_rule_file_is_the_default_rule():
-    shipped = Path(__file__).resolve().parents[1] / "data" / "thickness_rule.toml"
+    shipped = Path(__file__).resolve().parents[2] / "data" / "thickness_rule.toml"
     assert load_rule(shipped) == DEFAULT_RULE
 
 

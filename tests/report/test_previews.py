@@ -70,7 +70,7 @@ def test_demo_previews_show_the_colours(tmp_path, capsys):
     # what `make demo` does: the default model on the J750 grid, then inspect
     from pathlib import Path
 
-    model = Path(__file__).resolve().parents[1] / "data" / "colour_target" / "colour_target.obj"
+    model = Path(__file__).resolve().parents[2] / "data" / "colour_target" / "colour_target.obj"
     out = tmp_path / "demo"
     argv = ["build", str(model), "-o", str(out), "--printer", "j750", "--no-progress"]
     assert main(argv) == 0
