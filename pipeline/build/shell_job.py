@@ -75,11 +75,12 @@ class ShellJob:
         """
         if self.writes_meshes:
             call = ChildCall(  # a process that dies fails the call instead of hanging it
-                timed_shells_for_files,
+                timed_shells,
                 self.mesh.vertices,
                 self.mesh.faces,
                 self.thickness,
                 self.config,
+                True,  # for_files: cleaned and jittered in that process
             )
             self._pending = stack.enter_context(call)
 
@@ -114,20 +115,15 @@ def timed_shells(
     faces: np.ndarray[Any, Any],
     thickness: np.ndarray[Any, Any],
     config: BuildConfig,
+    for_files: bool = False,
 ) -> tuple[list[Shell], float]:
-    """Return the offset shells of the model and the seconds they took (picklable)."""
+    """Return the offset shells of the model and the seconds they took (picklable).
+
+    With `for_files`, the shells are those for the files
+    (:func:`offset.for_file.shell_for_file`: cleaned and jittered).
+    """
     tick = time.perf_counter()
     shells = offset_shells(vertices, faces, thickness, method=config.shell_method)
+    if for_files:
+        shells = [shell_for_file(shell).shell for shell in shells]
     return shells, time.perf_counter() - tick
-
-
-def timed_shells_for_files(
-    vertices: np.ndarray[Any, Any],
-    faces: np.ndarray[Any, Any],
-    thickness: np.ndarray[Any, Any],
-    config: BuildConfig,
-) -> tuple[list[Shell], float]:
-    """Return the shells ready for their files and the seconds they took (picklable)."""
-    tick = time.perf_counter()
-    shells, _ = timed_shells(vertices, faces, thickness, config)
-    return [shell_for_file(shell).shell for shell in shells], time.perf_counter() - tick
