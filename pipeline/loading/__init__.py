@@ -48,9 +48,13 @@ from pipeline.model.mesh import ColouredMesh
 from pipeline.model.topology import prepare
 
 __all__ = [
-    "FORMATS", "MAX_COORDINATE_MM", "MAX_TEXTURE_PIXELS", "Format", "load_model",
+    "FORMATS",
+    "MAX_COORDINATE_MM",
+    "MAX_TEXTURE_PIXELS",
+    "Format",
+    "load_model",
     "register_format",
-]  # fmt: skip
+]
 
 #: Largest distance of a vertex from the origin accepted without ``--force`` (1 km).
 MAX_COORDINATE_MM = 1e6
