@@ -35,16 +35,17 @@ from scipy import ndimage
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))  # vdb_checks
+sys.path.insert(0, str(ROOT / "tests"))  # vdb_checks, openvdb_module
 
-from pipeline.build import build_stack  # noqa: E402
+from openvdb_module import load_openvdb  # noqa: E402
+
+from pipeline.build.stack import build_stack  # noqa: E402
 from pipeline.config import BuildConfig, LoadOptions  # noqa: E402
 from pipeline.loading import load_model  # noqa: E402
-from pipeline.mesh import ColouredMesh  # noqa: E402
-from pipeline.printer_profile import load_profile  # noqa: E402
-from pipeline.slab_runner import resolve_workers  # noqa: E402
-from voxel.nearest import winding_numbers  # noqa: E402
-from voxel.openvdb_module import load_openvdb  # noqa: E402
+from pipeline.model.mesh import ColouredMesh  # noqa: E402
+from pipeline.printer.profile import load_profile  # noqa: E402
+from pipeline.run.task import resolve_workers  # noqa: E402
+from voxel.geometry.nearest import winding_numbers  # noqa: E402
 
 MESHES = ROOT.parent / "shared" / "meshes"
 MODELS = {

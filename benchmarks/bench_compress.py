@@ -29,14 +29,14 @@ import numpy as np
 import tifffile
 from PIL import Image
 
-try:  # not a dependency (see voxel/compression.py): measured where installed
+try:  # not a dependency (see voxel/io/compression.py): measured where installed
     from isal import isal_zlib
 except ImportError:
     isal_zlib = None
 
 from pipeline.viewer.inflate import decode
-from voxel.compression import compress
-from voxel.deflate import zlib_compress
+from voxel.io.compression import compress
+from voxel.io.deflate import zlib_compress
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results" / "bench_compress.json"

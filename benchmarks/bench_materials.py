@@ -30,9 +30,10 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.material_plan import MaterialSettings, build_material_plan
-from pipeline.printer_profile import load_profile
-from voxel.materials import materials_for_slab
+from pipeline.config import MaterialSettings
+from pipeline.printer.material_plan import build_material_plan
+from pipeline.printer.profile import load_profile
+from voxel.colour.materials import materials_for_slab
 
 ROOT = Path(__file__).resolve().parents[1]
 SHAPE = (64, 512, 512)

@@ -308,9 +308,10 @@ def compile_cost(args: argparse.Namespace) -> dict[str, Any]:
     code = (
         "import time, numpy as np\n"
         "t = time.perf_counter()\n"
-        "from pipeline.material_plan import MaterialSettings, build_material_plan\n"
-        "from pipeline.printer_profile import load_profile\n"
-        "from voxel.materials import materials_for_slab\n"
+        "from pipeline.config import MaterialSettings\n"
+        "from pipeline.printer.material_plan import build_material_plan\n"
+        "from pipeline.printer.profile import load_profile\n"
+        "from voxel.colour.materials import materials_for_slab\n"
         "t_import = time.perf_counter() - t\n"
         "t = time.perf_counter()\n"
         "plan = build_material_plan(load_profile('j750'), MaterialSettings(),"

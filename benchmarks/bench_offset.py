@@ -39,7 +39,9 @@ import offset.band as band
 from offset import offset_shells, shell_report
 from offset.intersections import intersecting_pairs
 from offset.robust import ShellDefectWarning
-from voxel.openvdb_module import load_openvdb
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from openvdb_module import load_openvdb
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared" / "meshes"

@@ -30,10 +30,10 @@ from typing import Any
 import igl.copyleft.cgal as igl_cgal
 import numpy as np
 from bench_offset import load_shared
+from openvdb_module import load_openvdb
 
 import offset.band as band
 from offset.union import morton_order, union_pieces
-from voxel.openvdb_module import load_openvdb
 
 ROOT = Path(__file__).resolve().parents[1]
 VOXEL_MM = 0.05

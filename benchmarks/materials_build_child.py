@@ -19,13 +19,13 @@ from typing import Any
 
 from bench_build import MODELS, ROOT, _TreeRss, scaled_model
 
-from pipeline.build import build_stack
+from pipeline.build.stack import build_stack
 from pipeline.cli.build import add_arguments, config_from_args
 from pipeline.cli.thicknessargs import choose_thickness
 from pipeline.cli.values import parse_lengths
 from pipeline.config import LoadOptions
 from pipeline.loading import load_model
-from pipeline.printer_profile import load_profile
+from pipeline.printer.profile import load_profile
 
 ALL_MODELS = {**MODELS, "colour_target": ROOT / "data" / "colour_target" / "colour_target.obj"}
 
@@ -47,18 +47,18 @@ def instrument() -> dict[str, list[float]]:
     jobs on the machine. With ``--workers 1`` every part runs in this process.
     Returns ``{part: [cpu_s, wall_s, calls]}``, filled as the build runs.
     """
-    import pipeline.build as build_module
-    import pipeline.slab_runner as runner
-    from pipeline.build_manifest import Tally
-    from pipeline.colour_check import ColourCheck
-    from pipeline.outdir import OutputFolder
-    from pipeline.stack_outputs import StackOutputs
-    from voxel.colour_report import ColourReport
-    from voxel.gcvf_writer import GcvfWriter
-    from voxel.png_slices import PngSliceWriter
+    import pipeline.build.stack as build_module
+    import pipeline.run.task as runner
+    from pipeline.build.colour_check import ColourCheck
+    from pipeline.output.manifest import Tally
+    from pipeline.output.outdir import OutputFolder
+    from pipeline.output.streams import StackOutputs
+    from voxel.colour.report import ColourReport
+    from voxel.io.gcvf_writer import GcvfWriter
+    from voxel.io.png_slices import PngSliceWriter
+    from voxel.io.tiff_writer import TiffStackWriter
+    from voxel.io.vdb.writer import VdbStackWriter
     from voxel.sampler import LayerSampler
-    from voxel.tiff_writer import TiffStackWriter
-    from voxel.vdb_writer import VdbStackWriter
 
     totals: dict[str, list[float]] = collections.defaultdict(lambda: [0.0, 0.0, 0])
     lock = threading.Lock()

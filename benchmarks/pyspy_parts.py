@@ -24,7 +24,8 @@ CATEGORIES = (
     ("material tally (Tally.add)", ("Tally.add (",)),
     ("material plan build", ("build_material_plan (",)),
     ("tiff writers (layers/colour/materials.tif)", ("tiff_writer.py", "tifffile")),
-    ("vdb writer", ("vdb_writer.py", "vdb_encode.py", "vdb_leaves.py", "vdb_format.py")),
+    # voxel/io/vdb/ since the layout of issue 23; the old names for the saved profiles
+    ("vdb writer", ("io/vdb/", "vdb_writer.py", "vdb_encode.py", "vdb_leaves.py", "vdb_format.py")),
     ("compute_slab (voxels)", ("compute_slab (",)),
     ("outputs.finish other", ("StackOutputs.finish (",)),
     ("thickness rule", ("choose_thickness (",)),

@@ -32,7 +32,7 @@ about 0.5 % D); face interiors and convex creases are exact.
 Depth steps: where neighbouring faces take different depths, each face's prism goes to
 its own depth, so the shell steps sharply at the shared edge (moved by the overlap
 ``GROW_FRACTION * D``), as the voxel layers do: they take the depth of the nearest face
-(:mod:`voxel.layer_kernel`). The core as defined above would instead round the deeper
+(:mod:`voxel.geometry.layer_kernel`). The core as defined above would instead round the deeper
 face's band under its shallower neighbour (a whole cylinder about the edge, a ball
 about each corner): on a flat top with a 1.0 / 0.3 mm step the two differ by up to
 0.7 mm next to the edge. Shells and voxels are kept to one rule, the voxels'; sectors
@@ -86,14 +86,17 @@ References
 from __future__ import annotations
 
 import warnings
+from typing import NamedTuple
 
 import manifold3d as m3d
 import numpy as np
+import numpy.typing as npt
 
 from offset._validate import FloatArray, IntArray
 from offset.band import features, layer_pieces
 from offset.core_cut import cut_core, patch_core, uncross
 from offset.guards import Surface, too_deep
+from offset.pieces import Group
 from offset.union import LEAF, to_manifold
 
 #: Leaf sizes of the union tree tried in turn while a layer's shell crosses itself.
@@ -144,50 +147,8 @@ def robust_offset(
     out: list[tuple[FloatArray, IntArray]] = []
     base = solid.as_original()
     for k, d in enumerate(depth):
-        pieces = layer_pieces(feat, d)
-        best: tuple[tuple[int, int], FloatArray, IntArray] | None = None
-        d_min, d_max = float(d.min()), float(d.max())
-        for leaf in LEAF_SIZES:
-            # Nested by construction: layer k's core is cut from layer k - 1's.
-            vert, tri = cut_core(base, pieces, d_min, d_max, leaf)
-            vert, tri, cross_tri, crossing = uncross(vert, tri, d_min)
-            deep_tri = too_deep(surface, d, vert, tri)
-            for rnd in range(PATCH_ROUNDS):
-                bad = deep_tri | cross_tri
-                if not np.any(bad):
-                    break
-                # A fold or crack deeper than the pieces reach, or crossing triangles:
-                # recompute the core in boxes around them from the previous core and
-                # the pieces there alone, united in another order.
-                p_vert, p_tri = patch_core(
-                    base,
-                    pieces,
-                    vert,
-                    tri,
-                    bad,
-                    d_min,
-                    (rnd + 1) * PATCH_PAD * d_max,
-                    LEAF_SIZES[rnd % len(LEAF_SIZES)],
-                )
-                p_vert, p_tri, p_cross, p_crossing = uncross(
-                    p_vert, p_tri, d_min, (vert, tri, cross_tri)
-                )
-                p_deep = too_deep(surface, d, p_vert, p_tri)
-                if (p_crossing, np.count_nonzero(p_deep)) <= (crossing, np.count_nonzero(deep_tri)):
-                    vert, tri, cross_tri, crossing, deep_tri = (
-                        p_vert,
-                        p_tri,
-                        p_cross,
-                        p_crossing,
-                        p_deep,
-                    )
-            deep = int(np.count_nonzero(deep_tri))
-            if best is None or (crossing, deep) < best[0]:
-                best = ((crossing, deep), vert, tri)
-            if crossing == 0 and deep == 0:
-                break
-        assert best is not None  # LEAF_SIZES is not empty
-        (crossing, deep), vert, tri = best
+        shell = _layer_shell(base, layer_pieces(feat, d), surface, d)
+        crossing, deep = shell.defects
         if crossing or deep:
             warnings.warn(
                 f"robust shell of layer {k + 1}: {crossing} crossing triangle pairs and "
@@ -195,6 +156,90 @@ def robust_offset(
                 ShellDefectWarning,
                 stacklevel=3,
             )
-        out.append((vert, tri))
-        base = to_manifold(vert, tri).as_original()
+        out.append((shell.vert, shell.tri))
+        base = to_manifold(shell.vert, shell.tri).as_original()
     return out
+
+
+class _Attempt(NamedTuple):
+    """A shell of one layer and its defects.
+
+    Attributes
+    ----------
+    vert : (n, 3) float64, mm
+    tri : (m, 3) int64
+    cross_tri : (m,) bool
+        Triangles in a crossing pair.
+    crossing : int
+        Crossing triangle pairs.
+    deep_tri : (m,) bool
+        Triangles deeper than asked (:func:`offset.guards.too_deep`).
+    """
+
+    vert: FloatArray
+    tri: IntArray
+    cross_tri: npt.NDArray[np.bool_]
+    crossing: int
+    deep_tri: npt.NDArray[np.bool_]
+
+    @property
+    def defects(self) -> tuple[int, int]:
+        """``(crossing pairs, triangles too deep)``: fewer is better, crossings first."""
+        return self.crossing, int(np.count_nonzero(self.deep_tri))
+
+
+def _layer_shell(
+    base: m3d.Manifold, pieces: list[Group], surface: Surface, d: FloatArray
+) -> _Attempt:
+    """Return the best shell of a layer over the union orders (:data:`LEAF_SIZES`).
+
+    Each order's core is cut from `base` (the previous layer's core: nested by
+    construction) and patched (:func:`_patched`); the first without defects ends the
+    search, else the one with the fewest (the first among equals) is kept.
+    """
+    best: _Attempt | None = None
+    for leaf in LEAF_SIZES:
+        attempt = _patched(_cut(base, pieces, surface, d, leaf), base, pieces, surface, d)
+        if best is None or attempt.defects < best.defects:
+            best = attempt
+        if attempt.defects == (0, 0):
+            break
+    assert best is not None  # LEAF_SIZES is not empty
+    return best
+
+
+def _cut(
+    base: m3d.Manifold, pieces: list[Group], surface: Surface, d: FloatArray, leaf: int
+) -> _Attempt:
+    """Return the core of `base` minus the `pieces`, united with leaf size `leaf`."""
+    d_min = float(d.min())
+    vert, tri = cut_core(base, pieces, d_min, float(d.max()), leaf)
+    vert, tri, cross_tri, crossing = uncross(vert, tri, d_min)
+    return _Attempt(vert, tri, cross_tri, crossing, too_deep(surface, d, vert, tri))
+
+
+def _patched(
+    attempt: _Attempt, base: m3d.Manifold, pieces: list[Group], surface: Surface, d: FloatArray
+) -> _Attempt:
+    """Return `attempt` with its defects recomputed locally, round after round.
+
+    A fold or crack deeper than the pieces reach, or crossing triangles: the core is
+    recomputed in boxes around them (padded by ``round * PATCH_PAD * max(d)``) from the
+    previous core and the pieces there alone, united in another order
+    (:func:`offset.core_cut.patch_core`). A round's result is kept unless it has more
+    defects; the rounds end when none are left or after :data:`PATCH_ROUNDS`.
+    """
+    d_min, d_max = float(d.min()), float(d.max())
+    for rnd in range(PATCH_ROUNDS):
+        bad = attempt.deep_tri | attempt.cross_tri
+        if not np.any(bad):
+            break
+        pad = (rnd + 1) * PATCH_PAD * d_max
+        leaf = LEAF_SIZES[rnd % len(LEAF_SIZES)]
+        vert, tri = patch_core(base, pieces, attempt.vert, attempt.tri, bad, d_min, pad, leaf)
+        previous = (attempt.vert, attempt.tri, attempt.cross_tri)
+        vert, tri, cross_tri, crossing = uncross(vert, tri, d_min, previous)
+        patched = _Attempt(vert, tri, cross_tri, crossing, too_deep(surface, d, vert, tri))
+        if patched.defects <= attempt.defects:
+            attempt = patched
+    return attempt

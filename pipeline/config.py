@@ -14,8 +14,12 @@ from pathlib import Path
 from typing import Any, Literal, get_args
 
 from pipeline.errors import InputError
-from pipeline.material_plan import MaterialSettings
+from voxel.colour.blue_noise import DEFAULT_TILE
+from voxel.colour.materials import HALFTONES, Halftone
 from voxel.slab import LayerRule
+
+#: Material roles of a printer profile (:mod:`pipeline.printer.profile`).
+Role = Literal["cyan", "magenta", "yellow", "black", "white", "clear", "support", "void"]
 
 Unit = Literal["micron", "mm", "cm", "m", "inch", "foot"]
 
@@ -105,6 +109,40 @@ FORMATS = ("tiff", "vdb", "gcvf", "png")
 
 
 @dataclass(frozen=True)
+class MaterialSettings:
+    """User choices for materials; each ``None`` falls back to the profile.
+
+    Parameters
+    ----------
+    halftone : {"blue-noise", "error-diffusion"}
+        See :mod:`voxel.colour.materials`.
+    seed : int
+        Seed of the blue-noise tile (the halftone is deterministic per seed).
+    icc : Path or None
+        CMYK ICC output profile for the separation instead of the mixing model.
+    backing_role, core_role : Role or None
+        Material role of the backing layers and of the core (default: the profile's).
+    tile_size : int
+        Blue-noise tile edge in voxels.
+    """
+
+    halftone: Halftone = "blue-noise"
+    seed: int = 0
+    icc: Path | None = None
+    backing_role: Role | None = None
+    core_role: Role | None = None
+    tile_size: int = DEFAULT_TILE
+
+    def __post_init__(self) -> None:
+        if self.halftone not in HALFTONES:
+            raise InputError(
+                "--halftone", f"must be one of {list(HALFTONES)}, got {self.halftone!r}", "fix it"
+            )
+        if self.seed < 0:
+            raise InputError("--seed", f"must be >= 0, got {self.seed}", "give 0 or more")
+
+
+@dataclass(frozen=True)
 class BuildConfig:
     """How a layered voxel stack is built.
 
@@ -145,7 +183,7 @@ class BuildConfig:
         Write ``colour.tif`` as RGBA instead of RGB.
     compression_level : int, optional
         zlib level of the TIFFs (1 fast .. 9 small); None (default): the fast
-        setting of :mod:`voxel.compression` (zlib-ng's level 2).
+        setting of :mod:`voxel.io.compression` (zlib-ng's level 2).
     formats : tuple of {"tiff", "vdb", "gcvf", "png"}
         Files to write: ``tiff`` = ``layers.tif``, ``colour.tif`` and ``materials.tif``;
         ``vdb`` = ``volume.vdb``; ``gcvf`` = ``job.gcvf`` (GrabCAD Voxel Print);
@@ -156,7 +194,7 @@ class BuildConfig:
     report_samples : int
         Surface samples of the colour report (0: none).
     optical_depth_mm : float, mm
-        Optical depth ``L`` of the colour report's model (:mod:`voxel.colour_report`).
+        Optical depth ``L`` of the colour report's model (:mod:`voxel.colour.report`).
     """
 
     voxel_mm: tuple[float, float, float]

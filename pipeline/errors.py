@@ -39,6 +39,10 @@ class SlabWorkerDied(RuntimeError):
     """A slab worker process ended without returning its slab (e.g. out of memory)."""
 
 
+class ClusterError(InputError):
+    """The Dask scheduler cannot be reached, was lost, or has no workers."""
+
+
 class OutputBusy(InputError):
     """Another shellvox run holds the output folder (reported like bad input, exit 2)."""
 

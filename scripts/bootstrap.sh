@@ -5,8 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need=()
-# libgs-common: Ghostscript's CMYK ICC profiles, for the --icc test (tests/test_separation.py)
-# chromium: the browser the viewer's test drives (tests/test_viewer_browser.py, Playwright);
+# libgs-common: Ghostscript's CMYK ICC profiles, for the --icc test (tests/voxel_colour/test_separation.py)
+# chromium: the browser the viewer's test drives (tests/viewer/test_viewer_browser.py, Playwright);
 # Debian packages it, Ubuntu only as a snap: where apt has none, that test skips (fails in CI)
 installed() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q "install ok installed"; }
 for pkg in python3-openvdb python3-venv python3-dev libgs-common chromium; do
@@ -42,6 +42,6 @@ fi
 # Every package pinned with its hashes (scripts/lock.sh writes the lock with uv).
 .venv/bin/python -m pip install -q --require-hashes -r requirements.lock
 .venv/bin/python -m pip install -q --no-deps -e . >/dev/null 2>&1 || .venv/bin/python -m pip install --no-deps -e .
-.venv/bin/python -c "import voxel.openvdb_module as m; m.load_openvdb()" \
+PYTHONPATH=tests .venv/bin/python -c "import openvdb_module as m; m.load_openvdb()" \
     || { echo "shellvox set-up: OpenVDB's Python module does not load in .venv" >&2; exit 1; }
 echo "$want" > "$stamp"

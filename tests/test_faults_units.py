@@ -11,7 +11,6 @@ import time
 import numpy as np
 import pytest
 
-from pipeline.children import ChildCall, ChildDied
 from pipeline.errors import InputError, OutputBusy, SlabWorkerDied
 from pipeline.faults import (
     DeferredSignals,
@@ -20,7 +19,8 @@ from pipeline.faults import (
     raise_if_interrupted,
     signals_raise,
 )
-from pipeline.outdir import LOCK_NAME, OutputFolder, remove_leftovers
+from pipeline.output.outdir import LOCK_NAME, OutputFolder, remove_leftovers
+from pipeline.run.children import ChildCall, ChildDied
 
 
 def _os_error(code, name="out/layers.tif"):

@@ -13,32 +13,17 @@ Conventions (stated once, used everywhere in this package)
 This package never imports :mod:`pipeline` or :mod:`offset`; colour reaches it as a callable
 ``colour_at(face_ids, barycentric) -> (N, 4) uint8``.
 
-Modules
--------
+Layout
+------
 - :mod:`voxel.grid` ``GridSpec`` (index space vs world space).
-- :mod:`voxel.separation`, :mod:`voxel.materials` colour to one material per voxel.
-- :mod:`voxel.winding` exact inside tests (row-crossing winding numbers, symbolic ties).
-- :mod:`voxel.distance_scan` exact nearest faces of the voxels within reach, by scanning
-  the Voronoi regions (:mod:`voxel.voronoi`) of faces, edges and vertices (compiled);
-  :mod:`voxel.closest_point` the compiled point-triangle test it shares with the colour.
-- :mod:`voxel.layer_kernel` the per-voxel pass: layers, SDF band, colour voxels, tallies.
-- :mod:`voxel.surface_colour` compiled colour of the nearest points (face, vertex,
-  texture), with the numpy path's arithmetic; :mod:`voxel.nearest` exact nearest points
-  by libigl's tree (queries beyond the reach; also generalised winding numbers of points,
-  for :mod:`offset` and the shell agreement); :mod:`voxel.colour` colour helpers;
-  :mod:`voxel.srgb` the sRGB transfer curve and CIELAB (the only place colours change
-  encoding; the loaders in :mod:`pipeline` use it too).
-- :mod:`voxel.slab` ``compute_slab``: the pure per-slab function (layers, colours, SDF band).
-- :mod:`voxel.deflate` a compiled run-length deflate (zlib) encoder for slices.
-- :mod:`voxel.tiff_writer`, :mod:`voxel.vdb_writer` (grids cut into leaves by
-  :mod:`voxel.vdb_encode`, encoded and spooled by :mod:`voxel.vdb_leaves`, the file and
-  its tree by :mod:`voxel.vdb_format`), :mod:`voxel.preview`: serialisation only.
-- Printer slices, serialisation only: :mod:`voxel.gcvf_writer` (GrabCAD Voxel Print
-  jobs, described by :mod:`voxel.gcvf_job`), :mod:`voxel.png_slices` (RGBA slice
-  folders), both with PNGs from :mod:`voxel.png_encode` and a writer thread from
-  :mod:`voxel.slab_thread`.
-- :mod:`voxel.separation` colour to material proportions (the mixing model's solver in
-  :mod:`voxel.mixing`); :mod:`voxel.blue_noise` the
-  3D threshold tile; :mod:`voxel.materials` ``materials_for_slab`` (one material per
-  voxel); :mod:`voxel.material_kernels` their compiled per-voxel loops (numba).
+- :mod:`voxel.slab` ``compute_slab``: the pure per-slab function (layers, colours, SDF
+  band); :mod:`voxel.tray_slab` a tray's slab, tile by tile; :mod:`voxel.sampler`
+  reproducible samples per layer; :mod:`voxel.agreement` distance layers against shells.
+- :mod:`voxel.geometry` the kernels: inside tests, exact nearest faces within reach,
+  nearest points (the one module :mod:`offset` uses), the per-voxel layer pass.
+- :mod:`voxel.colour` colour encodings (sRGB, CIELAB), surface colour, separation into
+  materials, halftones, the colour report.
+- :mod:`voxel.io` serialisation only: TIFF, PNG, GrabCAD jobs, OpenVDB, previews and the
+  deflate streams; it imports only :mod:`voxel.grid` and the sRGB helpers, and
+  :mod:`voxel.slab` never imports it.
 """

@@ -10,7 +10,7 @@ Two layer realisations:
   ``d`` its exact distance to the original surface and ``f`` the face of its nearest
   point; this is the ideal offset (rounded at reflex features, collapsing in thin walls)
   sampled exactly at the voxel centres. Every face is scan-converted into the voxels
-  within the deepest band limit (:mod:`voxel.distance_scan`, compiled), which gives each
+  within the deepest band limit (:mod:`voxel.geometry.distance_scan`, compiled), which gives each
   of them its exact nearest face; deeper inside voxels are core by the inside test alone.
 * **shells** (``layer_rule == "shells"``, no ``depth_mm``): a voxel's layer is how many
   of the nested closed surfaces ``surfaces`` contain its centre (exact winding numbers).
@@ -19,21 +19,18 @@ Two layer realisations:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, NamedTuple
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour import ColourAt, nearest_colour
-from voxel.distance_scan import nearest_in_reach, nearest_within
+from voxel.colour.colour_at import ColourAt, nearest_colour
+from voxel.colour.surface_colour import SurfaceColour, voxel_colours
+from voxel.geometry.distance_scan import nearest_in_reach, nearest_within
+from voxel.geometry.layer_kernel import assign_layers, colour_voxels
+from voxel.geometry.nearest import SurfaceIndex, nearest_faces, on_faces
+from voxel.geometry.winding import inside_slab
 from voxel.grid import GridSpec
-from voxel.layer_kernel import assign_layers, colour_voxels
-from voxel.nearest import SurfaceIndex, nearest_faces, on_faces
-from voxel.surface_colour import SurfaceColour, voxel_colours
-from voxel.winding import inside_slab
-
-if TYPE_CHECKING:
-    from voxel.tray_slab import TrayStack
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
 
@@ -65,7 +62,7 @@ class StackModel:
         original), refused by ``"shells"``.
     surface_colour : SurfaceColour, optional
         The colour source as arrays: colours by the compiled kernel
-        (:mod:`voxel.surface_colour`), which gives what `colour_at` gives.
+        (:mod:`voxel.colour.surface_colour`), which gives what `colour_at` gives.
     layer_rule : {"shells", "distance"}
         How voxels get their layer (see the module).
     """
@@ -167,20 +164,18 @@ def reach_mm(model: StackModel) -> float:
     return model.sdf_half_width_mm
 
 
-def compute_slab(
-    model: StackModel | TrayStack, grid: GridSpec, z_start: int, z_stop: int
-) -> SlabResult:
+def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -> SlabResult:
     """Return layers, colours and the signed-distance band of rows ``z_start..z_stop``.
 
     Needs no halo: inside tests run along x rows and every face within reach of the
-    slab is scan-converted into it (:mod:`voxel.distance_scan`), so a slab reads
+    slab is scan-converted into it (:mod:`voxel.geometry.distance_scan`), so a slab reads
     nothing beyond its own rows and any split into slabs gives the same arrays.
 
     Parameters
     ----------
-    model : StackModel or TrayStack
-        Surfaces, colour source and options; a tray of models is computed tile by tile
-        (:func:`voxel.tray_slab.compute_tray_slab`).
+    model : StackModel
+        Surfaces, colour source and options (a tray of models is computed tile by tile
+        with :func:`voxel.tray_slab.compute_tray_slab`, which calls this per tile).
     grid : GridSpec
         The voxel grid.
     z_start, z_stop : int
@@ -191,10 +186,6 @@ def compute_slab(
     SlabResult
         Arrays of shape ``(z_stop - z_start, Y, X)``; memory is about 24 bytes a voxel.
     """
-    if not isinstance(model, StackModel):
-        from voxel.tray_slab import compute_tray_slab  # it imports this module
-
-        return compute_tray_slab(model, grid, z_start, z_stop)
     n_z = grid.shape_zyx[0]
     if not 0 <= z_start < z_stop <= n_z:
         raise ValueError(

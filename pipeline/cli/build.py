@@ -14,22 +14,21 @@ from typing import Any, get_args
 import numpy as np
 
 from offset import METHODS
-from pipeline.build import build_stack
+from pipeline.build.stack import build_stack
 from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.runargs import add_running_arguments, running_from_args
 from pipeline.cli.thicknessargs import ThicknessChoice, add_rule_arguments, choose_thickness
 from pipeline.cli.values import parse_lengths, parse_voxel_size
-from pipeline.config import FORMATS, BuildConfig
+from pipeline.config import FORMATS, BuildConfig, MaterialSettings
 from pipeline.errors import InputError
 from pipeline.loading import load_model
-from pipeline.material_plan import MaterialSettings
-from pipeline.printer_profile import PrinterProfile, load_profile, shipped_profiles
-from pipeline.tray import load_tray, tray_from_inputs
-from pipeline.tray_build import build_tray
-from pipeline.tray_layout import LayoutMode
-from pipeline.tray_parts import ThicknessSource
-from pipeline.tray_plan import plan_tray
-from voxel.materials import HALFTONES
+from pipeline.printer.profile import PrinterProfile, load_profile, shipped_profiles
+from pipeline.tray.build import build_tray
+from pipeline.tray.layout import LayoutMode
+from pipeline.tray.parts import ThicknessSource
+from pipeline.tray.plan import plan_tray
+from pipeline.tray.spec import load_tray, tray_from_inputs
+from voxel.colour.materials import HALFTONES
 from voxel.slab import LayerRule
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from offset import METHODS, offset_shells, shell_report
+from offset.for_file import shell_for_file
 from pipeline import __version__
 from pipeline.atomic import write_text_atomic
 from pipeline.cli.loadargs import add_load_arguments, load_options
@@ -21,10 +22,11 @@ from pipeline.cli.thicknessargs import (
 from pipeline.cli.values import parse_lengths
 from pipeline.config import ShellConfig, as_json
 from pipeline.errors import InputError
-from pipeline.face_thickness import thickness_summary, write_thickness_ply
 from pipeline.loading import load_model
-from pipeline.outdir import SHELL_OUTPUTS, OutputFolder, sha256
-from pipeline.shell_files import save_shells
+from pipeline.output.outdir import SHELL_OUTPUTS, OutputFolder, sha256
+from pipeline.output.ply import write_thickness_ply
+from pipeline.output.shells import save_shells
+from pipeline.thickness.face_thickness import thickness_summary
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -99,7 +101,8 @@ def _write(
     shells = offset_shells(mesh.vertices, mesh.faces, thickness, method=config.method)
     offset_seconds = time.perf_counter() - started
     _say("cleaning, writing and reading back the shell files")
-    written = save_shells(out, shells)
+    ready = [shell_for_file(shell) for shell in shells]
+    written = save_shells(out, [r.shell for r in ready], cleaning=[r.cleaning for r in ready])
     _say("measuring the shells" + ("" if args.no_baselines else " and the baselines"))
     report: dict[str, Any] = {
         "tool": f"shellvox {__version__}",

@@ -11,9 +11,10 @@ from pipeline.atomic import atomic_path, write_text_atomic
 from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness
 from pipeline.errors import InputError
-from pipeline.face_thickness import thickness_summary, write_thickness_ply
 from pipeline.loading import load_model
-from pipeline.thickness_picture import thickness_image
+from pipeline.output.ply import write_thickness_ply
+from pipeline.report.thickness_picture import thickness_image
+from pipeline.thickness.face_thickness import thickness_summary
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -67,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def table_lines(summary: dict[str, Any]) -> list[str]:
-    """Format :func:`pipeline.face_thickness.thickness_summary` as a text table."""
+    """Format :func:`pipeline.thickness.face_thickness.thickness_summary` as a text table."""
     colour = summary["colour_layer"]
     colour_layers = [str(layer["layer"]) for layer in summary["layers"] if layer["colour"]]
     lines = [

@@ -1,8 +1,8 @@
 """The thickness options shared by ``thickness``, ``shells`` (and ``build``).
 
-``--thickness-rule FILE`` loads a rule (:mod:`pipeline.thickness_rule`); without it the
+``--thickness-rule FILE`` loads a rule (:mod:`pipeline.thickness.rule`); without it the
 default rule applies. ``--max-edge MM`` splits faces of mixed colour first
-(:mod:`pipeline.face_split`). A command that also takes a constant ``--thickness`` passes
+(:mod:`pipeline.thickness.face_split`). A command that also takes a constant ``--thickness`` passes
 it to :func:`choose_thickness`, which refuses it together with a rule or ``--max-edge``.
 """
 
@@ -17,12 +17,12 @@ from numpy.typing import NDArray
 
 from pipeline.cli.values import parse_lengths
 from pipeline.errors import InputError
-from pipeline.face_colour import face_colour
-from pipeline.face_split import split_for_thickness
-from pipeline.face_thickness import FaceThickness, face_thickness
-from pipeline.mesh import ColouredMesh
-from pipeline.rule_file import load_rule
-from pipeline.thickness_rule import DEFAULT_RULE, ThicknessRule
+from pipeline.model.mesh import ColouredMesh
+from pipeline.thickness.face_colour import face_colour
+from pipeline.thickness.face_split import split_for_thickness
+from pipeline.thickness.face_thickness import FaceThickness, face_thickness
+from pipeline.thickness.rule import DEFAULT_RULE, ThicknessRule
+from pipeline.thickness.rule_file import load_rule
 
 
 def add_rule_arguments(parser: argparse.ArgumentParser) -> None:

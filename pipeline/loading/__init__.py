@@ -1,8 +1,10 @@
-"""Load any coloured model users bring into a :class:`~pipeline.mesh.ColouredMesh` in mm.
+"""Load any coloured model users bring into a :class:`~pipeline.model.mesh.ColouredMesh` in mm.
 
-Formats: OBJ (+MTL, textures), PLY, glTF/GLB, 3MF, STL, OFF, VRML 2.0. Every loader returns the
-raw mesh in file units; this module converts units, applies ``--colour``, checks for
-NaN/inf and absurd sizes, then :func:`pipeline.topology.prepare` merges and checks it.
+Formats: OBJ (+MTL, textures), PLY, glTF/GLB, 3MF, STL, OFF, VRML 2.0, each a reader
+registered by suffix (:func:`register_format`; :data:`FORMATS`). Every reader returns the
+raw mesh in file units (and the file's own unit where it declares one, as 3MF does); this
+module converts units, applies ``--colour``, checks for NaN/inf and absurd sizes, then
+:func:`pipeline.model.topology.prepare` merges and checks it.
 
 Every problem ends in a correct load, an :class:`~pipeline.errors.InputError` (one line:
 file, problem, fix), or a :class:`~pipeline.errors.ShellvoxWarning` saying what was
@@ -26,39 +28,79 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from types import MappingProxyType
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.config import UNIT_MM, LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading.gltf import read_gltf
+from pipeline.loading.gltf.reader import read_gltf
 from pipeline.loading.images import MAX_TEXTURE_PIXELS
-from pipeline.loading.obj import read_obj
-from pipeline.loading.threemf import read_3mf
+from pipeline.loading.obj.reader import read_obj
+from pipeline.loading.threemf.reader import read_3mf
 from pipeline.loading.trimesh_formats import read_with_trimesh
-from pipeline.loading.vrml import read_vrml
-from pipeline.mesh import ColouredMesh
-from pipeline.topology import prepare
+from pipeline.loading.vrml.reader import read_vrml
+from pipeline.model.mesh import ColouredMesh
+from pipeline.model.topology import prepare
 
-__all__ = ["FORMATS", "MAX_COORDINATE_MM", "MAX_TEXTURE_PIXELS", "load_model"]
+__all__ = [
+    "FORMATS",
+    "MAX_COORDINATE_MM",
+    "MAX_TEXTURE_PIXELS",
+    "Format",
+    "load_model",
+    "register_format",
+]
 
 #: Largest distance of a vertex from the origin accepted without ``--force`` (1 km).
 MAX_COORDINATE_MM = 1e6
 #: Largest accepted even with ``--force`` (1000 km: the float64 spacing there is 1e-7 mm).
 MAX_COORDINATE_MM_FORCED = 1e9
 
-FORMATS = {
-    ".obj": "obj",
-    ".ply": "ply",
-    ".glb": "glb",
-    ".gltf": "gltf",
-    ".3mf": "3mf",
-    ".stl": "stl",
-    ".off": "off",
-    ".wrl": "wrl",
-}
+#: A reader: the raw mesh of a file in its units and, where the file declares its unit,
+#: millimetres per unit (None: ``--units``, default mm).
+Reader = Callable[[Path, LoadOptions], tuple[ColouredMesh, float | None]]
+
+
+class Format(NamedTuple):
+    """A model format: its name and its reader."""
+
+    name: str
+    read: Reader
+
+
+_REGISTRY: dict[str, Format] = {}
+#: The formats by suffix (lower case, with the dot), as registered (read-only).
+FORMATS: Mapping[str, Format] = MappingProxyType(_REGISTRY)
+
+
+def register_format(suffix: str, name: str, read: Reader) -> None:
+    """Read the files whose suffix is `suffix` (any case) with `read`, as format `name`."""
+    _REGISTRY[suffix.lower()] = Format(name, read)
+
+
+def _no_unit(read: Callable[[Path, LoadOptions], ColouredMesh]) -> Reader:
+    """Return `read` as a reader of a format without units (the numbers are ``--units``)."""
+    return lambda path, options: (read(path, options), None)
+
+
+def _by_trimesh(file_type: str) -> Reader:
+    """Return the reader of a format that trimesh reads (``read_with_trimesh``)."""
+    return lambda path, options: (read_with_trimesh(path, file_type, options), None)
+
+
+register_format(".obj", "obj", _no_unit(read_obj))
+register_format(".ply", "ply", _by_trimesh("ply"))
+register_format(".glb", "glb", _no_unit(read_gltf))
+register_format(".gltf", "gltf", _no_unit(read_gltf))
+register_format(".3mf", "3mf", read_3mf)
+register_format(".stl", "stl", _by_trimesh("stl"))
+register_format(".off", "off", _by_trimesh("off"))
+register_format(".wrl", "wrl", _no_unit(read_vrml))
 
 
 def load_model(path: str | Path, options: LoadOptions | None = None) -> ColouredMesh:
@@ -88,8 +130,8 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         raise InputError(path, "file not found", "check the path")
     if not path.is_file():
         raise InputError(path, "is not a file", "give the path of a model file")
-    file_type = FORMATS.get(path.suffix.lower())
-    if file_type is None:
+    found = FORMATS.get(path.suffix.lower())
+    if found is None:
         raise InputError(
             path,
             f"unknown model format {path.suffix or '(no suffix)'!r}",
@@ -103,7 +145,7 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         )
     if options.texture is not None and not Path(options.texture).is_file():
         raise InputError(options.texture, "texture file not found", "check the --texture path")
-    if options.texture is not None and file_type != "obj":
+    if options.texture is not None and found.name != "obj":
         warnings.warn(
             f"--texture applies to OBJ files only; {path.name} is read without it",
             ShellvoxWarning,
@@ -111,24 +153,16 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         )
 
     mm_per_unit = UNIT_MM[options.units or "mm"]
-    if file_type == "obj":
-        mesh = read_obj(path, options)
-    elif file_type == "3mf":
-        mesh, declared = read_3mf(path, options)
+    mesh, declared = found.read(path, options)
+    if declared is not None:
         if options.units is not None and UNIT_MM[options.units] != declared:
             warnings.warn(
-                f"{path}: the 3MF declares its own unit; --units {options.units} "
-                "is ignored (use --scale to resize)",
+                f"{path}: the {found.name.upper()} declares its own unit; --units "
+                f"{options.units} is ignored (use --scale to resize)",
                 ShellvoxWarning,
                 stacklevel=2,
             )
         mm_per_unit = declared
-    elif file_type in ("glb", "gltf"):
-        mesh = read_gltf(path, options)
-    elif file_type == "wrl":
-        mesh = read_vrml(path, options)
-    else:
-        mesh = read_with_trimesh(path, file_type, options)
 
     if len(mesh.faces) > options.max_faces and not options.force:
         raise InputError(

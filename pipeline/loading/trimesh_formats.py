@@ -25,8 +25,8 @@ from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.combine import checked_faces, combine_parts
 from pipeline.loading.images import TextureRef, read_textures
 from pipeline.loading.references import check_inside, is_file
-from pipeline.mesh import ColouredMesh
-from pipeline.texture import Material
+from pipeline.model.mesh import ColouredMesh
+from pipeline.model.texture import Material
 
 #: PLY properties that look like colour but are not the ``red green blue`` trimesh reads.
 PLY_COLOURISH = {

@@ -3,7 +3,7 @@
 A build keeps no per-voxel depth (the layers are thresholds of it, :mod:`voxel.slab`),
 so the viewer recomputes it where asked: the exact distance from voxel centres to the
 model's surface, and the face whose point is nearest, by libigl's tree
-(:mod:`voxel.nearest`, the query the build itself uses beyond its scan). The surface is
+(:mod:`voxel.geometry.nearest`, the query the build itself uses beyond its scan). The surface is
 ``thickness.ply`` (the build's mesh in its own millimetres, with each face's layer
 thicknesses); a build made with ``--thickness`` has none, and then has no depth.
 """
@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.face_ply import read_face_ply
-from voxel.nearest import SurfaceIndex, nearest_faces
+from pipeline.output.ply import read_face_ply
+from voxel.geometry.nearest import SurfaceIndex, nearest_faces
 
 
 @dataclass(frozen=True, eq=False)

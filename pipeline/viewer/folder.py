@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError
-from pipeline.manifest_check import check_files, read_manifest
+from pipeline.output.checks import check_files, read_manifest
 from pipeline.viewer.depth import Surface
 from pipeline.viewer.stacks import StackError, SymbolCache, TiffStack
 from voxel.grid import GridSpec

@@ -1,17 +1,17 @@
 """Random access into zlib streams: chosen bytes of a stream without inflating all of it.
 
-A voxel slice along y or x needs one row or one column of every TIFF page, and a
-page is a deflate stream (RFC 1951), which has no random access: zlib writes out every
-byte before the ones asked for (0.4 GB/s on voxel pages). :func:`decode` reads a
-stream's *symbols* instead and writes no output: a run of literals is kept as its
-bytes, a match at a distance of 1 to 4 bytes (the runs of a voxel page;
-:mod:`voxel.deflate` writes no other kind) as its repeating pattern of 1 to 4 bytes, and
-a match from further back (zlib's general matches) as copies of the symbols it
-repeats. The result, :class:`Symbols`, is a run-length description of the inflated
-bytes, about as large as the compressed stream; :func:`pick` reads any bytes of it by
-binary search. Decoding costs per symbol, not per byte: a page of long runs decodes
-several times faster than zlib inflates it, and a decoded page answers any row or
-column at once.
+A voxel slice along y or x needs one row or one column of every TIFF page, and a page is
+a deflate stream (RFC 1951), which has no random access: zlib writes out every byte
+before the ones asked for (0.4 GB/s on voxel pages). :func:`decode` reads a stream's
+*symbols* instead and writes no output: a run of literals is kept as its bytes, a match
+at a distance of 1 to 4 bytes (the runs of a voxel page) as its repeating pattern of 1
+to 4 bytes, and a match from further back (the pages are zlib-ng's or zlib's streams,
+:mod:`voxel.io.compression`, whose matches may reach anywhere in the window) as copies
+of the symbols it repeats. The result, :class:`Symbols`, is a run-length description of
+the inflated bytes, about as large as the compressed stream; :func:`pick` reads any
+bytes of it by binary search. Decoding costs per symbol, not per byte: a page of long
+runs decodes several times faster than zlib inflates it, and a decoded page answers any
+row or column at once.
 
 The compiled parts: Huffman codes in :mod:`pipeline.viewer.huffman` (after Mark Adler's
 ``puff.c``, the reference inflater in zlib's ``contrib/puff``), the block walk that

@@ -2,7 +2,7 @@
 
 A stack (``layers.tif``, ``colour.tif``, ``materials.tif``) is ``Z`` deflate-compressed
 pages of ``(Y, X[, S])`` uint8, each page one strip or a few (what
-:mod:`voxel.tiff_writer` writes). The page and strip offsets are read once (tifffile);
+:mod:`voxel.io.tiff_writer` writes). The page and strip offsets are read once (tifffile);
 the file stays open and every read is an ``os.pread`` of the strips a region needs, so
 any number of server threads read at once. A z slice inflates its strips with zlib; a
 y or x slice takes one row or column of every page it covers, read out of the page's

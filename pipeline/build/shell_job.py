@@ -1,0 +1,180 @@
+"""The offset shells of a build (:func:`offset.offset_shells`), before the voxels or beside them.
+
+With the ``"shells"`` layer rule the voxels are counted between the shells, so the shells
+come first, in this process. With the ``"distance"`` rule and ``shell_meshes`` they are a
+second realisation of the layers, computed beside the voxels in a spawned process
+(:class:`pipeline.run.children.ChildCall`: it dies with the build); the voxels do not depend
+on them, so a failure there is a warning, not an error. The shells for the files are
+cleaned and jittered here (:func:`offset.for_file.shell_for_file`; in the spawned process
+when there is one); the voxels of the ``"shells"`` rule use them as computed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+import warnings
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from tqdm import tqdm
+
+from offset import offset_shells
+from offset.for_file import shell_for_file
+from offset.shells import Shell
+from pipeline.config import BuildConfig
+from pipeline.errors import ShellvoxWarning
+from pipeline.model.mesh import ColouredMesh
+from pipeline.run.children import ChildCall
+
+#: Seconds between updates of the shells' progress bar.
+TICK_S = 0.5
+
+
+class ShellJob:
+    """Offset shells of a build and the seconds they took.
+
+    Parameters
+    ----------
+    mesh : ColouredMesh
+        The model.
+    thickness : (K, F) float64, mm
+        Thickness of each layer per face.
+    config : BuildConfig
+        ``layer_rule``, ``shell_meshes`` and ``shell_method``.
+    seconds : dict
+        Receives ``shells`` (and ``shells_wait``): the build's timings.
+    estimate_s : float
+        Their estimated time (:attr:`pipeline.estimate.BuildEstimate.shell_seconds`),
+        the length of their progress bar.
+    progress : bool or None
+        Show the progress bar; ``None``: only on a terminal.
+    """
+
+    def __init__(
+        self,
+        mesh: ColouredMesh,
+        thickness: NDArray[np.float64],
+        config: BuildConfig,
+        seconds: dict[str, float],
+        *,
+        estimate_s: float = 0.0,
+        progress: bool | None = None,
+    ) -> None:
+        self.mesh = mesh
+        self.thickness = thickness
+        self.config = config
+        self.seconds = seconds
+        self.estimate_s = estimate_s
+        self.progress = progress
+        self._pending: ChildCall[tuple[list[Shell], float]] | None = None
+        self._started = 0.0
+        #: The shells, once computed (at once with the "shells" rule).
+        self.shells: list[Shell] | None = None
+        if config.layer_rule == "shells":
+            with self._bar(time.perf_counter()):
+                self.shells, seconds["shells"] = timed_shells(
+                    mesh.vertices, mesh.faces, thickness, config
+                )
+
+    @property
+    def writes_meshes(self) -> bool:
+        """The distance layers' build computes shell meshes beside the slabs."""
+        return self.config.layer_rule == "distance" and self.config.shell_meshes
+
+    def start_beside(self, stack: contextlib.ExitStack) -> None:
+        """Start the shells in another process, with the distance rule and shell meshes.
+
+        Call after the slab workers are forked; `stack` stops the process if the build
+        fails.
+        """
+        if self.writes_meshes:
+            call = ChildCall(  # a process that dies fails the call instead of hanging it
+                timed_shells,
+                self.mesh.vertices,
+                self.mesh.faces,
+                self.thickness,
+                self.config,
+                True,  # for_files: cleaned and jittered in that process
+            )
+            self._pending = stack.enter_context(call)
+            self._started = time.perf_counter()
+
+    def wait(self) -> list[Shell] | None:
+        """Return the shells ready for their files (waiting for the other process).
+
+        None when there are none or they failed. The files' shells are cleaned and
+        jittered (:func:`offset.for_file.shell_for_file`); with the "shells" rule
+        :attr:`shells` stays as computed (the voxels' shells).
+        """
+        if self._pending is None:
+            if self.shells is None:
+                return None
+            return [shell_for_file(shell).shell for shell in self.shells]
+        tick = time.perf_counter()
+        try:
+            with self._bar(self._started):
+                self.shells, self.seconds["shells"] = self._pending.result()
+        except Exception as error:  # the voxels do not depend on the shell meshes
+            warnings.warn(
+                f"{self.mesh.source}: the shell meshes failed ({error}); the voxel stack "
+                "is complete without shells/; rerun with --layers shells to see the error",
+                ShellvoxWarning,
+                stacklevel=3,
+            )
+        self.seconds["shells_wait"] = time.perf_counter() - tick
+        self._pending = None
+        return self.shells
+
+    @contextlib.contextmanager
+    def _bar(self, started: float) -> Iterator[None]:
+        """Show the seconds spent on the shells since `started` against their estimate."""
+        disable = None if self.progress is None else not self.progress
+        done = threading.Event()
+        bar = tqdm(
+            total=max(self.estimate_s, 1.0),
+            desc="shell meshes",
+            unit="s",
+            disable=disable,
+            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f} of about {total:.0f} s",
+        )
+
+        def tick() -> None:
+            while not done.wait(TICK_S):
+                elapsed = time.perf_counter() - started
+                if elapsed > 0.95 * bar.total:  # longer than estimated: the end moves on
+                    bar.total = elapsed / 0.95
+                bar.n = elapsed
+                bar.refresh()
+
+        ticker = threading.Thread(target=tick, name="shell-progress", daemon=True)
+        ticker.start()
+        try:
+            yield
+        finally:
+            done.set()
+            ticker.join()
+            bar.n = bar.total
+            bar.close()
+
+
+def timed_shells(
+    vertices: np.ndarray[Any, Any],
+    faces: np.ndarray[Any, Any],
+    thickness: np.ndarray[Any, Any],
+    config: BuildConfig,
+    for_files: bool = False,
+) -> tuple[list[Shell], float]:
+    """Return the offset shells of the model and the seconds they took (picklable).
+
+    With `for_files`, the shells are those for the files
+    (:func:`offset.for_file.shell_for_file`: cleaned and jittered).
+    """
+    tick = time.perf_counter()
+    shells = offset_shells(vertices, faces, thickness, method=config.shell_method)
+    if for_files:
+        shells = [shell_for_file(shell).shell for shell in shells]
+    return shells, time.perf_counter() - tick

@@ -1,0 +1,412 @@
+"""``build_stack``: shells, then Z slabs of layers and colours, streamed to the output files.
+
+Numerics live in :mod:`offset` and :func:`voxel.slab.compute_slab`; the writers only
+serialise. The parts of a build:
+
+- :mod:`pipeline.build.plan` the grid, slabs and workers, and the cost estimate: a build
+  that cannot fit is refused before anything is allocated;
+- :mod:`pipeline.build.shell_job` the offset shells, before the voxels or beside them;
+- :mod:`pipeline.run.runner` the slabs, here, in forked workers or on a Dask cluster,
+  and :mod:`pipeline.output.streams` the streaming writers they feed;
+- :mod:`pipeline.run.checkpoints` the checkpoints of finished slabs, so a killed build can
+  be resumed;
+- :mod:`pipeline.output.folder` the output folder: every file under a temporary name,
+  renamed only when the whole build succeeded, ``manifest.json`` last (assembled by
+  :mod:`pipeline.output.manifest`, with every file's size and SHA-256), so a failed run
+  leaves nothing that looks complete (:mod:`pipeline.output.outdir`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import math
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from offset.shells import Shell
+from pipeline.build.colour_check import ColourCheck
+from pipeline.build.plan import BuildPlan, plan_build
+from pipeline.build.shell_job import ShellJob
+from pipeline.config import BuildConfig
+from pipeline.errors import ShellvoxWarning
+from pipeline.faults import DeferredSignals
+from pipeline.model.mesh import ColouredMesh
+from pipeline.output.folder import BuildFolder
+from pipeline.output.manifest import Tally, stack_manifest, thickness_entry
+from pipeline.output.outdir import OutputFolder
+from pipeline.output.streams import StackOutputs, gcvf_slices
+from pipeline.printer.material_plan import build_material_plan
+from pipeline.printer.profile import PrinterProfile
+from pipeline.run.checkpoints import (
+    CHECKPOINT_AFTER_S,
+    JOURNAL,
+    RUN_FOLDER,
+    RunFolder,
+    RunSettings,
+    check_resumable,
+    checkpoints,
+    run_key,
+)
+from pipeline.run.runner import SlabRunner
+from pipeline.run.task import SLAB_ARRAYS, material_tally
+from pipeline.thickness.face_thickness import FaceThickness
+from voxel.agreement import shell_agreement
+from voxel.colour.materials import MaterialPlan, materials_for_slab
+from voxel.geometry.nearest import SurfaceIndex
+from voxel.io.tiff_pages import PageEncoder
+from voxel.io.vdb.encode import VdbEncoder
+from voxel.sampler import LayerSampler
+from voxel.slab import StackModel
+
+
+def build_stack(
+    mesh: ColouredMesh,
+    config: BuildConfig,
+    out_dir: Path,
+    *,
+    thickness: np.ndarray[Any, np.dtype[np.float64]] | None = None,
+    faces: FaceThickness | None = None,
+    profile: PrinterProfile | None = None,
+    progress: bool | None = None,
+    force: bool = False,
+    say: Callable[[str], None] | None = None,
+    running: RunSettings | None = None,
+) -> dict[str, Any]:
+    """Build the layered voxel stack of a coloured mesh into ``out_dir``.
+
+    Parameters
+    ----------
+    mesh : ColouredMesh
+        Closed, outward-oriented model in mm.
+    config : BuildConfig
+        Grid, layers and output options.
+    out_dir : Path
+        Output folder (created): ``layers.tif``, ``colour.tif``, ``materials.tif``,
+        ``volume.vdb``, ``job.gcvf``, ``shells/``, ``manifest.json`` as ``config`` says;
+        an earlier build there is replaced as a whole.
+    thickness : (K, F) float64, mm, optional
+        Thickness of each layer per face; default ``config.thickness_mm`` on every face.
+    faces : FaceThickness, optional
+        The thickness rule's result behind `thickness` (``thickness.ply``, manifest).
+    profile : PrinterProfile, optional
+        With ``config.material``: one material per voxel (``materials.tif``, the job and
+        the colour report).
+    progress : bool or None
+        Show a progress bar; ``None``: only on a terminal.
+    force : bool
+        Build even when the estimate says it will not fit, or the layers leave no core.
+    say : callable, optional
+        Receives one line with the cost estimate before any work starts.
+    running : RunSettings, optional
+        Where the slabs run (``workers``, or a Dask scheduler), checkpoints and resume
+        (:mod:`pipeline.run.checkpoints`); default: this machine, with checkpoints.
+
+    Returns
+    -------
+    dict
+        The manifest, exactly as written to ``out_dir/manifest.json``.
+    """
+    started = time.perf_counter()
+    plan = plan_build(mesh, config, Path(out_dir), thickness=thickness, force=force)
+    if say is not None:
+        say(plan.estimate.line())
+    seconds: dict[str, float] = {}
+    materials = _material_plan(profile, config, len(plan.depth), seconds)
+    running = settle_running(running, plan)
+    key = run_key(mesh, config, plan.grid, plan.rows, plan.thickness, (profile, materials))
+    job = _Job(mesh, config, plan, faces, profile, materials, progress, seconds, running)
+    return run_job(job, Path(out_dir), key, started)
+
+
+def stack_model(
+    mesh: ColouredMesh,
+    config: BuildConfig,
+    depth: np.ndarray[Any, np.dtype[np.float64]] | None,
+    shells: list[Shell] | None = None,
+) -> StackModel:
+    """Return what every slab of `mesh` needs, its scan regions computed (before forking).
+
+    `depth` ``(K, F) float64`` mm: the distance layers' depths (None with the "shells"
+    rule, whose `shells` give the layers).
+    """
+    model = StackModel(
+        surfaces=(
+            (mesh.vertices, mesh.faces),
+            *(((s.vertices, s.faces) for s in shells) if shells is not None else ()),
+        ),
+        surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
+        colour_at=mesh.colour_at,
+        surface_colour=mesh.surface_colour(),
+        colour_layers=config.colour_layers,
+        sdf_half_width_mm=config.sdf_half_width_mm,
+        depth_mm=depth,
+        layer_rule=config.layer_rule,
+    )
+    _ = model.surface.regions  # the scan's regions, computed once, inherited by workers
+    return model
+
+
+def settle_running(running: RunSettings | None, plan: BuildPlan) -> RunSettings:
+    """Return the run settings with the checkpoint default decided by the estimate."""
+    running = running or RunSettings()
+    if running.checkpoint is None:
+        checkpoint = plan.estimate.seconds > CHECKPOINT_AFTER_S
+        running = dataclasses.replace(running, checkpoint=checkpoint)
+    return running
+
+
+def run_job(job: _Job, out_dir: Path, key: dict[str, str], started: float) -> dict[str, Any]:
+    """Run `job` in `out_dir` (locked, checkpointed as ``job.running`` says); the manifest.
+
+    `key` names what the slabs depend on (:func:`pipeline.run.checkpoints.run_key`): a
+    ``--resume`` whose key differs from the unfinished run's is refused before the lock,
+    so the folder is left as it is.
+    """
+    if job.running.resume and not check_resumable(out_dir, key):
+        warnings.warn(
+            f"{out_dir}: no checkpoints to resume (no {RUN_FOLDER}/{JOURNAL}: the killed "
+            "run wrote none, or this is a new folder); building from the start",
+            ShellvoxWarning,
+            stacklevel=2,
+        )
+        running = dataclasses.replace(job.running, resume=False, checkpoint=True)
+        job = dataclasses.replace(job, running=running)
+    with OutputFolder(out_dir) as locked, checkpoints(locked.path, key, job.running) as run:
+        with contextlib.ExitStack() as stack:
+            folder = BuildFolder(locked, stack, started)
+            manifest = job.run(folder, run)
+        return folder.commit(manifest)
+
+
+def _material_plan(
+    profile: PrinterProfile | None, config: BuildConfig, n_bands: int, seconds: dict[str, float]
+) -> MaterialPlan | None:
+    """Return the separation and halftone of the build (None: no materials)."""
+    if profile is None or config.material is None:
+        return None
+    tick = time.perf_counter()
+    plan = build_material_plan(
+        profile, config.material, colour_layers=config.colour_layers, n_bands=n_bands
+    )
+    # Compile (or load) the halftone kernel here, once, so the forked workers inherit it
+    # instead of each loading it again.
+    materials_for_slab(np.ones((1, 1, 1), np.uint8), np.zeros((1, 1, 1, 4), np.uint8), 0, plan)
+    seconds["material_plan"] = time.perf_counter() - tick
+    return plan
+
+
+@dataclass(frozen=True, eq=False)
+class _Job:
+    """Everything a build run needs, fixed before it starts."""
+
+    mesh: ColouredMesh
+    config: BuildConfig
+    plan: BuildPlan
+    faces: FaceThickness | None
+    profile: PrinterProfile | None
+    materials: MaterialPlan | None
+    progress: bool | None
+    seconds: dict[str, float]
+    running: RunSettings
+
+    def run(self, folder: BuildFolder, run: RunFolder | None) -> dict[str, Any]:
+        """Compute and write every slab, then the shells and the manifest (no files yet)."""
+        mesh, config, plan, stack = self.mesh, self.config, self.plan, folder.stack
+        shell_job = ShellJob(
+            mesh,
+            plan.thickness,
+            config,
+            self.seconds,
+            estimate_s=plan.estimate.shell_seconds,
+            progress=self.progress,
+        )
+        model = self._model(shell_job.shells)
+        # Before any other thread (shell process, writers, progress bar) starts: the slab
+        # workers are forked.
+        setup = stack.enter_context(DeferredSignals())  # no signal until all is registered
+        slabs = stack.enter_context(
+            SlabRunner(
+                model,
+                plan.grid,
+                plan.rows,
+                plan.workers,
+                self.materials,
+                self._encoder(),
+                pages=self._page_encoder(),
+                send=self._send(shell_job.writes_meshes),
+                scheduler=self.running.scheduler,
+                run=run,
+            )
+        )
+        shell_job.start_beside(stack)
+        outputs = StackOutputs(folder, plan.grid, config, self._profile(), self.materials)
+        sampler = None  # the voxels compared with the shell meshes, when there are any
+        if shell_job.writes_meshes:
+            n_slabs = math.ceil(plan.grid.shape_zyx[0] / plan.rows)
+            sampler = LayerSampler(plan.grid, model.n_bands, n_slabs=n_slabs)
+        tally = Tally(model.n_bands)
+        check = self._colour_check()
+        setup.close()  # a signal that came during the set-up is raised here
+        self._stream(slabs, outputs, sampler, tally, check)
+        tick = time.perf_counter()
+        summaries = outputs.finish()
+        self.seconds["writers_finish"] = time.perf_counter() - tick
+        shells = shell_job.wait()
+        if self.faces is not None:
+            folder.write_thickness(mesh, self.faces)
+        agreement = None
+        if shells is not None and config.shell_meshes:
+            shells = folder.write_shells(shells)
+            if sampler is not None:
+                agreement = self._agreement(model, sampler, shells)
+        self._warn_if_no_core(tally)
+        manifest = stack_manifest(
+            mesh, config, plan.grid, plan.thickness, shells, tally, self.seconds
+        )
+        manifest["shell_agreement"] = agreement
+        manifest.update(summaries)
+        manifest["slab_rows"] = plan.rows
+        manifest["thickness"] = thickness_entry(config, self.faces)
+        profile = self._profile()
+        if profile is not None:
+            manifest["printer"] = profile.name
+            manifest["materials"] = tally.materials(profile)
+            manifest["material_voxels_per_layer"] = tally.per_layer(profile)
+        if check is not None:
+            tick = time.perf_counter()
+            manifest["colour_report"] = check.result()
+            self.seconds["colour_report"] = time.perf_counter() - tick
+        manifest["estimate"] = asdict(plan.estimate)
+        manifest["run"] = {
+            "scheduler": self.running.scheduler,
+            "checkpoint": run is not None,
+            "resumed_slabs": len(slabs.finished),
+            "slabs": len(slabs.ranges),
+        }
+        return manifest
+
+    def _profile(self) -> PrinterProfile | None:
+        """Return the printer profile when the voxels get materials."""
+        return self.profile if self.materials is not None else None
+
+    def _model(self, shells: list[Shell] | None) -> StackModel:
+        """Return what every slab needs (the shells only with the "shells" rule)."""
+        by_distance = self.config.layer_rule == "distance"
+        return stack_model(self.mesh, self.config, self.plan.depth if by_distance else None, shells)
+
+    def _page_encoder(self) -> PageEncoder | None:
+        """Return the slab workers' encoder of TIFF pages and job slices (the writers' own)."""
+        config, profile = self.config, self._profile()
+        slices = None
+        if profile is not None and self.materials is not None and "gcvf" in config.formats:
+            slices = gcvf_slices(profile, self.materials)
+        tiff = "tiff" in config.formats
+        if not tiff and slices is None:
+            return None
+        return PageEncoder(
+            slices=slices,
+            colour_samples=(4 if config.alpha else 3) if tiff else None,
+            level=config.compression_level,
+            materials_tif=profile is not None,
+        )
+
+    def _send(self, sampled: bool) -> tuple[str, ...]:
+        """Return the slab arrays this process uses when the workers encode the pages.
+
+        ``layers`` for the voxels compared with the shell meshes (`sampled`); ``layers``
+        and ``rgba`` for the PNG slices and for error diffusion (made here); ``layers``,
+        ``rgba`` and ``sdf`` for VDB leaves not encoded where the slab is computed.
+        """
+        config, plan = self.config, self.materials
+        send = {"layers"} if sampled else set()
+        if plan is not None and ("png" in config.formats or plan.halftone != "blue-noise"):
+            send |= {"layers", "rgba"}
+        if config.write_vdb and self._encoder() is None:
+            send |= {"layers", "rgba", "sdf"}
+        return tuple(name for name in SLAB_ARRAYS if name in send)
+
+    def _encoder(self) -> VdbEncoder | None:
+        """Return the slab workers' VDB encoder, when slabs hold whole leaf rows."""
+        grid, rows = self.plan.grid, self.plan.rows
+        whole_leaves = rows % 8 == 0 or rows >= grid.shape_zyx[0]
+        halftone_here = self.materials is None or self.materials.halftone == "blue-noise"
+        if not (self.config.write_vdb and whole_leaves and halftone_here):
+            return None
+        return VdbEncoder.for_grid(  # the same grids as StackOutputs' writer
+            grid,
+            sdf_half_width_mm=self.config.sdf_half_width_mm,
+            material_grid=self._profile() is not None,
+        )
+
+    def _stream(
+        self,
+        slabs: SlabRunner,
+        outputs: StackOutputs,
+        sampler: LayerSampler | None,
+        tally: Tally,
+        check: ColourCheck | None,
+    ) -> None:
+        """Write every slab, in z order, as it comes back from the workers."""
+        n_bands = tally.n_layers - 2
+        disable = None if self.progress is None else not self.progress
+        tick = time.perf_counter()
+        carry = None
+        n_z = self.plan.grid.shape_zyx[0]
+        with tqdm(total=n_z, unit="z", desc="voxels", disable=disable) as bar:
+            for slab, materials, counts, encoded, pages in slabs:
+                if self.materials is not None and materials is None:  # error diffusion, z order
+                    diffused = materials_for_slab(
+                        slab.layers, slab.rgba, slab.z_start, self.materials, carry=carry
+                    )
+                    materials, carry = diffused.materials, diffused.carry
+                    counts = material_tally(slab.layers, materials, n_bands + 2)
+                tally.add(slab, counts)
+                if sampler is not None:
+                    sampler.add(slab.z_start, slab.layers)
+                if check is not None and materials is not None:
+                    check.add_slab(slab.z_start, materials)
+                outputs.write(slab, materials, encoded, pages, counts)
+                bar.update(slab.z_stop - slab.z_start)
+        self.seconds["slabs"] = time.perf_counter() - tick
+
+    def _agreement(
+        self, model: StackModel, sampler: LayerSampler, shells: list[Shell]
+    ) -> dict[str, Any]:
+        """How well the distance layers agree with the shell meshes (sampled voxels)."""
+        tick = time.perf_counter()
+        points, sampled = sampler.samples()
+        agreement = shell_agreement(
+            points,
+            sampled,
+            model.surface,
+            self.plan.depth,
+            [(s.vertices, s.faces) for s in shells],
+            clear_mm=float(np.linalg.norm(self.plan.grid.voxel_mm)),
+        )
+        self.seconds["agreement"] = time.perf_counter() - tick
+        return agreement
+
+    def _warn_if_no_core(self, tally: Tally) -> None:
+        if tally.counts[-1] == 0 and int(tally.counts[1:].sum()) > 0:
+            warnings.warn(
+                f"{self.mesh.source}: no voxel lies deeper than {float(self.plan.depth.max()):g}"
+                " mm, so the part has no core; use a smaller --thickness if that is not what "
+                "you want",
+                ShellvoxWarning,
+                stacklevel=4,
+            )
+
+    def _colour_check(self) -> ColourCheck | None:
+        """Return the colour report's accumulator, with materials and report samples."""
+        profile = self._profile()
+        if profile is None or self.materials is None or self.config.report_samples == 0:
+            return None
+        return ColourCheck(self.mesh, self.config, self.plan, profile, self.materials)

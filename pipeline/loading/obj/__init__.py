@@ -1,0 +1,1 @@
+"""Wavefront OBJ: the reader and the MTL material libraries it names."""

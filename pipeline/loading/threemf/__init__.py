@@ -1,0 +1,1 @@
+"""3MF: the package, property groups, multiproperties, slicer paint and the reader."""

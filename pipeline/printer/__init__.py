@@ -1,0 +1,1 @@
+"""Printers: profiles (TOML, shipped in ``profiles/``), the material plan, cached tables."""

@@ -1,0 +1,90 @@
+"""The :class:`voxel.colour.materials.MaterialPlan` built from a profile and the settings.
+
+The separation's columns (and so the halftone's stacking order) are the profile's
+opaque colour materials in the order black, cyan, magenta, yellow, white, then clear
+last: the first and the last interval of the blue-noise threshold are level sets of
+the tile, the best spread, and go to black (the most visible on white) and clear
+(translucency). With ``--icc`` the order is cyan, magenta, yellow, black, white, clear.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pipeline.config import MaterialSettings, Role
+from pipeline.errors import InputError
+from pipeline.printer.profile import PrinterProfile
+from pipeline.printer.table_cache import DiskTables
+from voxel.colour.materials import MaterialPlan
+from voxel.colour.separation import Separation, SeparationError, icc_separation, mixing_separation
+
+#: Opaque colour roles in the order the halftone stacks them (see the module).
+OPAQUE_ORDER: tuple[Role, ...] = ("black", "cyan", "magenta", "yellow", "white")
+
+
+def build_material_plan(
+    profile: PrinterProfile,
+    settings: MaterialSettings,
+    *,
+    colour_layers: tuple[int, ...],
+    n_bands: int,
+) -> MaterialPlan:
+    """Return the plan for a stack of ``n_bands`` bands (core ``n_bands + 1``).
+
+    Raises
+    ------
+    InputError
+        A role the profile lacks, an ICC profile that cannot be used, or colour layers
+        outside ``1..n_bands + 1``.
+    """
+    roles: dict[str, int] = {m.role: m.index for m in profile.materials}
+    backing = settings.backing_role or profile.backing_role
+    core = settings.core_role or profile.core_role
+    for option, role in (("--backing", backing), ("--core", core)):
+        if role == "void" or role not in roles:
+            raise InputError(
+                option,
+                f"printer profile {profile.name!r} has no {role!r} material",
+                f"use one of {sorted(r for r in roles if r != 'void')}",
+            )
+    clear = "clear" if "clear" in roles else None
+    separation = _separation(profile, settings, roles, clear)
+    try:
+        return MaterialPlan(
+            separation=separation,
+            column_materials=tuple(roles[role] for role in separation.roles),
+            colour_layers=colour_layers,
+            core_layer=n_bands + 1,
+            backing_material=roles[backing],
+            core_material=roles[core],
+            halftone=settings.halftone,
+            seed=settings.seed,
+            tile_size=settings.tile_size,
+        )
+    except ValueError as error:
+        raise InputError(None, str(error), "check --colour-layers and --tile-size") from None
+
+
+def _separation(
+    profile: PrinterProfile,
+    settings: MaterialSettings,
+    roles: dict[str, int],
+    clear: str | None,
+) -> Separation:
+    """Return the ICC separation when asked for, else the mixing model's."""
+    if settings.icc is not None:
+        missing = [r for r in ("cyan", "magenta", "yellow", "black", "white") if r not in roles]
+        if missing:
+            raise InputError(
+                settings.icc,
+                f"an ICC separation needs cyan, magenta, yellow, black and white; printer "
+                f"profile {profile.name!r} lacks {missing}",
+                "drop --icc or use a profile with those materials",
+            )
+        try:
+            return icc_separation(settings.icc, with_clear=clear is not None)
+        except SeparationError as error:
+            raise InputError(settings.icc, str(error), "give a CMYK output profile") from None
+    opaque = tuple(role for role in OPAQUE_ORDER if role in roles)
+    display = np.array([profile.material(role).display_srgb for role in opaque])
+    return mixing_separation(opaque, display, clear_role=clear, store=DiskTables.default())

@@ -1,0 +1,1 @@
+"""Pictures of a result: the previews of a build folder, the thickness picture."""

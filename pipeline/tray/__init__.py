@@ -1,0 +1,1 @@
+"""Several models, one job: the tray file, its layout, parts, plan, mesh and build."""

@@ -1,0 +1,64 @@
+"""The run-length deflate encoder against Python's zlib (an independent inflater)."""
+
+from __future__ import annotations
+
+import zlib
+
+import numpy as np
+import pytest
+import tifffile
+
+from voxel.grid import GridSpec
+from voxel.io.deflate import pixel_bytes, zlib_compress
+from voxel.io.tiff_writer import TiffStackWriter
+
+
+@pytest.mark.parametrize("period", [1, 2, 3, 4])
+def test_round_trip_through_zlib(period: int) -> None:
+    rng = np.random.default_rng(period)
+    for _ in range(300):
+        n = int(rng.integers(0, 5000))
+        values = rng.integers(0, 256, n) * (rng.random(n) < rng.random())
+        data = np.repeat(values, rng.integers(1, 40, n))[:n].astype(np.uint8)
+        packed = zlib_compress(data, period)
+        assert zlib.decompress(packed) == data.tobytes()
+    noise = rng.integers(0, 256, 200_000).astype(np.uint8)  # all literals: the worst case
+    assert zlib.decompress(zlib_compress(noise.tobytes(), period)) == noise.tobytes()
+    with pytest.raises(ValueError, match="period"):
+        zlib_compress(b"abc", 5)
+
+
+def test_runs_compress_like_zlib() -> None:
+    page = np.zeros((1000, 1200, 3), np.uint8)
+    page[300:700, 200:900] = (200, 30, 40)
+    packed = zlib_compress(page, 3)
+    assert zlib.decompress(packed) == page.tobytes()
+    assert len(packed) < 3 * len(zlib.compress(page.tobytes(), 6))
+
+
+def test_pixel_bytes_of_a_channel_slice() -> None:
+    """Every view's bytes are numpy's copy of it: channel prefixes of whole rows (the
+    flat path), windows, reversed rows and strided columns (the general path)."""
+    slab = np.random.default_rng(0).integers(0, 256, (3, 17, 23, 4)).astype(np.uint8)
+    rgba = slab[2]  # the last page: a read past the last pixel would leave the buffer
+    views = [
+        rgba[..., :3], rgba[..., :2], rgba[..., :1], rgba[..., 1:3], rgba[:, ::2, 0],
+        rgba[2:9, 3:20, :3], rgba[::-1, :, :3], rgba[:, ::-1, :3], rgba[:1, :1, :3],
+        slab[1, ..., :3], slab[2, :, :, 0], rgba,
+    ]  # fmt: skip
+    for view in views:
+        np.testing.assert_array_equal(pixel_bytes(view), np.ascontiguousarray(view).reshape(-1))
+
+
+@pytest.mark.parametrize("level", [None, 1, 9])
+def test_tiff_pages_read_back(tmp_path, level: int | None) -> None:
+    grid = GridSpec((0.0, 0.0, 0.0), (0.05, 0.1, 0.02), (9, 31, 40))
+    rng = np.random.default_rng(3)
+    colour = (rng.integers(0, 3, (9, 31, 40, 4)) * 80).astype(np.uint8)
+    with TiffStackWriter(tmp_path / "c.tif", grid, samples=3, compression_level=level) as tiff:
+        tiff.write_slab(colour[:4, ..., :3])
+        tiff.write_slab(colour[4:, ..., :3])
+    with tifffile.TiffFile(tmp_path / "c.tif") as read:
+        np.testing.assert_array_equal(read.asarray(), colour[..., :3])
+        assert read.pages[0].compression == 8  # deflate
+        assert read.imagej_metadata["spacing"] == pytest.approx(0.02)
