@@ -29,16 +29,10 @@ HANG_SECONDS = 10.0
 #: A case stuck this long outside Python ends the run (faulthandler prints the stacks).
 WATCHDOG_SECONDS = 120.0
 
-#: Known failures fixed on another branch, tolerated here until that fix is merged:
-#: (format, outcome, pattern of the error line). Remove each entry with its fix.
-KNOWN_FAILURES = (
-    # (a) OBJ face index beyond int64 (`f 1 2 99999999999999999999`): OverflowError, exit 1
-    ("obj", "internal", re.compile(r"OverflowError: Python int too large to convert to C long")),
-    # (b) a valid 3MF with multiproperties refused (pipeline/loading/threemf.py)
-    ("3mf", "valid refused", re.compile(r"a triangle's property index is out of range")),
-    # a 3MF index beyond int64: OverflowError, exit 1 (fixed on main with (a), 99e23cb)
-    ("3mf", "internal", re.compile(r"OverflowError: Python int too large to convert to C long")),
-)
+#: Known failures tolerated (counted apart): (format, outcome, pattern of the error line).
+#: None now: the two found before the suite existed (an OBJ index past int64, a valid 3MF
+#: refused) are fixed, with fixtures in the loader tests.
+KNOWN_FAILURES: tuple[tuple[str, str, re.Pattern[str]], ...] = ()
 
 
 class Hang(BaseException):

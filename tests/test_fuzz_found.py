@@ -76,12 +76,6 @@ def test_3mf_unknown_xml_encoding(tmp_path, capsys, entry):
     ("old", "new"),
     [('v3="1"', 'v3="99999999999999999999"'), ('p1="0"', 'p1="-99999999999999999999"')],
 )
-@pytest.mark.xfail(
-    raises=AssertionError,
-    strict=True,
-    reason="OverflowError, exit 1: fixed on main (99e23cb, with the OBJ face index); remove "
-    "this mark and the filter in fuzz_oracle.KNOWN_FAILURES when merging",
-)
 def test_3mf_integer_past_int64(tmp_path, capsys, old, new):
     path = threemf(model_xml().replace(old, new, 1))(tmp_path)
     _refused(path, capsys, "m.3mf", "out of range (beyond 64 bits)")

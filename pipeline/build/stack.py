@@ -18,8 +18,6 @@ serialise. The parts of a build:
 
 from __future__ import annotations
 
-import contextlib
-import dataclasses
 import math
 import time
 import warnings
@@ -34,6 +32,7 @@ from tqdm import tqdm
 from offset.shells import Shell
 from pipeline.build.colour_check import ColourCheck
 from pipeline.build.plan import BuildPlan, plan_build
+from pipeline.build.running import run_job, settle_running
 from pipeline.build.shell_job import ShellJob
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
@@ -41,18 +40,12 @@ from pipeline.faults import DeferredSignals
 from pipeline.model.mesh import ColouredMesh
 from pipeline.output.folder import BuildFolder
 from pipeline.output.manifest import Tally, stack_manifest, thickness_entry
-from pipeline.output.outdir import OutputFolder
 from pipeline.output.streams import StackOutputs, gcvf_slices
 from pipeline.printer.material_plan import build_material_plan
 from pipeline.printer.profile import PrinterProfile
 from pipeline.run.checkpoints import (
-    CHECKPOINT_AFTER_S,
-    JOURNAL,
-    RUN_FOLDER,
     RunFolder,
     RunSettings,
-    check_resumable,
-    checkpoints,
     run_key,
 )
 from pipeline.run.runner import SlabRunner
@@ -152,38 +145,6 @@ def stack_model(
     )
     _ = model.surface.regions  # the scan's regions, computed once, inherited by workers
     return model
-
-
-def settle_running(running: RunSettings | None, plan: BuildPlan) -> RunSettings:
-    """Return the run settings with the checkpoint default decided by the estimate."""
-    running = running or RunSettings()
-    if running.checkpoint is None:
-        checkpoint = plan.estimate.seconds > CHECKPOINT_AFTER_S
-        running = dataclasses.replace(running, checkpoint=checkpoint)
-    return running
-
-
-def run_job(job: _Job, out_dir: Path, key: dict[str, str], started: float) -> dict[str, Any]:
-    """Run `job` in `out_dir` (locked, checkpointed as ``job.running`` says); the manifest.
-
-    `key` names what the slabs depend on (:func:`pipeline.run.checkpoints.run_key`): a
-    ``--resume`` whose key differs from the unfinished run's is refused before the lock,
-    so the folder is left as it is.
-    """
-    if job.running.resume and not check_resumable(out_dir, key):
-        warnings.warn(
-            f"{out_dir}: no checkpoints to resume (no {RUN_FOLDER}/{JOURNAL}: the killed "
-            "run wrote none, or this is a new folder); building from the start",
-            ShellvoxWarning,
-            stacklevel=2,
-        )
-        running = dataclasses.replace(job.running, resume=False, checkpoint=True)
-        job = dataclasses.replace(job, running=running)
-    with OutputFolder(out_dir) as locked, checkpoints(locked.path, key, job.running) as run:
-        with contextlib.ExitStack() as stack:
-            folder = BuildFolder(locked, stack, started)
-            manifest = job.run(folder, run)
-        return folder.commit(manifest)
 
 
 def _material_plan(

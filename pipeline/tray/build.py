@@ -25,7 +25,8 @@ from numpy.typing import NDArray
 
 from offset.shells import Shell
 from pipeline.build.plan import BuildPlan, check_depth
-from pipeline.build.stack import _Job, _material_plan, run_job, settle_running, stack_model
+from pipeline.build.running import run_job, settle_running
+from pipeline.build.stack import _Job, _material_plan, stack_model
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.model.mesh import ColouredMesh

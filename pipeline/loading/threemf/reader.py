@@ -33,6 +33,7 @@ from pipeline.config import UNIT_MM, LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.combine import corner_colour_mesh, stack_parts
 from pipeline.loading.images import MAX_TEXTURE_PIXELS
+from pipeline.loading.threemf.attributes import check_index, transform_matrix, triangle_properties
 from pipeline.loading.threemf.multi import Layered, bake
 from pipeline.loading.threemf.package import check_archive, parse_xml, root_model_part
 from pipeline.loading.threemf.properties import (
@@ -203,7 +204,7 @@ def _read_3mf(path: Path, options: LoadOptions) -> tuple[ColouredMesh, float]:
             name = package.root_name
             if item.get(f"{PRODUCTION}path"):
                 name = package.resolve(str(item.get(f"{PRODUCTION}path")), name)
-            transform = _transform(path, item.get("transform"))
+            transform = transform_matrix(path, item.get("transform"))
             parts += _object_meshes(package, name, item.get("objectid", ""), transform, (), 0)
     if package.averaged:
         warnings.warn(
@@ -240,7 +241,7 @@ def _object_meshes(
     components = obj.find(f"{CORE}components")
     if components is not None:
         for component in components.iter(f"{CORE}component"):
-            child = transform @ _transform(path, component.get("transform"))
+            child = transform @ transform_matrix(path, component.get("transform"))
             name = part_name
             if component.get(f"{PRODUCTION}path"):
                 name = package.resolve(str(component.get(f"{PRODUCTION}path")), part_name)
@@ -280,7 +281,7 @@ def _mesh_part(
         )
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused by load_model
         vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
-    pid, index = _triangle_properties(path, obj, triangles)
+    pid, index = triangle_properties(path, obj, triangles)
     n = len(faces)
     rgba = np.full((n, 3, 4), 255, dtype=np.uint8)
     uv = np.zeros((n, 3, 2))
@@ -289,14 +290,14 @@ def _mesh_part(
         chosen = pid == group
         if group in properties.colours:
             table = properties.colours[group]
-            rgba[chosen] = table[_check_index(path, index[chosen], len(table))]
+            rgba[chosen] = table[check_index(path, index[chosen], len(table))]
         elif group in properties.uv:
             coords, texture = properties.uv[group]
-            uv[chosen] = coords[_check_index(path, index[chosen], len(coords))]
+            uv[chosen] = coords[check_index(path, index[chosen], len(coords))]
             material[chosen] = texture
         elif group in properties.layered:
             layered = properties.layered[group]
-            corner = _check_index(path, index[chosen], len(layered.uv))
+            corner = check_index(path, index[chosen], len(layered.uv))
             uv[chosen], material[chosen] = _layered(package, part.name, group, layered, corner)
         else:
             raise InputError(
@@ -317,29 +318,6 @@ def _mesh_part(
     }
 
 
-def _triangle_properties(
-    path: Path, obj: ElementTree.Element, triangles: list[ElementTree.Element]
-) -> tuple[NDArray[np.object_], NDArray[np.int64]]:
-    """Property group ``(n,)`` (``""`` for none) and indices ``(n, 3)`` of each triangle.
-
-    As lib3mf (the 3MF Consortium's reader) reads them: a triangle's own ``pid`` applies
-    only with its ``p1`` (``p2`` and ``p3`` default to ``p1``); any other triangle takes
-    the object's ``pid`` and ``pindex`` (0 when missing) at all three corners.
-    """
-    default_pid, default_index = obj.get("pid", ""), obj.get("pindex") or "0"
-    own = [t.get("pid") is not None and t.get("p1") is not None for t in triangles]
-    pid = np.array(
-        [t.get("pid") if mine else default_pid for t, mine in zip(triangles, own, strict=True)],
-        dtype=object,
-    )
-    indices = []
-    for t, mine in zip(triangles, own, strict=True):  # attribute strings, not arithmetic
-        p1 = t.get("p1", "") if mine else default_index
-        indices += [p1, t.get("p2", p1), t.get("p3", p1)] if mine else [p1] * 3
-    index = parse_numbers(path, "property index", indices, int).astype(np.int64).reshape(-1, 3)
-    return pid, index
-
-
 def _layered(
     package: _Package, part: str, group: str, layered: Layered, corner: NDArray[np.int64]
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -353,41 +331,6 @@ def _layered(
         [package.bake(part, group, layered, key.reshape(-1, 4)) for key in keys], np.int64
     )  # loop over distinct layer colours
     return layered.uv[corner], table[inverse.reshape(-1)]
-
-
-def _transform(path: Path, text: str | None) -> NDArray[np.float64]:
-    """3MF row-vector transform ``m00 ... m32`` as a 4x4 column-vector matrix."""
-    matrix = np.eye(4)
-    if text is None:
-        return matrix
-    try:
-        values = np.array(text.split(), dtype=np.float64)
-    except ValueError:
-        values = np.array([np.nan])
-    if values.shape != (12,) or not np.isfinite(values).all():
-        raise InputError(
-            path,
-            f"has a malformed transform {text!r}",
-            "a 3MF transform is 12 numbers (m00 m01 m02 ... m30 m31 m32); re-export it",
-        )
-    values = values.reshape(4, 3)
-    matrix[:3, :3] = values[:3].T
-    matrix[:3, 3] = values[3]
-    scale = float(np.abs(matrix[:3, :3]).max())
-    # det(M / scale) <= 1e-12 is det(M) <= 1e-12 scale^3 without scale^3 overflowing
-    if scale == 0 or abs(np.linalg.det(matrix[:3, :3] / scale)) <= 1e-12:
-        raise InputError(
-            path,
-            f"has a singular transform {text!r} (it flattens the object)",
-            "re-export it with an invertible transform",
-        )
-    return matrix
-
-
-def _check_index(path: Path, index: NDArray[np.int64], size: int) -> NDArray[np.int64]:
-    if index.min() < 0 or index.max() >= size:
-        raise InputError(path, "a triangle's property index is out of range", "re-export it")
-    return index
 
 
 def _combine(path: Path, parts: list[Part], materials: list[Material]) -> ColouredMesh:
