@@ -141,7 +141,9 @@ class ColourReport:
         step = min(grid.voxel_mm)
         depths = (np.arange(int(np.ceil(4 * optical_depth_mm / step))) + 0.5) * step
         n, k = len(samples.points), len(depths)
-        starts = samples.points[:, None, :] + _disc(samples.normals, optical_depth_mm, lateral_rays)
+        starts = samples.points[:, None, :] + tangent_disc(
+            samples.normals, optical_depth_mm, lateral_rays
+        )
         # The voxel of each ray's step (sample, ray, depth), one axis at a time: the nearest
         # centre, as ``np.rint(grid.world_to_index(point))`` gives it.
         valid = np.ones((n, lateral_rays, k), dtype=bool)
@@ -205,7 +207,7 @@ class ColourReport:
         per_region = {}
         for name in sorted(set(regions[seen].tolist())):
             mask = seen & (regions == name)
-            per_region[name] = {"samples": int(mask.sum()), **_stats(delta[mask])}
+            per_region[name] = {"samples": int(mask.sum()), **statistics(delta[mask])}
         return {
             "optical_model": (
                 f"weights exp(-depth / {self.optical_depth_mm:g} mm) along the inward normal, "
@@ -213,12 +215,12 @@ class ColourReport:
             ),
             "samples": len(delta),
             "samples_seen": int(seen.sum()),
-            "ciede2000": _stats(delta[seen]),
+            "ciede2000": statistics(delta[seen]),
             "per_region": per_region,
         }
 
 
-def _disc(normals: NDArray[np.float64], radius: float, count: int) -> NDArray[np.float64]:
+def tangent_disc(normals: NDArray[np.float64], radius: float, count: int) -> NDArray[np.float64]:
     """Return offsets ``(N, count, 3)`` on a disc of `radius` in each point's tangent plane.
 
     A golden-angle spiral (even density); one point is the centre when ``count == 1``.
@@ -262,7 +264,7 @@ def colour_regions(srgb: NDArray[np.uint8]) -> NDArray[np.str_]:
     return np.char.add(np.char.add(lightness, " "), names)
 
 
-def _stats(values: NDArray[np.float64]) -> dict[str, float | None]:
+def statistics(values: NDArray[np.float64]) -> dict[str, float | None]:
     """Mean, median, 95th percentile and maximum of `values` (None when empty).
 
     Rounded to :data:`REPORT_DECIMALS` (CIEDE2000 units; one unit is about a just
@@ -335,8 +337,8 @@ def thickness_effect(
     )
     return {
         "constant_depth_mm": float(constant_depth_mm),
-        "gamut": _stats(delta_e_2000(ideal, target)),
-        "adaptive": _stats(delta_e_2000(adaptive, target)),
-        "constant": _stats(delta_e_2000(constant, target)),
-        "adaptive_vs_constant": _stats(delta_e_2000(adaptive, constant)),
+        "gamut": statistics(delta_e_2000(ideal, target)),
+        "adaptive": statistics(delta_e_2000(adaptive, target)),
+        "constant": statistics(delta_e_2000(constant, target)),
+        "adaptive_vs_constant": statistics(delta_e_2000(adaptive, constant)),
     }
