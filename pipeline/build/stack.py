@@ -393,4 +393,7 @@ class _Job:
         profile = self._profile()
         if profile is None or self.materials is None or self.config.report_samples == 0:
             return None
-        return ColourCheck(self.mesh, self.config, self.plan, profile, self.materials)
+        delta_e = 1.0 if self.faces is None else self.faces.rule.colour_layer.delta_e
+        return ColourCheck(
+            self.mesh, self.config, self.plan, profile, self.materials, delta_e=delta_e
+        )

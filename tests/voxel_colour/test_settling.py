@@ -114,4 +114,5 @@ def test_the_report_reads_a_halftoned_layer_as_its_mix():
     expected = _lab(stack(mix(shares, OPTICS.k_per_mm)[None], mix(shares, OPTICS.s_per_mm)[None],
                           [rows * voxel[2]], white))  # fmt: skip
     error = colour.delta_E(report.predicted_lab(), expected, method="CIE 2000")
-    assert np.median(error) < 0.5 and error.max() < 1.0
+    # the disc holds no whole number of the 4 x 5 tiles: a few tenths of aliasing
+    assert np.median(error) < 0.5 and error.max() < 1.5

@@ -22,7 +22,7 @@ failure.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import colour
 import numpy as np
@@ -103,6 +103,21 @@ def project_to_simplex(v: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.asarray(np.maximum(v - theta[:, None], 0.0), np.float64)
 
 
+def _start(deep: DeepColour, target: NDArray[np.float64], cost: Any) -> NDArray[np.float64]:
+    """Return the best of a grid of mixes for each target (nearest in CIELAB, then cost)."""
+    n_materials = deep.k.shape[0]
+    grid = np.concatenate(
+        [simplex_grid(n_materials, START_DIVISIONS)]
+        + [np.roll(log_grid(n_materials, LOG_SHARES), b, axis=1) for b in range(n_materials)]
+    )
+    grid_lab = deep(grid)
+    _, nearest = cKDTree(grid_lab).query(target, k=min(START_CANDIDATES, len(grid)))
+    rows = np.repeat(np.arange(len(target)), nearest.shape[1])
+    start_cost = cost(grid[nearest.ravel()], grid_lab[nearest.ravel()], rows)
+    best = start_cost.reshape(nearest.shape).argmin(1)
+    return np.asarray(grid[nearest[np.arange(len(target)), best]], np.float64)
+
+
 def _softmax(z: NDArray[np.float64]) -> NDArray[np.float64]:
     e = np.exp(z - z.max(1, keepdims=True))
     return np.asarray(e / e.sum(1, keepdims=True), np.float64)
@@ -162,16 +177,7 @@ def invert(
         de = colour.delta_E(lab, target[rows], method="CIE 2000")
         return np.asarray(de**2 + grain_weight * (p * grain[rows]).sum(-1), np.float64)
 
-    grid = np.concatenate(
-        [simplex_grid(n_materials, START_DIVISIONS)]
-        + [np.roll(log_grid(n_materials, LOG_SHARES), b, axis=1) for b in range(n_materials)]
-    )
-    grid_lab = deep(grid)
-    _, nearest = cKDTree(grid_lab).query(target, k=min(START_CANDIDATES, len(grid)))
-    rows = np.repeat(np.arange(len(target)), nearest.shape[1])
-    start = grid[nearest.ravel()]
-    start_cost = cost(start, grid_lab[nearest.ravel()], rows).reshape(nearest.shape)
-    p = grid[nearest[np.arange(len(target)), start_cost.argmin(1)]]
+    p = _start(deep, target, cost)
     every = np.arange(len(target))
     # Descent in z = log p (p = softmax z): a colourant's effect follows the *ratio* of its
     # share, over orders of magnitude, so steps in z move tiny and large shares alike.

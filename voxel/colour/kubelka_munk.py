@@ -112,22 +112,38 @@ def layer(k: ArrayLike, s: ArrayLike, thickness_mm: ArrayLike) -> Layer:
     if (k < 0).any() or (s < 0).any() or (t < 0).any():
         raise ValueError("K, S and the thickness must be >= 0")
     q = np.sqrt(k * (k + 2.0 * s))
-    with np.errstate(invalid="ignore", over="ignore"):
-        x = q * t  # optical depth in the effective attenuation
-        e2 = np.exp(-2.0 * x)
-        # u = t (1 - e^-2x) / 2x, the scaled sinh(x)/q; its limit t at x = 0, and 1/2q at x = inf
-        ratio = np.where(x > 0, -np.expm1(-2.0 * x) / np.where(x > 0, 2.0 * x, 1.0), 1.0)
-        u = np.where(np.isinf(t), np.where(q > 0, 0.5 / np.where(q > 0, q, 1.0), np.inf), t * ratio)
-        c = 0.5 * (1.0 + e2)
-        denominator = (s + k) * u + c
-        finite_u = np.isfinite(u)
-        reflectance = np.where(finite_u, s * u / denominator, np.where(s > 0, 1.0, 0.0))
-        transmittance = np.where(finite_u, np.exp(-x) / denominator, np.where(s > 0, 0.0, 1.0))
     shape = np.broadcast_shapes(k.shape, t.shape)
+    if np.isinf(t).any():
+        return _deep_or_finite(k, s, q, t, shape)
+    x = q * t  # optical depth in the effective attenuation
+    e1 = np.exp(-x)
+    e2 = e1 * e1
+    # u = t (1 - e^-2x) / 2x, the scaled sinh(x)/q: its limit t at x = 0
+    small = x < 1e-8
+    ratio = np.where(small, 1.0, -np.expm1(-2.0 * x) / np.where(small, 1.0, 2.0 * x))
+    u = t * ratio
+    denominator = (s + k) * u + 0.5 * (1.0 + e2)
     return Layer(
-        np.broadcast_to(reflectance, shape).astype(np.float64),
-        np.broadcast_to(transmittance, shape).astype(np.float64),
+        np.broadcast_to(s * u / denominator, shape).astype(np.float64),
+        np.broadcast_to(e1 / denominator, shape).astype(np.float64),
     )
+
+
+def _deep_or_finite(
+    k: NDArray[np.float64],
+    s: NDArray[np.float64],
+    q: NDArray[np.float64],
+    t: NDArray[np.float64],
+    shape: tuple[int, ...],
+) -> Layer:
+    """:func:`layer` where some thicknesses are infinite (those give ``R_inf``, ``T = 0``)."""
+    deep = np.broadcast_to(np.isinf(t), shape)
+    finite = layer(k, s, np.where(np.isinf(t), 0.0, t))
+    reflectance = np.where(deep, r_infinity(k, s), finite.reflectance)
+    # K = 0 and S = 0: nothing happens however deep
+    clear = np.broadcast_to(q == 0, shape) & np.broadcast_to(s == 0, shape)
+    transmittance = np.where(deep, np.where(clear, 1.0, 0.0), finite.transmittance)
+    return Layer(np.asarray(reflectance, np.float64), np.asarray(transmittance, np.float64))
 
 
 def r_infinity(k: ArrayLike, s: ArrayLike) -> NDArray[np.float64]:

@@ -25,6 +25,7 @@ import colour
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from voxel.colour.column_kernel import Rays, count_slab
 from voxel.colour.kubelka_munk import (
     Layer,
     layer,
@@ -35,7 +36,7 @@ from voxel.colour.kubelka_munk import (
     saunderson,
 )
 from voxel.colour.optics import Optics
-from voxel.colour.report import statistics, tangent_disc
+from voxel.colour.report import statistics, tangent_lattice
 from voxel.grid import GridSpec
 
 
@@ -56,10 +57,9 @@ class ModelReport:
         Thickness of one layer of the stack.
     disc_radius_mm : float, mm
         Radius of the rays' disc in the tangent plane.
-    lateral_rays : int
-        Rays on the disc.
-    neighbourhood_mm : float, mm
-        Each ray step counts the voxels within this width in x and y around it.
+    ray_spacing_mm : float, mm, optional
+        Spacing of the rays' square lattice on the disc (default: the smaller of the
+        voxel's x and y sizes, so every voxel under the disc is read).
     """
 
     def __init__(
@@ -69,68 +69,48 @@ class ModelReport:
         grid: GridSpec,
         optics: Optics,
         *,
-        depth_mm: float = 3.0,
-        bin_mm: float = 0.05,
+        depth_mm: float = 2.0,
+        bin_mm: float = 0.1,
         disc_radius_mm: float = 0.25,
-        lateral_rays: int = 16,
-        neighbourhood_mm: float = 0.25,
+        ray_spacing_mm: float | None = None,
     ) -> None:
         p = np.asarray(points, np.float64)
         n = np.asarray(normals, np.float64)
-        origin, voxel = np.asarray(grid.origin_mm, np.float64), np.asarray(grid.voxel_mm)
-        shape_zyx = grid.shape_zyx
         self.optics = optics
+        self.grid = grid
         self.n_samples = len(p)
         self.n_bins = int(np.ceil(depth_mm / bin_mm))
         self.bin_mm = float(bin_mm)
         self.n_materials = len(optics.names) + 1
-        step = float(voxel.min())
-        depths = (np.arange(int(np.ceil(depth_mm / step))) + 0.5) * step
-        starts = p[:, None, :] + tangent_disc(n, disc_radius_mm, lateral_rays)
-        valid = np.ones((len(p), lateral_rays, len(depths)), dtype=bool)
-        index = []
-        for axis, size in zip((2, 1, 0), shape_zyx, strict=True):
-            along = starts[:, :, None, axis] - n[:, None, None, axis] * depths
-            i = np.rint((along - origin[axis]) / voxel[axis]).astype(np.int64)
-            valid &= (i >= 0) & (i < size)
-            index.append(i)
-        z = index[0][valid]
-        order = np.argsort(z, kind="stable")
-        self._z = z[order]
-        self._y = index[1][valid][order].astype(np.int32)
-        self._x = index[2][valid][order].astype(np.int32)
-        self.shape_zyx = tuple(int(v) for v in shape_zyx)
-        # each ray step reads the voxels within neighbourhood_mm across in x and y
-        reach = np.maximum(np.floor(0.5 * neighbourhood_mm / voxel[:2]), 0).astype(int)
-        self._offsets = [
-            (dy, dx)
-            for dy in range(-reach[1], reach[1] + 1)
-            for dx in range(-reach[0], reach[0] + 1)
-        ]
-        bins = np.minimum((depths / bin_mm).astype(np.int64), self.n_bins - 1)
-        cell = np.arange(len(p))[:, None, None] * self.n_bins + bins[None, None, :]
-        self._cell = np.broadcast_to(cell, valid.shape)[valid][order]
-        self.counts = np.zeros(len(p) * self.n_bins * self.n_materials, np.float64)
+        self.step_mm = float(min(grid.voxel_mm))
+        self.n_steps = int(np.ceil(depth_mm / self.step_mm))
+        spacing = min(grid.voxel_mm[:2]) if ray_spacing_mm is None else ray_spacing_mm
+        offsets = tangent_lattice(n, disc_radius_mm, spacing)
+        lateral_rays = offsets.shape[1]
+        starts = p[:, None, :] + offsets
+        grid_values = np.array([*grid.origin_mm, *grid.voxel_mm], np.float64)
+        walk = np.array([self.step_mm, self.n_steps, self.bin_mm], np.float64)
+        self._rays = Rays(
+            np.ascontiguousarray(starts.reshape(-1, 3)),
+            np.ascontiguousarray(np.repeat(-n, lateral_rays, axis=0)),
+            np.repeat(np.arange(len(p), dtype=np.int64), lateral_rays),
+            grid_values,
+            walk,
+        )
+        self._counts = np.zeros((len(p), self.n_bins, self.n_materials), np.int64)
+
+    @property
+    def counts(self) -> NDArray[np.int64]:
+        """Voxels counted ``(N, bins, M + 1)`` per sample, depth bin and material index."""
+        return self._counts
 
     def add_slab(self, z_start: int, materials: NDArray[np.uint8]) -> None:
         """Count the material indices ``(Zs, Y, X) uint8`` of rows ``z_start..``."""
-        lo, hi = np.searchsorted(self._z, [z_start, z_start + len(materials)])
-        if hi == lo:
-            return
-        _, n_y, n_x = self.shape_zyx
-        flat = (self._z[lo:hi] - z_start).astype(np.int64) * (n_y * n_x)
-        y, x = self._y[lo:hi], self._x[lo:hi]
-        base = self._cell[lo:hi] * self.n_materials
-        volume = materials.reshape(-1)
-        for dy, dx in self._offsets:  # loop over the neighbourhood's offsets
-            yy = np.clip(y + dy, 0, n_y - 1).astype(np.int64)
-            xx = np.clip(x + dx, 0, n_x - 1)
-            found = volume[flat + yy * n_x + xx]
-            self.counts += np.bincount(base + found, minlength=len(self.counts))
+        count_slab(self._rays, int(z_start), np.ascontiguousarray(materials), self._counts)
 
     def predicted_lab(self) -> NDArray[np.float64]:
         """CIELAB ``(N, 3)`` of every sample (NaN where no material voxel was seen)."""
-        counts = self.counts.reshape(self.n_samples, self.n_bins, self.n_materials)[..., 1:]
+        counts = self._counts[..., 1:].astype(np.float64)
         total = counts.sum(-1, keepdims=True)
         shares = np.divide(counts, total, out=np.zeros_like(counts), where=total > 0)
         k = shares @ self.optics.k_per_mm  # (N, bins, B)
@@ -149,24 +129,50 @@ class ModelReport:
         lab[~has.any(1)] = np.nan
         return lab
 
-    def result(self, aimed_lab: ArrayLike, target_lab: ArrayLike, *, in_gamut_de: float = 1.0
-               ) -> dict[str, Any]:  # fmt: skip
-        """CIEDE2000 statistics: gamut (target vs aim) and reproduction (aim vs voxels)."""
+    def errors(
+        self, aimed_lab: ArrayLike, target_lab: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Return CIEDE2000 ``(N,)`` of prediction and of aim against the target.
+
+        The first is NaN where no material voxel was seen; the second is the gamut error.
+        """
         aimed, target = np.asarray(aimed_lab, np.float64), np.asarray(target_lab, np.float64)
         predicted = self.predicted_lab()
         seen = np.isfinite(predicted).all(1)
-        gamut = np.asarray(colour.delta_E(aimed, target, method="CIE 2000"), np.float64)
-        reproduction = np.full(len(aimed), np.nan)
-        reproduction[seen] = colour.delta_E(predicted[seen], aimed[seen], method="CIE 2000")
         total = np.full(len(aimed), np.nan)
         total[seen] = colour.delta_E(predicted[seen], target[seen], method="CIE 2000")
+        gamut = np.asarray(colour.delta_E(aimed, target, method="CIE 2000"), np.float64)
+        return total, gamut
+
+    def result(
+        self, aimed_lab: ArrayLike, target_lab: ArrayLike, *, in_gamut_de: float = 1.0
+    ) -> dict[str, Any]:
+        """Return CIEDE2000 statistics with the errors apart (see the module).
+
+        Parameters
+        ----------
+        aimed_lab : (N, 3) float
+            The colour the separation aims at for each sample (its mix, deep).
+        target_lab : (N, 3) float
+            The target colour of each sample.
+        in_gamut_de : float
+            Targets whose gamut error is at most this count as in gamut.
+        """
+        aimed = np.asarray(aimed_lab, np.float64)
+        predicted = self.predicted_lab()
+        seen = np.isfinite(predicted).all(1)
+        total, gamut = self.errors(aimed_lab, target_lab)
+        reproduction = np.asarray(
+            colour.delta_E(predicted[seen], aimed[seen], method="CIE 2000"), np.float64
+        )
         inside = seen & (gamut <= in_gamut_de)
         return {
+            "model": "kubelka-munk voxel columns",
             "samples": len(aimed),
             "samples_seen": int(seen.sum()),
             "in_gamut_samples": int(inside.sum()),
             "gamut": statistics(gamut),
-            "reproduction": statistics(reproduction[seen]),
-            "in_gamut_total": statistics(total[inside]),
-            "total": statistics(total[seen]),
+            "reproduction": statistics(reproduction),
+            "in_gamut": statistics(total[inside]),
+            "ciede2000": statistics(total[seen]),
         }

@@ -43,6 +43,7 @@ ASSUMED_SCATTERING_PER_MM = {
     "yellow": 1.0,
     "black": 2.0,
     "clear": 0.01,
+    "support": 10.0,
 }
 
 #: Assumed absorption of clear resin (1/mm, flat): a 10 mm clear path keeps about 90 %.

@@ -18,6 +18,7 @@ Everything is vectorised over the mixes.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import colour
@@ -27,11 +28,15 @@ from numpy.typing import ArrayLike, NDArray
 from voxel.colour.kubelka_munk import (
     Observer,
     layer,
+    mix,
+    observer,
     over,
     r_infinity,
     reflectance_to_lab,
     saunderson,
 )
+from voxel.colour.optics import Optics
+from voxel.colour.separation import Separation
 
 #: Depths of the ladder (log-spaced from 10 um) and bisection steps.
 LADDER_STEPS = 40
@@ -106,3 +111,68 @@ def settling_depth(
         low, high = np.where(is_far, middle, low), np.where(is_far, high, middle)
     depth = np.where(settled, high, max_mm)
     return Settling(depth, settled, deep)
+
+
+@dataclass(frozen=True, eq=False)
+class LayerModel:
+    """What the optical thickness rule needs of a printer and a build.
+
+    Parameters
+    ----------
+    optics : Optics
+        The printed materials' K and S.
+    separation : Separation
+        The colour of a face to its materials' shares.
+    rows : tuple of int
+        Row of ``optics`` of each separation column.
+    background : (B,) float64, [0, 1]
+        Body reflectance of what the build puts beneath the colour layer (backing
+        layers over the core).
+    """
+
+    optics: Optics
+    separation: Separation
+    rows: tuple[int, ...]
+    background: NDArray[np.float64]
+
+    def shares(self, rgba: NDArray[np.uint8]) -> NDArray[np.float64]:
+        """Return the separation's shares ``(N, P)`` of sRGBA colours ``(N, 4) uint8``."""
+        return np.asarray(self.separation.proportions(rgba), np.float64)
+
+    def absorption_scattering(
+        self, shares: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Return K and S ``(N, B)`` (1/mm) of mixes ``(N, P)`` (Duncan)."""
+        rows = list(self.rows)
+        return mix(shares, self.optics.k_per_mm[rows]), mix(shares, self.optics.s_per_mm[rows])
+
+    def deep_lab(self, shares: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Return CIELAB (D50) ``(N, 3)`` of mixes ``(N, P)`` infinitely deep."""
+        k, s = self.absorption_scattering(shares)
+        seen = observer(self.optics.wavelengths_nm)
+        body = r_infinity(k, s)
+        return reflectance_to_lab(saunderson(body, self.optics.k1, self.optics.k2), seen)
+
+    def distance_at(
+        self, shares: NDArray[np.float64], depth_mm: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """Return CIEDE2000 ``(N,)`` of each mix `depth_mm` deep against it deep.
+
+        The mix lies over :attr:`background`; both are seen through the surface.
+        """
+        k, s = self.absorption_scattering(shares)
+        seen = observer(self.optics.wavelengths_nm)
+        optics = self.optics
+        shown = over(layer(k, s, depth_mm), np.broadcast_to(self.background, k.shape))
+        lab = reflectance_to_lab(saunderson(shown, optics.k1, optics.k2), seen)
+        deep = reflectance_to_lab(saunderson(r_infinity(k, s), optics.k1, optics.k2), seen)
+        return np.asarray(colour.delta_E(lab, deep, method="CIE 2000"), np.float64)
+
+    def settle(self, shares: NDArray[np.float64], *, delta_e: float, max_mm: float) -> Settling:
+        """Return the settling depths of mixes ``(N, P)`` over :attr:`background`."""
+        k, s = self.absorption_scattering(shares)
+        seen = observer(self.optics.wavelengths_nm)
+        return settling_depth(
+            k, s, self.background, seen, k1=self.optics.k1, k2=self.optics.k2,
+            delta_e=delta_e, max_mm=max_mm,
+        )  # fmt: skip
