@@ -9,8 +9,12 @@ optics over each voxel column) and reports CIEDE2000 with the errors apart:
   deep), what no printing can reach;
 - ``reproduction``: that aim against the prediction from the voxels (halftone, voxels,
   depth);
-- ``in_gamut``: the target against the prediction, for targets within 1 of the gamut;
-  ``total`` for all.
+- ``in_gamut``: the target against the prediction, for targets within 1 of the gamut
+  whose colour is the same all around them (:data:`UNIFORM_RADIUS_MM`: the colour
+  regions' interiors, what a measured patch is); ``in_gamut_all`` with the samples near a
+  colour edge too, whose columns see the neighbouring colour (light spreads sideways, so
+  no print keeps an edge sharper than that: a resolution limit, given apart);
+  ``ciede2000`` for all samples.
 
 and what the colour layer's per-face depth buys against one constant depth
 (:func:`voxel.colour.depth_effect.depth_effect`). Everything is under the profile's
@@ -22,6 +26,7 @@ from __future__ import annotations
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
+import colour
 import numpy as np
 from numpy.typing import NDArray
 
@@ -35,9 +40,18 @@ from voxel.colour.kubelka_munk import observer, srgb_to_lab
 from voxel.colour.materials import MaterialPlan
 from voxel.colour.model_report import ModelReport
 from voxel.colour.report import SurfaceSamples, colour_regions, sample_surface, statistics
+from voxel.colour.srgb import srgb8_to_lab
+from voxel.geometry.nearest import SurfaceIndex, nearest_on_surface
 
 #: CIEDE2000 from the gamut within which a target counts as in gamut.
 IN_GAMUT_DE = 1.0
+
+#: A sample lies inside a colour region when the surface colour at :data:`RING_POINTS`
+#: points this far around it (the report's disc and a margin) is its own colour, within
+#: :data:`UNIFORM_DE` CIEDE2000.
+UNIFORM_RADIUS_MM = 0.35
+RING_POINTS = 8
+UNIFORM_DE = 1.0
 
 
 class ColourCheck:
@@ -117,10 +131,20 @@ class ColourCheck:
         regions = colour_regions(samples.target_rgba[:, :3])
         seen = np.isfinite(predicted).all(1)
         total, gamut = report.errors(aim, target)
+        interior = uniform_surroundings(self.mesh, samples)
+        inside = seen & (gamut <= IN_GAMUT_DE)
+        result["in_gamut_all"] = result.pop("in_gamut")
+        result["in_gamut_all_samples"] = result.pop("in_gamut_samples")
+        result["in_gamut"] = statistics(total[inside & interior])
+        result["in_gamut_samples"] = int((inside & interior).sum())
+        result["near_colour_edges"] = {
+            "samples": int((seen & ~interior).sum()),
+            "in_gamut": statistics(total[inside & ~interior]),
+        }
         per_region = {}
         for name in sorted(set(regions[seen].tolist())):
             chosen = seen & (regions == name)
-            inside = chosen & (gamut <= IN_GAMUT_DE)
+            inside = chosen & (gamut <= IN_GAMUT_DE) & interior
             per_region[name] = {
                 "samples": int(chosen.sum()),
                 "gamut": statistics(gamut[chosen]),
@@ -134,3 +158,28 @@ class ColourCheck:
         )
         result["optics"] = "assumed" if self.profile.optics.assumed else "measured"
         return result
+
+
+def uniform_surroundings(mesh: ColouredMesh, samples: SurfaceSamples) -> NDArray[np.bool_]:
+    """Return which samples have their own colour all around them (see the module).
+
+    The surface colour at :data:`RING_POINTS` points :data:`UNIFORM_RADIUS_MM` around
+    each sample in its tangent plane (at the nearest surface points) against its own.
+    """
+    if len(samples.points) == 0:
+        return np.zeros(0, bool)
+    surface = SurfaceIndex.build(mesh.vertices, mesh.faces)
+    angle = 2 * np.pi * np.arange(RING_POINTS) / RING_POINTS
+    helper = np.where(np.abs(samples.normals[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    u = np.cross(samples.normals, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(samples.normals, u)
+    ring = samples.points[:, None] + UNIFORM_RADIUS_MM * (
+        np.cos(angle)[None, :, None] * u[:, None] + np.sin(angle)[None, :, None] * v[:, None]
+    )
+    hit = nearest_on_surface(surface, ring.reshape(-1, 3))
+    around = mesh.colour_at(hit.face_ids, hit.barycentric).reshape(len(ring), RING_POINTS, 4)
+    own = srgb8_to_lab(samples.target_rgba[:, :3])
+    theirs = srgb8_to_lab(around[..., :3])
+    difference = colour.delta_E(theirs, own[:, None], method="CIE 2000")
+    return np.asarray((difference <= UNIFORM_DE).all(axis=1), bool)

@@ -262,6 +262,7 @@ class _Job:
         profile = self._profile()
         if profile is not None:
             manifest["printer"] = profile.name
+            manifest["optics"] = profile.optics.manifest()
             manifest["materials"] = tally.materials(profile)
             manifest["material_voxels_per_layer"] = tally.per_layer(profile)
         if check is not None:

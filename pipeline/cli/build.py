@@ -319,11 +319,14 @@ def _report(out: Path, manifest: dict[str, Any], load_seconds: float) -> None:
             if inside["median"] is None
             else f"median {inside['median']:.2f}, p95 {inside['p95']:.2f}"
         )
+        edges = report["near_colour_edges"]
+        edge = edges["in_gamut"]["median"]
         print(
             f"predicted colour vs target, CIEDE2000 ({report['optics']} optics, "
-            f"{report['samples_seen']:,} surface samples): in gamut "
-            f"({report['in_gamut_samples']:,}) {reached}; gamut error median "
-            f"{gamut['median']:.2f}, p95 {gamut['p95']:.2f}"
+            f"{report['samples_seen']:,} surface samples): in gamut, inside colour regions "
+            f"({report['in_gamut_samples']:,}) {reached}; near colour edges "
+            f"({edges['samples']:,}) median {'-' if edge is None else format(edge, '.2f')}; "
+            f"gamut error median {gamut['median']:.2f}, p95 {gamut['p95']:.2f}"
         )
     print(f"loaded in {load_seconds:.1f} s, built in {manifest['seconds']['total']:.1f} s")
 

@@ -145,11 +145,10 @@ def face_thickness(
     raw = limited_thickness(own, normals[:, 2], curvature, rule)
     layer = rule.colour_layer
     centroids = mesh.vertices[mesh.faces].mean(axis=1)
-    smooth = np.clip(
-        smooth_over_distance(centroids, normals, areas, raw, rule.smoothing.radius_mm),
-        layer.min_mm,
-        layer.max_mm,
-    )
+    # never thinner than the face's own need: the smoothing only deepens the faces around
+    # a deeper region, so the depth changes gradually
+    smoothed = smooth_over_distance(centroids, normals, areas, raw, rule.smoothing.radius_mm)
+    smooth = np.clip(np.maximum(raw, smoothed), layer.min_mm, layer.max_mm)
     layers = rule.layers
     thickness = np.empty((layers.n_layers, mesh.n_faces), dtype=np.float64)
     backing = iter(layers.backing_mm)

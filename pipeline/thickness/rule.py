@@ -23,7 +23,9 @@ Then, for both::
 and ``t`` is smoothed over ``radius_mm`` of surface
 (:func:`pipeline.thickness.surface_smoothing.smooth_over_distance`: area-weighted over the
 faces within that distance that face the same side, so independent of the
-triangulation; it never leaves ``[min_mm, max_mm]``). Backing layers have constant
+triangulation), never below the face's own ``t``: the smoothing deepens the faces around
+a deeper region, so the depth changes gradually, and never takes from a face the depth
+its colour needs. It never leaves ``[min_mm, max_mm]``. Backing layers have constant
 thickness.
 
 Defaults of the optical rule (:data:`DEFAULT_RULE`):

@@ -21,7 +21,7 @@ def _box_case(depth_mm, voxel=0.05, read_mm=0.5):
     box = trimesh.creation.box((4.0, 4.0, 4.0))
     # centres at +-(2 - voxel / 2), ...: the faces lie between voxel centres
     first = -2.2 + voxel / 2
-    grid = GridSpec((first,) * 3, (voxel,) * 3, (int(round(4.4 / voxel)),) * 3)
+    grid = GridSpec((first,) * 3, (voxel,) * 3, (round(4.4 / voxel),) * 3)
     centres = grid.index_to_world(np.indices(grid.shape_zyx).reshape(3, -1).T)
     inside = np.all(np.abs(centres) < 2, axis=1)
     depth = 2 - np.abs(centres).max(axis=1)  # distance to the box surface inside

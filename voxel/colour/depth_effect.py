@@ -58,8 +58,10 @@ def depth_effect(
     adaptive = model.distance_at(shares, depth) <= delta_e
     constant = model.distance_at(shares, np.full(len(depth), mean)) <= delta_e
     settling = model.settle(shares, delta_e=delta_e, max_mm=max_mm)
-    needed = np.where(settling.settled, settling.depth_mm, np.inf)
+    # a sample that does not settle counts as deeper than any: past max_mm
+    needed = np.where(settling.settled, settling.depth_mm, 2 * max_mm)
     q95 = float(np.percentile(needed, 95))
+    q95 = q95 if q95 <= max_mm else np.inf
     for_95: dict[str, float | None] = {
         "constant_mm": None,
         "adaptive_mean_mm": None,

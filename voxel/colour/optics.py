@@ -92,7 +92,11 @@ class Optics:
             raise ValueError(f"k1 and k2 must be in [0, 1), got {self.k1}, {self.k2}")
 
     def manifest(self) -> dict[str, object]:
-        """Return the parameters as the manifest records them (in the order of ``roles``)."""
+        """Return the parameters as the manifest records them.
+
+        Each material's ``index`` is its index in the material volume (row ``i`` is
+        material ``i + 1``; 0 is the void).
+        """
         return {
             "model": "kubelka-munk",
             "wavelengths_nm": self.wavelengths_nm.tolist(),
@@ -102,9 +106,15 @@ class Optics:
             "observer": "CIE 1931 2 Degree Standard Observer",
             "assumed": self.assumed,
             "materials": [
-                {"name": n, "role": r, "k_per_mm": k.tolist(), "s_per_mm": s.tolist()}
-                for n, r, k, s in zip(
-                    self.names, self.roles, self.k_per_mm, self.s_per_mm, strict=True
+                {
+                    "index": i + 1,
+                    "name": n,
+                    "role": r,
+                    "k_per_mm": k.tolist(),
+                    "s_per_mm": s.tolist(),
+                }
+                for i, (n, r, k, s) in enumerate(
+                    zip(self.names, self.roles, self.k_per_mm, self.s_per_mm, strict=True)
                 )
             ],
         }
