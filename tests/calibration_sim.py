@@ -34,7 +34,9 @@ def measure(truth: Optics, patches: list[Patch], seed: int = 11) -> np.ndarray:
     return np.clip(readings + rng.normal(0.0, NOISE, readings.shape), 0.0, 1.0)
 
 
-def write_i1profiler(path: Path, ids: list[str], wavelengths: np.ndarray, values: np.ndarray) -> None:
+def write_i1profiler(
+    path: Path, ids: list[str], wavelengths: np.ndarray, values: np.ndarray
+) -> None:
     """CGATS as i1Profiler writes it: SampleID a number, SAMPLE_NAME the id, percent."""
     nms = [round(float(w)) for w in wavelengths]
     lines = [
@@ -44,7 +46,7 @@ def write_i1profiler(path: Path, ids: list[str], wavelengths: np.ndarray, values
         "END_DATA_FORMAT", f"NUMBER_OF_SETS {len(ids)}", "BEGIN_DATA",
     ]  # fmt: skip
     for n, (name, row) in enumerate(zip(ids, values, strict=True)):
-        lines.append(f"{n + 1} \"{name}\" " + " ".join(f"{v * 100:.4f}" for v in row))
+        lines.append(f'{n + 1} "{name}" ' + " ".join(f"{v * 100:.4f}" for v in row))
     lines.append("END_DATA")
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
@@ -76,7 +78,5 @@ def random_stacks(roles: tuple[str, ...], n: int, seed: int = 3) -> list[Patch]:
         mixes = rng.dirichlet(np.full(m, 0.5), count)
         thickness = rng.uniform(0.05, 1.5, count)
         base = eye[roles.index("white" if rng.random() < 0.5 else "black")]
-        stacks.append(
-            Patch(f"S{i}", np.vstack([mixes, base]), np.append(thickness, 3.0))
-        )
+        stacks.append(Patch(f"S{i}", np.vstack([mixes, base]), np.append(thickness, 3.0)))
     return stacks
