@@ -62,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
         f"chart of {len(layout.patches)} patches, {x * vx:.1f} x {y * vy:.1f} x {z * vz:.2f} mm "
         f"({x} x {y} x {z} voxels) for {profile.name}"
     )
-    for path in [*files[-2:], out / "chart.json"]:
+    job = out / ("job.gcvf" if profile.slice_format == "gcvf" else "slices")
+    for path in (job, out / "preview" / "chart.png", out / "chart.json"):
         print(path)
     return 0
 
