@@ -289,3 +289,15 @@ def test_chart_command_writes_job(tmp_path, capsys):
     np.testing.assert_allclose(share, layout.patches[i].fractions[0], atol=0.01)
     with Image.open(out / "preview" / "chart.png") as preview:
         assert preview.size[0] > 300
+
+
+@pytest.mark.slow
+def test_chart_command_png_printer(tmp_path, capsys):
+    out = tmp_path / "chart"
+    assert main(["chart", "-o", str(out), "--printer", "generic-cmykw"]) == 0
+    assert str(out / "slices") in capsys.readouterr().out
+    layout = chart_layout(load_profile("generic-cmykw"))
+    slices = sorted((out / "slices").glob("slice_*.png"))
+    assert len(slices) == layout.grid.shape_zyx[0]
+    assert not (out / "job.gcvf").exists()
+    assert read_chart(out / "chart.json").patches[0].patch_id == layout.patches[0].patch_id
