@@ -78,9 +78,10 @@ def run(args: argparse.Namespace) -> int:
         f"cross-validated CIEDE2000 ({checked['folds']} folds, held-out patches): median "
         f"{checked['median']:.2f}, p95 {checked['p95']:.2f}, max {checked['max']:.2f}"
     )
-    order = np.argsort(worst)[::-1][:5]
-    for i in order:
-        print(f"  {chart.patches[i].patch_id}: RMS {rms[i]:.4f}, max {worst[i]:.4f}")
+    print("per patch: residual RMS, largest |residual| (reflectance), CIEDE2000 of the fit")
+    width = max(len(p.patch_id) for p in chart.patches)
+    for patch, r, w, e in zip(chart.patches, rms, worst, fit_de, strict=True):
+        print(f"  {patch.patch_id:<{width}}  {r:.4f}  {w:.4f}  {e:5.2f}")
     write_text_atomic(out, text)
     print(out)
     return 0
