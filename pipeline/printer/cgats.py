@@ -4,7 +4,9 @@ A CGATS file has keyword lines, a ``BEGIN_DATA_FORMAT`` ... ``END_DATA_FORMAT`` 
 naming the fields and a ``BEGIN_DATA`` ... ``END_DATA`` block of rows (values separated
 by white space, strings in double quotes). i1Profiler names spectral fields
 ``SPECTRAL_NM400`` (also ``nm400``), ArgyllCMS ``SPEC_400``; both carry ``SAMPLE_ID``
-(``SampleID`` and ``SAMPLE_NAME`` are read too). Reflectance is in percent (i1Profiler,
+(``SampleID`` and ``SAMPLE_NAME`` are read too; i1Profiler keeps a sample's name in
+``SAMPLE_NAME`` and a number in ``SampleID``: :func:`read_cgats` takes the id field that
+matches the ids it is given). Reflectance is in percent (i1Profiler,
 ArgyllCMS) or a fraction: a file whose largest value exceeds 1.5 is read as percent.
 """
 
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 import re
 import shlex
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -59,8 +62,17 @@ class Readings:
         return np.stack([np.interp(wanted, self.wavelengths_nm, r) for r in self.reflectance])
 
 
-def read_cgats(path: str | Path) -> Readings:
+def read_cgats(path: str | Path, *, expected_ids: Collection[str] = ()) -> Readings:
     """Read the spectral readings of a CGATS.17 file (see the module).
+
+    Parameters
+    ----------
+    path : str or Path
+    expected_ids : collection of str
+        The sample ids wanted (a chart's patch ids). A file may carry several id fields
+        (i1Profiler writes a number in ``SampleID`` and the name in ``SAMPLE_NAME``): the
+        one holding most of `expected_ids` names the samples; without them (or a tie) the
+        first of ``SAMPLE_ID``, ``SAMPLEID``, ``SAMPLE_NAME``.
 
     Raises
     ------
@@ -75,14 +87,20 @@ def read_cgats(path: str | Path) -> Readings:
         raise CgatsError(path, f"cannot be read ({error.strerror})", "check the path") from None
     fields, rows = _blocks(path, text)
     upper = [f.upper() for f in fields]
-    id_column = next((upper.index(f) for f in _ID_FIELDS if f in upper), None)
+    id_columns = [upper.index(f) for f in _ID_FIELDS if f in upper]
     spectral = [(i, int(m.group(1))) for i, f in enumerate(fields) if (m := _SPECTRAL.match(f))]
-    if id_column is None or not spectral:
+    if not id_columns or not spectral:
         raise CgatsError(
             path,
             "has no SAMPLE_ID field or no spectral fields (SPECTRAL_NM400 ..., SPEC_400 ...)",
             "export spectral reflectance with sample ids",
         )
+    wanted = set(expected_ids)
+
+    def hits(column: int) -> int:
+        return sum(len(row) > column and row[column] in wanted for row in rows)
+
+    id_column = max(id_columns, key=hits)  # the first of the best (max keeps the first)
     ids: list[str] = []
     values = np.empty((len(rows), len(spectral)))
     for n, row in enumerate(rows):
