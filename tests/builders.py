@@ -260,3 +260,18 @@ def locate(mesh, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     inside = (bary >= -1e-9).all(axis=1) & (np.linalg.norm(back - point, axis=1) < tolerance)
     face = int(np.flatnonzero(inside)[0])
     return np.array([face]), bary[face][None]
+
+
+def j750_layer_model(rule=None):
+    """The optical rule's model of the J750 (its optics, separation and backing)."""
+    from pipeline.config import MaterialSettings
+    from pipeline.printer.material_plan import build_material_plan, layer_model
+    from pipeline.printer.profile import load_profile
+    from pipeline.thickness.rule import DEFAULT_RULE
+
+    layers = (rule or DEFAULT_RULE).layers
+    profile = load_profile("j750")
+    plan = build_material_plan(
+        profile, MaterialSettings(), colour_layers=layers.colour, n_bands=layers.n_layers
+    )
+    return layer_model(profile, plan, layers.backing_mm)

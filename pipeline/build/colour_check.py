@@ -1,28 +1,57 @@
-"""The colour report of a build: predicted printed colour against the model's, at samples.
+"""The colour report of a build: the printed colour predicted from its voxels, at samples.
 
 :class:`ColourCheck` draws the surface samples (:func:`voxel.colour.report.sample_surface`),
-accumulates the halftoned material slabs as they are written
-(:class:`voxel.colour.report.ColourReport`) and reports CIEDE2000 with what the colour
-layer's thickness changes (:func:`voxel.colour.report.thickness_effect`).
+reads the halftoned material slabs under them as they are written
+(:class:`voxel.colour.model_report.ModelReport`: the two-flux model of the printer's
+optics over each voxel column) and reports CIEDE2000 with the errors apart:
+
+- ``gamut``: the target against the colour the separation aims at (its mix infinitely
+  deep), what no printing can reach;
+- ``reproduction``: that aim against the prediction from the voxels (halftone, voxels,
+  depth);
+- ``in_gamut``: the target against the prediction, for targets within 1 of the gamut
+  whose colour is the same all around them (:data:`UNIFORM_RADIUS_MM`: the colour
+  regions' interiors, what a measured patch is); ``in_gamut_all`` with the samples near a
+  colour edge too, whose columns see the neighbouring colour (light spreads sideways, so
+  no print keeps an edge sharper than that: a resolution limit, given apart);
+  ``ciede2000`` for all samples.
+
+and what the colour layer's per-face depth buys against one constant depth
+(:func:`voxel.colour.depth_effect.depth_effect`). Everything is under the profile's
+optics, assumed or measured, as the report says.
 """
 
 from __future__ import annotations
 
-import math
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
+import colour
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.build.plan import BuildPlan
 from pipeline.config import BuildConfig
 from pipeline.model.mesh import ColouredMesh
-from pipeline.model.topology import face_areas
+from pipeline.printer.material_plan import layer_model
 from pipeline.printer.profile import PrinterProfile
+from voxel.colour.depth_effect import depth_effect
+from voxel.colour.kubelka_munk import observer, srgb_to_lab
 from voxel.colour.materials import MaterialPlan
-from voxel.colour.report import ColourReport, sample_surface, thickness_effect
-from voxel.colour.srgb import codes_to_linear
+from voxel.colour.model_report import ModelReport
+from voxel.colour.report import SurfaceSamples, colour_regions, sample_surface, statistics
+from voxel.colour.srgb import srgb8_to_lab
+from voxel.geometry.nearest import SurfaceIndex, nearest_on_surface
+
+#: CIEDE2000 from the gamut within which a target counts as in gamut.
+IN_GAMUT_DE = 1.0
+
+#: A sample lies inside a colour region when the surface colour at :data:`RING_POINTS`
+#: points this far around it (the report's disc and a margin) is its own colour, within
+#: :data:`UNIFORM_DE` CIEDE2000.
+UNIFORM_RADIUS_MM = 0.35
+RING_POINTS = 8
+UNIFORM_DE = 1.0
 
 
 class ColourCheck:
@@ -33,13 +62,15 @@ class ColourCheck:
     mesh : ColouredMesh
         The model (the target colours).
     config : BuildConfig
-        ``report_samples``, ``optical_depth_mm`` and ``colour_layers``.
+        ``report_samples`` and ``colour_layers``.
     plan : BuildPlan
         The grid and the thickness.
     profile : PrinterProfile
-        The materials' display colours.
+        The materials' optics.
     materials : MaterialPlan
         The separation behind the halftone.
+    delta_e : float
+        CIEDE2000 within which a colour counts as settled (the rule's).
     """
 
     def __init__(
@@ -49,61 +80,106 @@ class ColourCheck:
         plan: BuildPlan,
         profile: PrinterProfile,
         materials: MaterialPlan,
+        *,
+        delta_e: float = 1.0,
     ) -> None:
         self.mesh, self.config, self.plan = mesh, config, plan
-        self.profile, self.materials = profile, materials
-        # Drawn in a thread while the first slabs are computed (about 1.4 s on a tray of
-        # four models that was serial before them); its errors are raised by add_slab.
+        self.profile, self.materials, self.delta_e = profile, materials, delta_e
+        # Made in a thread while the first slabs are computed; its errors are raised by
+        # add_slab.
         pool = ThreadPoolExecutor(1, thread_name_prefix="colour-check")
         self._report = pool.submit(self._make_report)
         pool.shutdown(wait=False)
 
-    def _make_report(self) -> ColourReport:
+    def _make_report(self) -> tuple[SurfaceSamples, ModelReport]:
         mesh, config = self.mesh, self.config
         samples = sample_surface(
             mesh.vertices, mesh.faces, mesh.colour_at, config.report_samples, seed=0
         )
-        display = np.zeros((len(self.profile.materials), 3), dtype=np.uint8)
-        for material in self.profile.materials:
-            display[material.index] = material.display_srgb
-        return ColourReport(
-            samples, self.plan.grid, display, optical_depth_mm=config.optical_depth_mm
-        )
+        report = ModelReport(samples.points, samples.normals, self.plan.grid, self.profile.optics)
+        return samples, report
 
     @property
-    def report(self) -> ColourReport:
+    def samples(self) -> SurfaceSamples:
+        """The surface samples (waits for them)."""
+        return self._report.result()[0]
+
+    @property
+    def report(self) -> ModelReport:
         """The accumulator (waits for it to be made)."""
-        return self._report.result()
+        return self._report.result()[1]
 
     def add_slab(self, z_start: int, materials: NDArray[np.uint8]) -> None:
         """Take the material indices ``(Zs, Y, X) uint8`` of rows ``z_start..``."""
         self.report.add_slab(z_start, materials)
 
     def result(self) -> dict[str, Any]:
-        """Return the measured report and what the thickness changes (optical model)."""
-        result = self.report.result()
-        samples = self.report.samples
-        display = np.array([m.display_srgb for m in self.profile.materials], dtype=np.uint8)
-        linear = codes_to_linear(display).astype(np.float64)
-        share = self.materials.separation.proportions(samples.target_rgba).astype(np.float64)
-        ideal = share @ linear[list(self.materials.column_materials)]
-        colour_depth = self.plan.depth[max(self.config.colour_layers) - 1]
-        area = face_areas(self.mesh.vertices, self.mesh.faces)
-        result["thickness_effect"] = thickness_effect(
-            samples.target_rgba,
-            ideal,
-            linear[self.materials.backing_material],
-            colour_depth[samples.face_ids],
-            _weighted_mean(colour_depth, area),
-            self.config.optical_depth_mm,
+        """Return the report: errors apart, per region, and what per-face depth buys."""
+        samples, report = self.samples, self.report
+        backing = [
+            float(np.median(row))
+            for k, row in enumerate(self.plan.thickness)
+            if k + 1 not in self.config.colour_layers
+        ]
+        model = layer_model(self.profile, self.materials, backing)
+        shares = model.shares(samples.target_rgba)
+        aim = model.deep_lab(shares)
+        white = observer(self.profile.optics.wavelengths_nm).white_xy
+        target = srgb_to_lab(samples.target_rgba[:, :3] / 255.0, white)
+        result = report.result(aim, target, in_gamut_de=IN_GAMUT_DE)
+        predicted = report.predicted_lab()
+        regions = colour_regions(samples.target_rgba[:, :3])
+        seen = np.isfinite(predicted).all(1)
+        total, gamut = report.errors(aim, target)
+        interior = uniform_surroundings(self.mesh, samples)
+        inside = seen & (gamut <= IN_GAMUT_DE)
+        result["in_gamut_all"] = result.pop("in_gamut")
+        result["in_gamut_all_samples"] = result.pop("in_gamut_samples")
+        result["in_gamut"] = statistics(total[inside & interior])
+        result["in_gamut_samples"] = int((inside & interior).sum())
+        result["near_colour_edges"] = {
+            "samples": int((seen & ~interior).sum()),
+            "in_gamut": statistics(total[inside & ~interior]),
+        }
+        per_region = {}
+        for name in sorted(set(regions[seen].tolist())):
+            chosen = seen & (regions == name)
+            inside = chosen & (gamut <= IN_GAMUT_DE) & interior
+            per_region[name] = {
+                "samples": int(chosen.sum()),
+                "gamut": statistics(gamut[chosen]),
+                "in_gamut_samples": int(inside.sum()),
+                "in_gamut": statistics(total[inside]),
+            }
+        result["per_region"] = per_region
+        colour_depth = self.plan.depth[max(self.config.colour_layers) - 1][samples.face_ids]
+        result["depth_effect"] = depth_effect(
+            model, shares, colour_depth, delta_e=self.delta_e, max_mm=3.0
         )
+        result["optics"] = "assumed" if self.profile.optics.assumed else "measured"
         return result
 
 
-def _weighted_mean(values: NDArray[np.float64], weights: NDArray[np.float64]) -> float:
-    """Return the weighted mean with correctly rounded sums (``math.fsum``).
+def uniform_surroundings(mesh: ColouredMesh, samples: SurfaceSamples) -> NDArray[np.bool_]:
+    """Return which samples have their own colour all around them (see the module).
 
-    numpy's vectorised sums may round differently with the arrays' memory alignment;
-    equal builds must write equal reports.
+    The surface colour at :data:`RING_POINTS` points :data:`UNIFORM_RADIUS_MM` around
+    each sample in its tangent plane (at the nearest surface points) against its own.
     """
-    return math.fsum((values * weights).tolist()) / math.fsum(weights.tolist())
+    if len(samples.points) == 0:
+        return np.zeros(0, bool)
+    surface = SurfaceIndex.build(mesh.vertices, mesh.faces)
+    angle = 2 * np.pi * np.arange(RING_POINTS) / RING_POINTS
+    helper = np.where(np.abs(samples.normals[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    u = np.cross(samples.normals, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(samples.normals, u)
+    ring = samples.points[:, None] + UNIFORM_RADIUS_MM * (
+        np.cos(angle)[None, :, None] * u[:, None] + np.sin(angle)[None, :, None] * v[:, None]
+    )
+    hit = nearest_on_surface(surface, ring.reshape(-1, 3))
+    around = mesh.colour_at(hit.face_ids, hit.barycentric).reshape(len(ring), RING_POINTS, 4)
+    own = srgb8_to_lab(samples.target_rgba[:, :3])
+    theirs = srgb8_to_lab(around[..., :3])
+    difference = colour.delta_E(theirs, own[:, None], method="CIE 2000")
+    return np.asarray((difference <= UNIFORM_DE).all(axis=1), bool)

@@ -239,6 +239,7 @@ class _Job:
         profile = self._profile()
         if profile is not None:
             manifest["printer"] = profile.name
+            manifest["optics"] = profile.optics.manifest()
             manifest["materials"] = tally.materials(profile)
             manifest["material_voxels_per_layer"] = tally.per_layer(profile)
         if check is not None:
@@ -370,4 +371,7 @@ class _Job:
         profile = self._profile()
         if profile is None or self.materials is None or self.config.report_samples == 0:
             return None
-        return ColourCheck(self.mesh, self.config, self.plan, profile, self.materials)
+        delta_e = 1.0 if self.faces is None else self.faces.rule.colour_layer.delta_e
+        return ColourCheck(
+            self.mesh, self.config, self.plan, profile, self.materials, delta_e=delta_e
+        )

@@ -24,7 +24,7 @@ from pipeline import __version__
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.faults import DeferredSignals, describe, signals_raise, unblock_signals
 
-COMMANDS = ("info", "thickness", "shells", "build", "inspect", "view")
+COMMANDS = ("info", "thickness", "shells", "build", "inspect", "view", "chart", "calibrate")
 
 
 def _subcommands() -> dict[str, ModuleType]:

@@ -279,7 +279,10 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     options = load_options(args)
     mesh = load_model(args.model[0], options)
-    choice = choose_thickness(args, mesh, constant, max_faces=options.max_faces)
+    settings = config_from_args(args, profile).material
+    choice = choose_thickness(
+        args, mesh, constant, profile=profile, settings=settings, max_faces=options.max_faces
+    )
     config = config_from_args(args, profile, choice)
     load_seconds = time.perf_counter() - started
     manifest = build_stack(
@@ -307,10 +310,20 @@ def _report(out: Path, manifest: dict[str, Any], load_seconds: float) -> None:
     print(json.dumps(manifest["voxel_counts"]))
     report = manifest.get("colour_report")
     if report and report["ciede2000"]["median"] is not None:
-        stats = report["ciede2000"]
+        inside, gamut = report["in_gamut"], report["gamut"]
+        reached = (
+            "none"
+            if inside["median"] is None
+            else f"median {inside['median']:.2f}, p95 {inside['p95']:.2f}"
+        )
+        edges = report["near_colour_edges"]
+        edge = edges["in_gamut"]["median"]
         print(
-            f"predicted colour vs target, CIEDE2000: median {stats['median']:.2f}, "
-            f"p95 {stats['p95']:.2f} over {report['samples_seen']:,} surface samples"
+            f"predicted colour vs target, CIEDE2000 ({report['optics']} optics, "
+            f"{report['samples_seen']:,} surface samples): in gamut, inside colour regions "
+            f"({report['in_gamut_samples']:,}) {reached}; near colour edges "
+            f"({edges['samples']:,}) median {'-' if edge is None else format(edge, '.2f')}; "
+            f"gamut error median {gamut['median']:.2f}, p95 {gamut['p95']:.2f}"
         )
     print(f"loaded in {load_seconds:.1f} s, built in {manifest['seconds']['total']:.1f} s")
 
@@ -363,8 +376,9 @@ def run_tray(args: argparse.Namespace) -> int:
             thickness_rule=part.thickness.rule_path, max_edge=args.max_edge
         )
         choice = choose_thickness(
-            rule_args, part.mesh, part.thickness.constant_mm, max_faces=options.max_faces
-        )
+            rule_args, part.mesh, part.thickness.constant_mm, profile=profile,
+            settings=base.material, max_faces=options.max_faces,
+        )  # fmt: skip
         meshes.append(choice.mesh)
         thickness.append(choice.thickness_mm)
         faces.append(choice.faces)

@@ -26,6 +26,7 @@ from pipeline.loading import load_model
 from pipeline.output.outdir import SHELL_OUTPUTS, OutputFolder, sha256
 from pipeline.output.ply import write_thickness_ply
 from pipeline.output.shells import save_shells
+from pipeline.printer.profile import load_profile
 from pipeline.thickness.face_thickness import thickness_summary
 
 
@@ -47,7 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="the same thickness on every face for each layer in mm, outside in "
         "(default: the per-face thickness of the thickness rule)",
     )
-    add_rule_arguments(parser)
+    add_rule_arguments(parser, printer=True)
     parser.add_argument(
         "--method",
         choices=METHODS,
@@ -81,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")
     options = load_options(args)
     mesh = load_model(args.model, options)
-    choice = choose_thickness(args, mesh, constant, max_faces=options.max_faces)
+    profile = load_profile(args.printer)
+    choice = choose_thickness(args, mesh, constant, profile=profile, max_faces=options.max_faces)
     with OutputFolder(out, SHELL_OUTPUTS, marker="report.json") as folder:
         return _write(args, config, choice, out, folder)
 

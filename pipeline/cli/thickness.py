@@ -13,6 +13,7 @@ from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness
 from pipeline.errors import InputError
 from pipeline.loading import load_model
 from pipeline.output.ply import write_thickness_ply
+from pipeline.printer.profile import load_profile
 from pipeline.report.thickness_picture import thickness_image
 from pipeline.thickness.face_thickness import thickness_summary
 
@@ -20,7 +21,7 @@ from pipeline.thickness.face_thickness import thickness_summary
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``thickness``' arguments."""
     add_load_arguments(parser)
-    add_rule_arguments(parser)
+    add_rule_arguments(parser, printer=True)
     parser.add_argument(
         "-o",
         "--output",
@@ -39,7 +40,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")
     options = load_options(args)
     mesh = load_model(args.model, options)
-    choice = choose_thickness(args, mesh, max_faces=options.max_faces)
+    profile = load_profile(args.printer)
+    choice = choose_thickness(args, mesh, profile=profile, max_faces=options.max_faces)
     faces = choice.faces
     assert faces is not None
     summary = thickness_summary(faces)
@@ -106,4 +108,13 @@ def table_lines(summary: dict[str, Any]) -> list[str]:
         f"smoothing changed the colour layer by up to {colour['smoothing_change_mm']:.3f} mm; "
         f"the curvature cap binds on {colour['curvature_capped_faces']:,} faces"
     )
+    optical = summary.get("optical")
+    if optical is not None:
+        settling = optical["settling_mm"]
+        lines.append(
+            f"optical rule: each face's mix settles within CIEDE2000 {optical['delta_e']:g} "
+            f"at {settling['min_mm']:.3f}-{settling['max_mm']:.3f} mm (p50 "
+            f"{settling['p50_mm']:.3f}); {optical['not_settled_faces']:,} faces "
+            f"({optical['not_settled_area_mm2']:.1f} mm2) still change at max_mm"
+        )
     return lines

@@ -16,8 +16,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.cli.values import parse_lengths
+from pipeline.config import MaterialSettings
 from pipeline.errors import InputError
 from pipeline.model.mesh import ColouredMesh
+from pipeline.printer.material_plan import build_material_plan, layer_model
+from pipeline.printer.profile import PrinterProfile, shipped_profiles
 from pipeline.thickness.face_colour import face_colour
 from pipeline.thickness.face_split import split_for_thickness
 from pipeline.thickness.face_thickness import FaceThickness, face_thickness
@@ -25,15 +28,24 @@ from pipeline.thickness.rule import DEFAULT_RULE, ThicknessRule
 from pipeline.thickness.rule_file import load_rule
 
 
-def add_rule_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add ``--thickness-rule FILE`` and ``--max-edge MM``."""
+def add_rule_arguments(parser: argparse.ArgumentParser, *, printer: bool = False) -> None:
+    """Add ``--thickness-rule FILE`` and ``--max-edge MM`` (and ``--printer`` if asked)."""
     group = parser.add_argument_group("thickness rule")
+    if printer:
+        group.add_argument(
+            "--printer",
+            default="j750",
+            metavar="NAME|FILE.toml",
+            help=f"printer profile whose optics the optical rule uses; one of "
+            f"{shipped_profiles()} or a .toml file (default j750)",
+        )
     group.add_argument(
         "--thickness-rule",
         type=Path,
         metavar="FILE",
-        help="TOML rule for the per-face thickness (default: the built-in rule: lighter, "
-        "less saturated and more transparent colour gets a deeper colour layer)",
+        help="TOML rule for the per-face thickness (default: the built-in optical rule: "
+        "each face's colour layer as deep as its colour needs to settle under the "
+        "printer's optics)",
     )
     group.add_argument(
         "--max-edge",
@@ -78,9 +90,14 @@ def choose_thickness(
     mesh: ColouredMesh,
     constant_mm: tuple[float, ...] | None = None,
     *,
+    profile: PrinterProfile,
+    settings: MaterialSettings | None = None,
     max_faces: int = 5_000_000,
 ) -> ThicknessChoice:
     """Apply ``--thickness`` (given as ``constant_mm``), or the rule and ``--max-edge``.
+
+    The optical rule uses `profile`'s optics and the separation `settings` give
+    (default: the profile's own materials).
 
     Raises
     ------
@@ -109,5 +126,13 @@ def choose_thickness(
         split = split_for_thickness(mesh, rule, max_edge, colour=colour, max_faces=max_faces)
         if split is not mesh:
             mesh, colour = split, None
-    faces = face_thickness(mesh, rule, colour=colour)
+    model = None
+    if rule.rule == "optical":
+        layers = rule.layers
+        plan = build_material_plan(
+            profile, settings or MaterialSettings(), colour_layers=layers.colour,
+            n_bands=layers.n_layers,
+        )  # fmt: skip
+        model = layer_model(profile, plan, layers.backing_mm)
+    faces = face_thickness(mesh, rule, colour=colour, model=model)
     return ThicknessChoice(mesh, faces.thickness_mm, faces, source)

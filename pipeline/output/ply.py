@@ -169,7 +169,9 @@ def write_thickness_ply(path: Path, mesh: ColouredMesh, faces: FaceThickness) ->
     Face properties (double): ``thickness`` (colour layer, mm), ``thickness_1`` ..
     ``thickness_K`` (every layer, mm), ``lightness`` (``L*``), ``chroma`` (``C*``),
     ``alpha``, ``colour_spread`` (p90 CIEDE2000), ``normal_z``, ``mean_curvature``
-    (1/mm).
+    (1/mm), ``rule_thickness`` (the rule's own colour layer, before the limits, mm); with
+    the optical rule also ``settled`` (1 or 0), ``deep_L``, ``deep_a``, ``deep_b`` (the
+    mix infinitely deep, CIELAB D50) and ``share_<role>`` (the separation's shares).
     """
     values = {"thickness": faces.colour_layer_mm}
     values.update({f"thickness_{k + 1}": row for k, row in enumerate(faces.thickness_mm)})
@@ -180,7 +182,15 @@ def write_thickness_ply(path: Path, mesh: ColouredMesh, faces: FaceThickness) ->
         colour_spread=faces.colour.spread_de00,
         normal_z=faces.normal_z,
         mean_curvature=faces.mean_curvature,
+        rule_thickness=faces.rule_mm,
     )
+    if faces.optical is not None:
+        optical = faces.optical
+        values["settled"] = optical.settled.astype(np.float64)
+        for axis, name in enumerate(("deep_L", "deep_a", "deep_b")):
+            values[name] = optical.deep_lab[:, axis]
+        for column, role in enumerate(optical.roles):
+            values[f"share_{role}"] = optical.shares[:, column]
     with atomic_path(path) as temporary:
         write_ply(
             temporary,

@@ -5,9 +5,14 @@ opaque colour materials in the order black, cyan, magenta, yellow, white, then c
 last: the first and the last interval of the blue-noise threshold are level sets of
 the tile, the best spread, and go to black (the most visible on white) and clear
 (translucency). With ``--icc`` the order is cyan, magenta, yellow, black, white, clear.
+
+The separation inverts the two-flux model of the profile's optics
+(:mod:`voxel.colour.model_separation`), or follows a CMYK ICC profile with ``--icc``.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -15,8 +20,11 @@ from pipeline.config import MaterialSettings, Role
 from pipeline.errors import InputError
 from pipeline.printer.profile import PrinterProfile
 from pipeline.printer.table_cache import DiskTables
+from voxel.colour.kubelka_munk import layer, over, r_infinity
 from voxel.colour.materials import MaterialPlan
-from voxel.colour.separation import Separation, SeparationError, icc_separation, mixing_separation
+from voxel.colour.model_separation import model_separation
+from voxel.colour.separation import Separation, SeparationError, icc_separation
+from voxel.colour.settling import LayerModel
 
 #: Opaque colour roles in the order the halftone stacks them (see the module).
 OPAQUE_ORDER: tuple[Role, ...] = ("black", "cyan", "magenta", "yellow", "white")
@@ -86,5 +94,22 @@ def _separation(
         except SeparationError as error:
             raise InputError(settings.icc, str(error), "give a CMYK output profile") from None
     opaque = tuple(role for role in OPAQUE_ORDER if role in roles)
-    display = np.array([profile.material(role).display_srgb for role in opaque])
-    return mixing_separation(opaque, display, clear_role=clear, store=DiskTables.default())
+    return model_separation(profile.optics, opaque, clear_role=clear, store=DiskTables.default())
+
+
+def layer_model(
+    profile: PrinterProfile, plan: MaterialPlan, backing_mm: Sequence[float]
+) -> LayerModel:
+    """Return what the optical thickness rule needs of `profile` and `plan`.
+
+    What lies beneath a colour layer is the backing layers (`backing_mm` of the backing
+    material, outside in) over the core material, infinitely deep.
+    """
+    optics = profile.optics
+    rows = tuple(index - 1 for index in plan.column_materials)  # optics row i: material i + 1
+    backing, core = plan.backing_material - 1, plan.core_material - 1
+    background = r_infinity(optics.k_per_mm[core], optics.s_per_mm[core])
+    for thickness in reversed(tuple(backing_mm)):  # loop over backing layers, bottom up
+        under = layer(optics.k_per_mm[backing], optics.s_per_mm[backing], thickness)
+        background = over(under, background)
+    return LayerModel(optics, plan.separation, rows, np.asarray(background, np.float64))

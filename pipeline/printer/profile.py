@@ -19,13 +19,15 @@ Examples
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal, NoReturn, cast, get_args
 
 from pipeline.config import Role
 from pipeline.errors import InputError
+from pipeline.printer.optics_table import MATERIAL_KEYS, OpticsReader, profile_optics
+from voxel.colour.optics import Optics, assumed_optics
 
 MM_PER_INCH = 25.4
 
@@ -40,9 +42,9 @@ _ROLES: tuple[str, ...] = get_args(Role)
 _FORMATS: tuple[str, ...] = get_args(SliceFormat)
 _TOP_KEYS = {
     "name", "description", "slice_format", "dpi", "slice_thickness_nm", "tray_mm",
-    "max_materials", "min_slices", "backing_role", "core_role", "materials",
+    "max_materials", "min_slices", "backing_role", "core_role", "materials", "optics",
 }  # fmt: skip
-_MATERIAL_KEYS = {"name", "role", "rgba_key", "display_srgb", "attenuation_per_mm"}
+_MATERIAL_KEYS = {"name", "role", "rgba_key", "display_srgb", "attenuation_per_mm", *MATERIAL_KEYS}
 
 
 @dataclass(frozen=True)
@@ -101,6 +103,9 @@ class PrinterProfile:
         Material of the backing layers and of the core.
     source : str
         File the profile was read from (for messages).
+    optics : Optics or None
+        Two-flux parameters of the printed materials (row ``i`` is material ``i + 1``);
+        None: assumed from the display colours (:func:`voxel.colour.optics.assumed_optics`).
 
     Raises
     ------
@@ -120,9 +125,24 @@ class PrinterProfile:
     backing_role: Role = "white"
     core_role: Role = "white"
     source: str = ""
+    optics: Optics = field(default=None, compare=False, repr=False)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         _validate(self)
+        if cast("Optics | None", self.optics) is None:  # not given: assumed
+            printed = self.materials[1:]
+            optics = assumed_optics(
+                [m.name for m in printed], [m.role for m in printed],
+                [m.display_srgb for m in printed],
+            )  # fmt: skip
+            object.__setattr__(self, "optics", optics)
+        elif len(self.optics.names) != len(self.materials) - 1:
+            raise InputError(
+                self.source or self.name,
+                f"the optics describe {len(self.optics.names)} materials, the profile has "
+                f"{len(self.materials) - 1} besides the void",
+                "give K and S for every printed material",
+            )
 
     @property
     def voxel_mm(self) -> tuple[float, float, float]:
@@ -204,6 +224,11 @@ def parse_profile(text: str, *, source: str) -> PrinterProfile:
     if not isinstance(raw_materials, list) or not raw_materials:
         reader.fail("materials", "is missing or empty", "add [[materials]] tables, void first")
     materials = tuple(reader.material(index, entry) for index, entry in enumerate(raw_materials))
+    printed = materials[1:]
+    optics = profile_optics(
+        OpticsReader(reader.fail), data, raw_materials[1:], [m.name for m in printed],
+        [m.role for m in printed], [m.display_srgb for m in printed],
+    )  # fmt: skip
     dpi = reader.numbers(data, "dpi", 2)
     return PrinterProfile(
         name=reader.string(data, "name"),
@@ -218,6 +243,7 @@ def parse_profile(text: str, *, source: str) -> PrinterProfile:
         backing_role=cast(Role, reader.choice(data, "backing_role", _ROLES, "white")),
         core_role=cast(Role, reader.choice(data, "core_role", _ROLES, "white")),
         source=source,
+        optics=optics,
     )
 
 

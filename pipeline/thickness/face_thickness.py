@@ -1,10 +1,13 @@
 """Per-face layer thickness from a thickness rule: colour, orientation, curvature, smoothing.
 
 :func:`face_thickness` is what ``build``, ``shells`` and ``thickness`` call: it measures
-each face (robust colour, normal, mean curvature), evaluates the rule
-(:func:`pipeline.thickness.rule.colour_layer_thickness`), averages the colour layer over
-neighbouring faces and stacks the backing layers into the ``(K, F)`` thickness that
-:func:`offset.offset_shells` and the distance layer rule take. :func:`thickness_summary`
+each face (robust colour, normal, mean curvature), evaluates the rule (the optical
+rule, :mod:`pipeline.thickness.optical_rule`, or the lightness rule,
+:mod:`pipeline.thickness.lightness_rule`), applies the common limits
+(:func:`pipeline.thickness.rule.limited_thickness`), smooths the colour layer over a
+surface distance (:mod:`pipeline.thickness.surface_smoothing`) and stacks the backing
+layers into the ``(K, F)`` thickness that :func:`offset.offset_shells` and the distance
+layer rule take. :func:`thickness_summary`
 condenses it for the manifest and the ``thickness`` table.
 """
 
@@ -23,13 +26,17 @@ from offset.adjacency import bend_angles, edge_adjacency, face_normals
 from pipeline.config import as_json
 from pipeline.model.mesh import ColouredMesh
 from pipeline.thickness.face_colour import FaceColour, face_colour
+from pipeline.thickness.lightness_rule import lightness_thickness
+from pipeline.thickness.optical_rule import OpticalFaces, optical_thickness
 from pipeline.thickness.rule import (
     DEFAULT_RULE,
     ORIENTATION_NAMES,
     ThicknessRule,
-    colour_layer_thickness,
+    limited_thickness,
     orientation_class,
 )
+from pipeline.thickness.surface_smoothing import smooth_over_distance
+from voxel.colour.settling import LayerModel
 
 #: Lightness bins of the summary, ``L*`` edges.
 LIGHTNESS_EDGES = (0.0, 20.0, 40.0, 60.0, 80.0, 100.0)
@@ -47,7 +54,9 @@ class FaceThickness:
     colour_layer_mm : (F,) float64, mm
         The colour-layer thickness after smoothing (every colour layer has it).
     unsmoothed_mm : (F,) float64, mm
-        The colour-layer thickness before smoothing.
+        The colour-layer thickness before smoothing (after the common limits).
+    rule_mm : (F,) float64, mm
+        The rule's own colour layer, before the common limits.
     colour : FaceColour
         Robust colour per face.
     normal_z : (F,) float64
@@ -61,17 +70,21 @@ class FaceThickness:
         Face areas.
     rule : ThicknessRule
         The rule used.
+    optical : OpticalFaces or None
+        The optical rule's mix and settling per face (None with the lightness rule).
     """
 
     thickness_mm: NDArray[np.float64]
     colour_layer_mm: NDArray[np.float64]
     unsmoothed_mm: NDArray[np.float64]
+    rule_mm: NDArray[np.float64]
     colour: FaceColour
     normal_z: NDArray[np.float64]
     orientation: NDArray[np.int8]
     mean_curvature: NDArray[np.float64]
     area_mm2: NDArray[np.float64]
     rule: ThicknessRule
+    optical: OpticalFaces | None = None
 
 
 def face_thickness(
@@ -79,6 +92,7 @@ def face_thickness(
     rule: ThicknessRule = DEFAULT_RULE,
     *,
     colour: FaceColour | None = None,
+    model: LayerModel | None = None,
 ) -> FaceThickness:
     """Return the ``(K, F)`` layer thickness a rule gives a mesh.
 
@@ -90,6 +104,8 @@ def face_thickness(
         Default :data:`pipeline.thickness.rule.DEFAULT_RULE`.
     colour : FaceColour, optional
         Precomputed :func:`pipeline.thickness.face_colour.face_colour` of ``mesh``.
+    model : LayerModel, optional
+        The printer's optics and separation: needed by the optical rule.
 
     Returns
     -------
@@ -100,7 +116,8 @@ def face_thickness(
     >>> import trimesh
     >>> box = trimesh.creation.box((10.0, 10.0, 10.0))
     >>> mesh = ColouredMesh(np.asarray(box.vertices), np.asarray(box.faces, np.int64))
-    >>> result = face_thickness(mesh)  # white and opaque
+    >>> from pipeline.thickness.rule import LIGHTNESS_RULE
+    >>> result = face_thickness(mesh, LIGHTNESS_RULE)  # white and opaque
     >>> result.thickness_mm.shape
     (2, 12)
     >>> float(result.thickness_mm[1].min()), float(result.thickness_mm[1].max())
@@ -117,13 +134,21 @@ def face_thickness(
         if bend.max_depth_per_radius > 0
         else np.zeros(mesh.n_faces)
     )
-    raw = colour_layer_thickness(
-        colour.lightness, colour.chroma, colour.alpha, normals[:, 2], curvature, rule
-    )
+    optical = None
+    if rule.rule == "optical":
+        if model is None:
+            raise ValueError("the optical rule needs the printer's LayerModel (model=...)")
+        optical = optical_thickness(colour, model, rule)
+        own = optical.thickness_mm
+    else:
+        own = lightness_thickness(colour.lightness, colour.chroma, colour.alpha, rule)
+    raw = limited_thickness(own, normals[:, 2], curvature, rule)
     layer = rule.colour_layer
-    smooth = smooth_over_faces(
-        raw, mesh.faces, areas, rule.smoothing.iterations, bounds=(layer.min_mm, layer.max_mm)
-    )
+    centroids = mesh.vertices[mesh.faces].mean(axis=1)
+    # never thinner than the face's own need: the smoothing only deepens the faces around
+    # a deeper region, so the depth changes gradually
+    smoothed = smooth_over_distance(centroids, normals, areas, raw, rule.smoothing.radius_mm)
+    smooth = np.clip(np.maximum(raw, smoothed), layer.min_mm, layer.max_mm)
     layers = rule.layers
     thickness = np.empty((layers.n_layers, mesh.n_faces), dtype=np.float64)
     backing = iter(layers.backing_mm)
@@ -133,12 +158,14 @@ def face_thickness(
         thickness_mm=thickness,
         colour_layer_mm=smooth,
         unsmoothed_mm=raw,
+        rule_mm=own,
         colour=colour,
         normal_z=normals[:, 2].copy(),
         orientation=orientation_class(normals[:, 2], rule.orientation),
         mean_curvature=curvature,
         area_mm2=areas,
         rule=rule,
+        optical=optical,
     )
 
 
@@ -211,59 +238,6 @@ def mean_curvature(
     return curvature
 
 
-def smooth_over_faces(
-    values: NDArray[np.float64],
-    faces: NDArray[np.int64],
-    areas: NDArray[np.float64],
-    iterations: int,
-    *,
-    bounds: tuple[float, float] | None = None,
-) -> NDArray[np.float64]:
-    """Average per-face values over each face and its edge neighbours, area-weighted.
-
-    One pass is ``v'(f) = sum_{g in N(f) + f} A_g v(g) / sum_{g in N(f) + f} A_g``, a
-    convex combination, so the result stays within the range of the input.
-
-    Parameters
-    ----------
-    values : (F,) float64
-    faces : (F, 3) int64
-        Closed, consistently oriented.
-    areas : (F,) float64, mm^2
-        Weights (face areas).
-    iterations : int
-        Passes (``>= 0``).
-    bounds : (float, float), optional
-        ``[low, high]`` the values must stay in: checked after every pass (AssertionError
-        beyond rounding) and rounding errors clipped.
-
-    Returns
-    -------
-    (F,) float64
-    """
-    result = np.asarray(values, dtype=np.float64).copy()
-    if iterations <= 0:
-        return result
-    adjacency = edge_adjacency(faces)
-    n = len(faces)
-    rows = np.concatenate([adjacency.face_left, adjacency.face_right, np.arange(n)])
-    cols = np.concatenate([adjacency.face_right, adjacency.face_left, np.arange(n)])
-    weights = sparse.csr_matrix(
-        (areas[cols], (rows, cols)), shape=(n, n), dtype=np.float64
-    )  # row f: areas of f and its neighbours
-    norm = np.asarray(weights.sum(axis=1)).reshape(-1)
-    for _ in range(iterations):  # loop over passes, not faces
-        result = weights @ result / norm
-        if bounds is not None:
-            low, high = bounds
-            slack = 1e-12 * max(abs(low), abs(high), 1.0)
-            assert result.min() >= low - slack and result.max() <= high + slack, (
-                f"smoothing left [{low}, {high}]: {result.min()}..{result.max()}"
-            )
-            result = np.clip(result, low, high)
-    return result
-
-
 def thickness_summary(thickness: FaceThickness) -> dict[str, Any]:
     """Return a JSON-ready summary of a :class:`FaceThickness` (manifest and table).
 
@@ -300,15 +274,17 @@ def thickness_summary(thickness: FaceThickness) -> dict[str, Any]:
         by_lightness.append({"lightness": [low, high], **_stats(colour_mm, area, chosen)})
     spread = t.colour.spread_de00
     # Faces where the curvature cap binds: the rule without the cap gives more.
-    uncapped = colour_layer_thickness(
-        t.colour.lightness,
-        t.colour.chroma,
-        t.colour.alpha,
-        t.normal_z,
-        np.zeros_like(t.mean_curvature),
-        t.rule,
-    )
+    uncapped = limited_thickness(t.rule_mm, t.normal_z, np.zeros_like(t.mean_curvature), t.rule)
     capped = int(np.count_nonzero(uncapped > t.unsmoothed_mm + 1e-12))
+    optical = None
+    if t.optical is not None:
+        settled = t.optical.settled
+        optical = {
+            "delta_e": t.rule.colour_layer.delta_e,
+            "settling_mm": _stats(t.optical.thickness_mm, area),
+            "not_settled_faces": int(np.count_nonzero(~settled)),
+            "not_settled_area_mm2": float(area[~settled].sum()),
+        }
     return {
         "rule": as_json(t.rule),
         "n_faces": len(area),
@@ -321,6 +297,7 @@ def thickness_summary(thickness: FaceThickness) -> dict[str, Any]:
             "smoothing_change_mm": float(np.abs(colour_mm - t.unsmoothed_mm).max(initial=0.0)),
             "curvature_capped_faces": capped,
         },
+        "optical": optical,
         "colour_spread_de00": {
             "p50": float(np.percentile(spread, 50)),
             "p90": float(np.percentile(spread, 90)),

@@ -1,50 +1,48 @@
 """The thickness rule: how deep each face's colour layer is, from its colour and shape.
 
 The seed paper (Zhu and Chen, *Boundary adjustment algorithm based on element
-triangulation*) offsets every triangle by its own distance because light, weakly
-saturated and translucent colours need a deeper colour layer than dark ones, and because
-upper, lower and side surfaces print differently and curvature matters. This module states
-that as a rule with numbers, loaded from TOML (``--thickness-rule FILE``) or
-:data:`DEFAULT_RULE`.
+triangulation*) offsets every triangle by its own distance because colours need colour
+layers of different depths, and because upper, lower and side surfaces print differently
+and curvature matters. This module holds that rule's numbers, loaded from TOML
+(``--thickness-rule FILE``) or :data:`DEFAULT_RULE`. Two rules give the colour layer of a
+face before the common limits:
 
-The colour layer of a face with robust colour ``L*``, ``C*``, alpha ``a``, unit normal
-``n`` and mean curvature ``H`` (1/mm, convex positive) is::
+- ``rule = "optical"`` (the default, :mod:`pipeline.thickness.optical_rule`): the depth at
+  which the face's mix of materials, over what the build puts beneath it, stops changing
+  colour under the printer's two-flux model, to within ``delta_e`` CIEDE2000 (its
+  *settling depth*);
+- ``rule = "lightness"`` (:mod:`pipeline.thickness.lightness_rule`): a weighted score of
+  lightness, chroma and transparency, a judgment kept for comparison.
 
-    s = (w_L L*/100 + w_C (1 - min(C*/C_full, 1)) + w_T (1 - a)) / (w_L + w_C + w_T)
-    t = (min_mm + (max_mm - min_mm) s) * orientation_factor(n_z)
+Then, for both::
+
+    t = t_rule * orientation_factor(n_z)
     t = min(t, max_depth_per_radius / H)          where H > 0 and the cap is on
     t = clip(t, min_mm, max_mm)
 
-then averaged over edge-adjacent faces (area-weighted, ``iterations`` times), which
-never leaves ``[min_mm, max_mm]``. Backing layers have constant thickness.
+and ``t`` is smoothed over ``radius_mm`` of surface
+(:func:`pipeline.thickness.surface_smoothing.smooth_over_distance`: area-weighted over the
+faces within that distance that face the same side, so independent of the
+triangulation), never below the face's own ``t``: the smoothing deepens the faces around
+a deeper region, so the depth changes gradually, and never takes from a face the depth
+its colour needs. It never leaves ``[min_mm, max_mm]``. Backing layers have constant
+thickness.
 
-Why these defaults (judgments from printer facts, not measurements; change them in a rule
-file):
+Defaults of the optical rule (:data:`DEFAULT_RULE`):
 
-- **0.3 to 1.2 mm.** A colour layer must hold a few voxels across its depth on every
-  side: the J750 grid is 42 x 85 x 27 um (600 x 300 dpi, 27 um layers), so 0.3 mm is
-  3.5 voxels along the coarsest axis. Beyond about 1 mm a deeper colour layer mostly adds
-  scattering in (translucent) colour material without changing the colour seen; 1.2 mm
-  leaves room for translucent colours.
-- **Lighter, less saturated, more transparent is thicker** (weights 0.6, 0.2, 0.2). A
-  light or greyish colour is mostly white or clear material with sparse cyan, magenta,
-  yellow or black voxels; the eye averages the halftone over the depth it sees into, so
-  sparse colour needs more depth to average smoothly and to hide the backing. A dark or
-  saturated colour is dense absorbing material and is set in the first tenths of a
-  millimetre. Translucency brings in clear material, which dilutes the colour: by
-  Beer-Lambert the absorbance is concentration x depth, so a thinner concentration needs
-  more depth. Lightness weighs most because it sets ink coverage most directly.
-  Chroma counts as full from ``C* = 100`` (about sRGB's red, 104; only blues reach 133).
-  With these numbers: white 1.02 mm, mid grey 0.77 mm, yellow 0.83 mm, red 0.59 mm,
-  black 0.48 mm, clear white 1.2 mm (upper surfaces).
-- **Orientation** (upper ``n_z > 0.5``, lower ``n_z < -0.05``, else side): upper 1.0,
-  side 1.1, lower 1.2. PolyJet prints every overhang on support material, and
-  support-contact surfaces come out matte (University of Cologne RRZK, "Notes on the 3D
-  printing form", https://rrzk.uni-koeln.de/en/software-multimedia/3d-scan-and-3d-printing/
-  3d-printing/notes-on-the-3d-printing-form): surface scatter lightens and desaturates
-  them, which a deeper colour layer partly offsets. A side face's depth is resolved by
-  42-85 um voxels instead of 27 um layers, so half a voxel of boundary error is a larger
-  share of its depth.
+- **0.3 to 3.0 mm.** At least 3.5 voxels of the J750's coarsest axis (85 um); at most
+  3 mm, where the weakly scattering mixes of transparent colourants (a red of magenta
+  and yellow) settle under the assumed optics, while pastels made with white settle
+  within a few tenths of a millimetre. A face still changing at 3 mm is flagged.
+- **delta_e = 1.0** CIEDE2000: about one just noticeable difference.
+- **Orientation** factors 1.0: the two-flux model has no orientation; the factors stay
+  available in a rule file (the lightness rule's 1.1 and 1.2 for side and lower faces).
+- **Curvature** cap ``0.5 / H`` (below): a depth has to fit the part.
+- **Smoothing** over 1 mm of surface.
+
+The lightness rule's defaults are :data:`LIGHTNESS_RULE` (their reasons:
+:mod:`pipeline.thickness.lightness_rule`). Common to both:
+
 - **Curvature**: a colour layer at most ``0.5 / H`` deep, half the local radius of convex
   curvature, with ``H`` the mean curvature at a scale of 1 mm (about the colour layer's
   own depth, and independent of the tessellation). An inward offset of
@@ -55,8 +53,8 @@ file):
   degree edge measures about ``pi / (8 r) = 0.39 / mm`` and is not capped (1.27 mm), a
   cube's corner is; a rounded edge of radius 1.5 mm (``H = 1 / 3 mm``) keeps 1.5 mm, a
   sphere of 1.5 mm 0.75 mm.
-- **Smoothing**: 3 iterations of area-weighted averaging over the face and its
-  edge neighbours, so the depth follows colour regions and not single triangles.
+- **Smoothing** over 1 mm of surface: the depth follows colour regions, not single
+  triangles, over the same millimetres however the surface is triangulated.
 - **Layers**: one colour layer and one 0.5 mm backing layer.
 - **Splitting** (``--max-edge``): faces whose colour spread (p90 CIEDE2000 from their
   median) is 5 or more are split; a CIEDE2000 of about 5 is a clearly visible difference.
@@ -68,9 +66,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import NDArray
+
+#: The rules that give a face's colour layer before the common limits.
+RuleKind = Literal["optical", "lightness"]
 
 #: Orientation class codes of :func:`orientation_class`.
 UPPER, SIDE, LOWER = 0, 1, 2
@@ -111,6 +113,8 @@ class ColourLayerRule:
     ----------
     min_mm, max_mm : float, mm
         Clamp of the colour-layer thickness, ``0 < min_mm <= max_mm``.
+    delta_e : float
+        The optical rule's CIEDE2000 within which a colour counts as settled, ``> 0``.
     lightness_weight : float
         Weight of ``L* / 100`` (lighter is thicker), ``>= 0``.
     neutral_weight : float
@@ -122,14 +126,15 @@ class ColourLayerRule:
     """
 
     min_mm: float = 0.3
-    max_mm: float = 1.2
+    max_mm: float = 3.0
+    delta_e: float = 1.0
     lightness_weight: float = 0.6
     neutral_weight: float = 0.2
     transparency_weight: float = 0.2
     full_chroma: float = 100.0
 
     def __post_init__(self) -> None:
-        for name in ("min_mm", "max_mm", "full_chroma"):
+        for name in ("min_mm", "max_mm", "delta_e", "full_chroma"):
             _number(
                 f"colour_layer.{name}", getattr(self, name), positive=True,
                 fix=f"set e.g. {name} = {getattr(ColourLayerRule, name)}",
@@ -170,8 +175,8 @@ class OrientationRule:
     """
 
     upper_factor: float = 1.0
-    side_factor: float = 1.1
-    lower_factor: float = 1.2
+    side_factor: float = 1.0
+    lower_factor: float = 1.0
     upper_min_normal_z: float = 0.5
     lower_max_normal_z: float = -0.05
 
@@ -222,24 +227,22 @@ class CurvatureRule:
 
 @dataclass(frozen=True)
 class SmoothingRule:
-    """Neighbour averaging (TOML table ``[smoothing]``).
+    """Averaging over a surface distance (TOML table ``[smoothing]``).
 
     Parameters
     ----------
-    iterations : int
-        Passes of area-weighted averaging over each face and its edge neighbours (``>= 0``).
+    radius_mm : float, mm
+        Faces within this distance that face the same side are averaged, area-weighted
+        (``>= 0``; 0 turns the smoothing off).
     """
 
-    iterations: int = 3
+    radius_mm: float = 1.0
 
     def __post_init__(self) -> None:
-        value = self.iterations
-        _require(
-            isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= 1000,
-            "smoothing.iterations",
-            f"must be a whole number in 0..1000, got {value!r}",
-            "set e.g. iterations = 3",
-        )
+        _number(
+            "smoothing.radius_mm", self.radius_mm, positive=False,
+            fix="set e.g. radius_mm = 1.0 (0 turns the smoothing off)",
+        )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -304,12 +307,13 @@ class SplitRule:
 
 @dataclass(frozen=True)
 class ThicknessRule:
-    """The whole rule: colour layer, orientation, curvature, smoothing, layers, split.
+    """The whole rule: its kind, colour layer, orientation, curvature, smoothing, layers, split.
 
-    See the module docstring for the formula and the reasons for the defaults; each part
-    is one TOML table.
+    See the module docstring for the formula and the reasons for the defaults; ``rule``
+    is a top-level key of the rule file, each part one TOML table.
     """
 
+    rule: RuleKind = "optical"
     colour_layer: ColourLayerRule = field(default_factory=ColourLayerRule)
     orientation: OrientationRule = field(default_factory=OrientationRule)
     curvature: CurvatureRule = field(default_factory=CurvatureRule)
@@ -317,9 +321,25 @@ class ThicknessRule:
     layers: LayersRule = field(default_factory=LayersRule)
     split: SplitRule = field(default_factory=SplitRule)
 
+    def __post_init__(self) -> None:
+        _require(
+            self.rule in get_args(RuleKind),
+            "rule",
+            f"must be one of {list(get_args(RuleKind))}, got {self.rule!r}",
+            'write rule = "optical" or rule = "lightness"',
+        )
 
-#: The documented default rule (see the module docstring).
+
+#: The documented default rule (see the module docstring): the optical rule.
 DEFAULT_RULE = ThicknessRule()
+
+#: The lightness rule with its own documented defaults
+#: (:mod:`pipeline.thickness.lightness_rule`).
+LIGHTNESS_RULE = ThicknessRule(
+    rule="lightness",
+    colour_layer=ColourLayerRule(max_mm=1.2),
+    orientation=OrientationRule(side_factor=1.1, lower_factor=1.2),
+)
 
 
 def orientation_class(normal_z: NDArray[np.float64], rule: OrientationRule) -> NDArray[np.int8]:
@@ -342,24 +362,20 @@ def orientation_class(normal_z: NDArray[np.float64], rule: OrientationRule) -> N
     return classes
 
 
-def colour_layer_thickness(
-    lightness: NDArray[np.float64],
-    chroma: NDArray[np.float64],
-    alpha: NDArray[np.float64],
+def limited_thickness(
+    thickness: NDArray[np.float64],
     normal_z: NDArray[np.float64],
     mean_curvature: NDArray[np.float64],
     rule: ThicknessRule,
 ) -> NDArray[np.float64]:
-    """Evaluate the rule per face, before smoothing.
+    """Apply the common limits to a rule's colour layer (see the module).
+
+    The orientation factor, the curvature cap, then the clamp to ``[min_mm, max_mm]``.
 
     Parameters
     ----------
-    lightness : (F,) float64
-        ``L*`` in ``[0, 100]``.
-    chroma : (F,) float64
-        ``C*_ab`` (``>= 0``).
-    alpha : (F,) float64
-        Alpha in ``[0, 1]`` (1 opaque).
+    thickness : (F,) float64, mm
+        The rule's colour layer per face.
     normal_z : (F,) float64
         ``z`` of the unit outward normal.
     mean_curvature : (F,) float64, 1/mm
@@ -369,28 +385,16 @@ def colour_layer_thickness(
     Returns
     -------
     (F,) float64, mm
-        Colour-layer thickness in ``[min_mm, max_mm]``.
-
-    Examples
-    --------
-    >>> one = np.ones(1)
-    >>> white = colour_layer_thickness(100 * one, 0 * one, one, one, 0 * one, DEFAULT_RULE)
-    >>> round(float(white[0]), 6)
-    1.02
+        In ``[min_mm, max_mm]``.
     """
-    c = rule.colour_layer
-    total = c.lightness_weight + c.neutral_weight + c.transparency_weight
-    score = (
-        c.lightness_weight * np.clip(lightness / 100.0, 0.0, 1.0)
-        + c.neutral_weight * (1.0 - np.clip(chroma / c.full_chroma, 0.0, 1.0))
-        + c.transparency_weight * (1.0 - np.clip(alpha, 0.0, 1.0))
-    ) / total
     o = rule.orientation
     factor = np.array([o.upper_factor, o.side_factor, o.lower_factor])
-    thickness = (c.min_mm + (c.max_mm - c.min_mm) * score) * factor[orientation_class(normal_z, o)]
+    limited = np.asarray(thickness, np.float64) * factor[orientation_class(normal_z, o)]
     cap = rule.curvature.max_depth_per_radius
     if cap > 0:
         convex = mean_curvature > 0
-        thickness[convex] = np.minimum(thickness[convex], cap / mean_curvature[convex])
-    clipped: NDArray[np.float64] = np.clip(thickness, c.min_mm, c.max_mm)
+        limited[convex] = np.minimum(limited[convex], cap / mean_curvature[convex])
+    clipped: NDArray[np.float64] = np.clip(
+        limited, rule.colour_layer.min_mm, rule.colour_layer.max_mm
+    )
     return clipped

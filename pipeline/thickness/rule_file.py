@@ -1,24 +1,29 @@
 """Thickness rules from TOML files (``--thickness-rule FILE``).
 
-Every table and key is optional; missing keys keep :data:`pipeline.thickness.rule.DEFAULT_RULE`'s
-value (what they mean, and why the defaults: :mod:`pipeline.thickness.rule`). A file that
-cannot be read, or holds an unknown table or key, a wrong type or a value out of range, is
-refused with the file, the key and what to write.
+Every key and table is optional; missing keys keep the values of the rule's kind
+(``rule = "optical"``, the default: :data:`pipeline.thickness.rule.DEFAULT_RULE`;
+``rule = "lightness"``: :data:`pipeline.thickness.rule.LIGHTNESS_RULE`; what they mean,
+and why the defaults: :mod:`pipeline.thickness.rule`). A file that cannot be read, or
+holds an unknown table or key, a wrong type or a value out of range, is refused with the
+file, the key and what to write.
 
-TOML layout (every key optional; missing keys keep the default)::
+TOML layout (every key optional; missing keys keep the default of the rule's kind)::
+
+    rule = "optical"  # or "lightness"
 
     [colour_layer]
     min_mm = 0.3
-    max_mm = 1.2
-    lightness_weight = 0.6
+    max_mm = 3.0
+    delta_e = 1.0  # the optical rule: CIEDE2000 within which a colour has settled
+    lightness_weight = 0.6  # the lightness rule's weights
     neutral_weight = 0.2
     transparency_weight = 0.2
     full_chroma = 100.0
 
     [orientation]
     upper_factor = 1.0
-    side_factor = 1.1
-    lower_factor = 1.2
+    side_factor = 1.0
+    lower_factor = 1.0
     upper_min_normal_z = 0.5
     lower_max_normal_z = -0.05
 
@@ -27,7 +32,7 @@ TOML layout (every key optional; missing keys keep the default)::
     radius_mm = 1.0
 
     [smoothing]
-    iterations = 3
+    radius_mm = 1.0  # over this much surface; 0 turns it off
 
     [layers]
     colour = [1]  # which shell layers (1..K) are colour layers
@@ -46,6 +51,8 @@ from typing import Any
 
 from pipeline.errors import InputError
 from pipeline.thickness.rule import (
+    DEFAULT_RULE,
+    LIGHTNESS_RULE,
     ColourLayerRule,
     CurvatureRule,
     LayersRule,
@@ -104,8 +111,23 @@ def load_rule(path: str | Path) -> ThicknessRule:
 def rule_from_dict(document: dict[str, Any], path: str | Path | None = None) -> ThicknessRule:
     """Build a rule from a parsed TOML document (see :func:`load_rule`)."""
     where = path if path is not None else "thickness rule"
+    kind = document.get("rule", "optical")
+    if kind not in ("optical", "lightness"):
+        raise InputError(
+            where, f"rule must be 'optical' or 'lightness', got {kind!r}", 'write rule = "optical"'
+        )
+    base = DEFAULT_RULE if kind == "optical" else LIGHTNESS_RULE
     parts: dict[str, Any] = {}
     for table, values in document.items():
+        if table == "rule":
+            continue
+        if table == "smoothing" and isinstance(values, dict) and "iterations" in values:
+            raise InputError(
+                where,
+                "smoothing.iterations is no longer read: the colour layer is smoothed over a "
+                "surface distance",
+                "write radius_mm = 1.0 in [smoothing] (0 turns the smoothing off)",
+            )
         if table not in _TABLES:
             raise InputError(
                 where,
@@ -114,8 +136,8 @@ def rule_from_dict(document: dict[str, Any], path: str | Path | None = None) -> 
             )
         if not isinstance(values, dict):
             raise InputError(where, f"{table} must be a table, got {values!r}", f"write [{table}]")
-        kind = _TABLES[table]
-        known = {f.name: f for f in dataclasses.fields(kind)}
+        part = _TABLES[table]
+        known = {f.name: f for f in dataclasses.fields(part)}
         converted: dict[str, Any] = {}
         for key, value in values.items():
             if key not in known:
@@ -124,7 +146,7 @@ def rule_from_dict(document: dict[str, Any], path: str | Path | None = None) -> 
                     f"unknown key {table}.{key}",
                     f"use only {', '.join(f'{table}.{name}' for name in known)}",
                 )
-            default = getattr(kind(), key)
+            default = getattr(part(), key)
             if isinstance(default, tuple):
                 if not isinstance(value, list):
                     raise InputError(
@@ -137,7 +159,7 @@ def rule_from_dict(document: dict[str, Any], path: str | Path | None = None) -> 
                 value = float(value) if not isinstance(value, bool) else value
             converted[key] = value
         try:
-            parts[table] = kind(**converted)
+            parts[table] = dataclasses.replace(getattr(base, table), **converted)
         except RuleError as error:
             raise InputError(where, f"{error.key} {error.problem}", error.fix) from None
-    return ThicknessRule(**parts)
+    return dataclasses.replace(base, **parts)

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from pipeline.model.mesh import ColouredMesh
 from pipeline.thickness.face_colour import FaceColour
 from pipeline.thickness.face_thickness import FaceThickness
+from pipeline.thickness.optical_rule import OpticalFaces
 from voxel.colour.surface_colour import SurfaceColour
 
 
@@ -90,10 +91,26 @@ def concatenate_thickness(parts: Sequence[FaceThickness]) -> FaceThickness:
         thickness_mm=np.concatenate([p.thickness_mm for p in parts], axis=1),
         colour_layer_mm=np.concatenate([p.colour_layer_mm for p in parts]),
         unsmoothed_mm=np.concatenate([p.unsmoothed_mm for p in parts]),
+        rule_mm=np.concatenate([p.rule_mm for p in parts]),
         colour=colour,
         normal_z=np.concatenate([p.normal_z for p in parts]),
         orientation=np.concatenate([p.orientation for p in parts]),
         mean_curvature=np.concatenate([p.mean_curvature for p in parts]),
         area_mm2=np.concatenate([p.area_mm2 for p in parts]),
         rule=parts[0].rule,
+        optical=_concatenate_optical(parts),
+    )
+
+
+def _concatenate_optical(parts: Sequence[FaceThickness]) -> OpticalFaces | None:
+    """Return the optical rule's findings of all parts (None unless every part has them)."""
+    found = [p.optical for p in parts if p.optical is not None]
+    if len(found) < len(parts):
+        return None
+    return OpticalFaces(
+        thickness_mm=np.concatenate([f.thickness_mm for f in found]),
+        shares=np.concatenate([f.shares for f in found]),
+        settled=np.concatenate([f.settled for f in found]),
+        deep_lab=np.concatenate([f.deep_lab for f in found]),
+        roles=found[0].roles,
     )

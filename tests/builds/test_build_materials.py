@@ -26,7 +26,7 @@ from pipeline.model.mesh import ColouredMesh
 from pipeline.printer.material_plan import build_material_plan
 from pipeline.printer.profile import load_profile
 from pipeline.thickness.face_thickness import face_thickness
-from pipeline.thickness.rule import DEFAULT_RULE
+from pipeline.thickness.rule import LIGHTNESS_RULE
 
 J750 = load_profile("j750")
 DEFAULT_MODEL = "data/colour_target/colour_target.obj"
@@ -53,8 +53,9 @@ def _read(path):
 
 
 def test_white_colour_layer_is_deeper_than_black_in_the_voxels(tmp_path):
+    # the lightness rule makes white deeper than black; the voxels follow any rule's faces
     mesh = _box(_white_and_black)
-    faces = face_thickness(mesh, DEFAULT_RULE)
+    faces = face_thickness(mesh, LIGHTNESS_RULE)
     thickness = faces.thickness_mm
     config = BuildConfig(
         voxel_mm=(0.04, 0.04, 0.04),

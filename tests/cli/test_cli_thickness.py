@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 import trimesh
+from builders import j750_layer_model
 from matplotlib import colormaps
 from matplotlib.colors import Normalize
 from PIL import Image
@@ -18,13 +19,17 @@ from pipeline.report.thickness_picture import COLOUR_MAP
 from pipeline.thickness.face_thickness import face_thickness
 from pipeline.thickness.rule import DEFAULT_RULE
 
+#: A yellow of transparent colourant settles deep (about 2.2 mm) under the J750's optics;
+#: black settles at once (the 0.3 mm minimum).
+YELLOW = [230, 200, 20, 255]
+
 
 @pytest.fixture
 def two_colour_box(tmp_path):
-    """A 20 mm cube PLY: the top (+z) faces white, every other face black."""
+    """A 20 mm cube PLY: the top (+z) faces yellow, every other face black."""
     box = trimesh.creation.box((20.0, 20.0, 20.0))
     top = box.face_normals[:, 2] > 0.5
-    box.visual.face_colors = np.where(top[:, None], [255, 255, 255, 255], [0, 0, 0, 255])
+    box.visual.face_colors = np.where(top[:, None], YELLOW, [0, 0, 0, 255])
     path = tmp_path / "box.ply"
     box.export(path)
     return path
@@ -38,7 +43,7 @@ def test_thickness_writes_a_readable_picture_ply_and_summary(tmp_path, two_colou
         assert word in table
 
     mesh = load_model(two_colour_box)
-    expected = face_thickness(mesh, DEFAULT_RULE)
+    expected = face_thickness(mesh, DEFAULT_RULE, model=j750_layer_model())
 
     ply = trimesh.load(out / "thickness.ply", process=False)
     assert ply.vertices.dtype == np.float64
@@ -52,10 +57,10 @@ def test_thickness_writes_a_readable_picture_ply_and_summary(tmp_path, two_colou
     summary = json.loads((out / "thickness.json").read_text())
     assert summary["source"] == "default rule"
     assert summary["n_faces"] == 12
-    white_group = summary["colour_layer"]["by_lightness"][-1]
+    yellow_group = summary["colour_layer"]["by_lightness"][-1]
     black_group = summary["colour_layer"]["by_lightness"][0]
-    assert white_group["faces"] == 2 and black_group["faces"] == 10
-    assert white_group["min_mm"] > black_group["max_mm"]
+    assert yellow_group["faces"] == 2 and black_group["faces"] == 10
+    assert yellow_group["min_mm"] > black_group["max_mm"]
 
     picture = Image.open(out / "thickness.png")
     picture.load()
@@ -63,7 +68,7 @@ def test_thickness_writes_a_readable_picture_ply_and_summary(tmp_path, two_colou
     pixels = np.asarray(picture.convert("RGB")).reshape(-1, 3).astype(int)
     layer = DEFAULT_RULE.colour_layer
     norm = Normalize(layer.min_mm, layer.max_mm)
-    # Faces are drawn flat in the colour map's colour of their thickness: the white top's
+    # Faces are drawn flat in the colour map's colour of their thickness: the yellow top's
     # and a black side's colours are in the picture.
     top = int(np.argmax(expected.colour_layer_mm))
     side = int(np.argmin(expected.colour_layer_mm))
@@ -115,9 +120,9 @@ def test_a_bad_rule_file_is_one_line_and_exit_2(tmp_path, two_colour_box, capsys
 
 
 def test_shells_uses_the_default_rule_without_thickness(tmp_path, capsys):
-    """A white cube's colour shell lies deeper than a black cube's, as the rule says."""
+    """A yellow cube's colour shell lies deeper than a black cube's, as the rule says."""
     volumes = {}
-    for name, rgba in (("white", [255, 255, 255, 255]), ("black", [0, 0, 0, 255])):
+    for name, rgba in (("yellow", YELLOW), ("black", [0, 0, 0, 255])):
         box = trimesh.creation.box((20.0, 20.0, 20.0))
         box.visual.face_colors = np.tile(rgba, (12, 1))
         box.export(tmp_path / f"{name}.ply")
@@ -132,15 +137,16 @@ def test_shells_uses_the_default_rule_without_thickness(tmp_path, capsys):
         shell.merge_vertices()
         assert shell.is_watertight
         volumes[name] = shell.volume
-        expected = face_thickness(load_model(tmp_path / f"{name}.ply")).colour_layer_mm
+        mesh = load_model(tmp_path / f"{name}.ply")
+        expected = face_thickness(mesh, model=j750_layer_model()).colour_layer_mm
         layer = report["layers"][0]["depth_mm"]
         assert layer["min"] == pytest.approx(expected.min())
         assert layer["max"] == pytest.approx(expected.max())
         ply = trimesh.load(out / "thickness.ply", process=False)
         face_data = ply.metadata["_ply_raw"]["face"]["data"]
         np.testing.assert_array_equal(face_data["thickness"], expected)
-    # White: 1.02-1.2 mm deep, black: 0.48-0.58 mm; the cube's inner shell is smaller.
-    assert volumes["white"] < (20 - 2 * 1.0) ** 3 < (20 - 2 * 0.6) ** 3 < volumes["black"]
+    # Yellow: about 2.2 mm deep, black: 0.3 mm; the cube's inner shell is smaller.
+    assert volumes["yellow"] < (20 - 2 * 2.0) ** 3 < (20 - 2 * 0.3) ** 3 <= volumes["black"] + 1e-6
 
 
 @pytest.mark.parametrize("option", [["--thickness-rule", "r.toml"], ["--max-edge", "1"]])

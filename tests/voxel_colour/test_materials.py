@@ -11,6 +11,7 @@ from pipeline.config import MaterialSettings
 from pipeline.printer.material_plan import build_material_plan
 from pipeline.printer.profile import load_profile
 from voxel.colour.blue_noise import blue_noise_tile
+from voxel.colour.inversion import DeepColour
 from voxel.colour.materials import MaterialPlan, materials_for_slab
 
 SRGB = colour.RGB_COLOURSPACES["sRGB"]
@@ -171,17 +172,18 @@ def test_uniform_regions_reproduce_proportions_and_colour(profile, halftone, mix
     layers, colours = uniform_slab(rgba)
     materials = materials_for_slab(layers, colours, 0, plan).materials
     indices = plan.column_materials
-    by_index = {m.index: m for m in profile.materials}
+    deep = DeepColour(profile.optics, [i - 1 for i in indices])
     corners = [(5, 9, 13), (24, 17, 2), (11, 24, 20), (16, 16, 16)]
     if halftone == "blue-noise":
         corners.append((0, 0, 0))  # error diffusion starts without error: a transient there
     for corner in corners:
         shares = window_shares(materials, corner, indices)
         np.testing.assert_allclose(shares, target, atol=0.02)
-        # the linear-light average of the voxels' display colours against the target
-        average = shares @ linear([by_index[i].display_srgb for i in indices])
-        delta_e = colour.delta_E(lab(average), lab(linear(code)), method="CIE 2000")
-        assert delta_e < 3.0
+        # the window's mix, deep, under the printer's optics, against the separation's aim
+        # (the model is steep in the strong colourants' shares: within 0.02 of each share
+        # a mix can move by a few units)
+        delta_e = colour.delta_E(deep(shares), deep(target), method="CIE 2000")
+        assert delta_e < 4.0
 
 
 @pytest.mark.parametrize("halftone", ["blue-noise", "error-diffusion"])

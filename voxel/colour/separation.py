@@ -70,7 +70,7 @@ from voxel.colour.material_kernels import proportions_kernel
 from voxel.colour.mixing import mix_proportions
 from voxel.colour.srgb import codes_to_linear
 
-SeparationMethod = Literal["mixing", "icc"]
+SeparationMethod = Literal["mixing", "icc", "kubelka-munk"]
 
 #: Default table step in sRGB codes: 52 nodes per channel (255 = 51 * 5).
 DEFAULT_STEP = 5
@@ -96,7 +96,7 @@ class Separation:
         ``P = len(roles) - has_clear``; rows sum to 1.
     has_clear : bool
         The last column is a clear material that takes ``1 - alpha``.
-    method : {"mixing", "icc"}
+    method : {"mixing", "icc", "kubelka-munk"}
         How the table was made (for the manifest).
     """
 

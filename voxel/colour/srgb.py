@@ -111,6 +111,23 @@ def linear_to_lab(linear: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
     return np.asarray(colour.XYZ_to_Lab(xyz, space.whitepoint), dtype=np.float64)
 
 
+def lab_to_srgb8(lab: NDArray[np.floating[Any]]) -> NDArray[np.uint8]:
+    """Return 8-bit sRGB ``(..., 3) uint8`` of CIELAB (D65) ``(..., 3)``, clipped to sRGB.
+
+    Examples
+    --------
+    >>> lab_to_srgb8(np.array([100.0, 0.0, 0.0])).tolist()
+    [255, 255, 255]
+    """
+    import colour
+
+    space = colour.RGB_COLOURSPACES["sRGB"]
+    xyz = colour.Lab_to_XYZ(np.asarray(lab, dtype=np.float64), space.whitepoint)
+    linear = np.clip(colour.XYZ_to_RGB(xyz, space), 0.0, 1.0)
+    encoded: NDArray[np.uint8] = np.rint(linear_to_srgb(linear) * 255.0).astype(np.uint8)
+    return encoded
+
+
 def srgb_to_lab(srgb: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
     """Return CIELAB ``(..., 3) float64`` of sRGB-encoded ``(..., 3)`` in ``[0, 1]``."""
     return linear_to_lab(srgb_to_linear(srgb))
