@@ -143,9 +143,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--shell-meshes",
         action=argparse.BooleanOptionalAction,
         default=False,
-        help="also write the offset shells to DIR/shells/ (off by default: the robust "
-        "shells of a large model take minutes; the estimate says how long; `shellvox "
-        "shells` makes them alone)",
+        help="also write the offset shells to DIR/shells/ (the robust shells of a large "
+        "model take minutes, as the estimate says; `shellvox shells` makes them alone)",
     )
     parser.add_argument("--method", choices=METHODS, default="robust", help="offset construction")
     parser.add_argument("--alpha", action="store_true", help="write colour.tif as RGBA")
@@ -271,7 +270,7 @@ def run(args: argparse.Namespace) -> int:
         return run_tray(args)
     profile = load_profile(args.printer)
     constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
-    config_from_args(args, profile)  # bad options fail before the model is read
+    settings = config_from_args(args, profile).material  # bad options fail before loading
     running = running_from_args(args)
     out: Path = args.output
     if out.exists() and not out.is_dir():
@@ -279,10 +278,8 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     options = load_options(args)
     mesh = load_model(args.model[0], options)
-    settings = config_from_args(args, profile).material
-    choice = choose_thickness(
-        args, mesh, constant, profile=profile, settings=settings, max_faces=options.max_faces
-    )
+    choice = choose_thickness(args, mesh, constant, profile=profile, settings=settings,
+                              max_faces=options.max_faces)  # fmt: skip
     config = config_from_args(args, profile, choice)
     load_seconds = time.perf_counter() - started
     manifest = build_stack(
