@@ -46,9 +46,10 @@ from voxel.geometry.nearest import SurfaceIndex, nearest_on_surface
 #: CIEDE2000 from the gamut within which a target counts as in gamut.
 IN_GAMUT_DE = 1.0
 
-#: A sample lies inside a colour region when the surface colour at :data:`RING_POINTS`
-#: points this far around it (the report's disc and a margin) is its own colour, within
-#: :data:`UNIFORM_DE` CIEDE2000.
+#: A sample lies inside a colour region when the mean CIELAB of the surface colour at
+#: :data:`RING_POINTS` points this far around it (the report's disc and a margin) is its
+#: own colour within :data:`UNIFORM_DE` CIEDE2000: a smooth gradient averages to its
+#: centre, an edge does not.
 UNIFORM_RADIUS_MM = 0.35
 RING_POINTS = 8
 UNIFORM_DE = 1.0
@@ -161,10 +162,11 @@ class ColourCheck:
 
 
 def uniform_surroundings(mesh: ColouredMesh, samples: SurfaceSamples) -> NDArray[np.bool_]:
-    """Return which samples have their own colour all around them (see the module).
+    """Return which samples lie inside a colour region, not at an edge (see the module).
 
-    The surface colour at :data:`RING_POINTS` points :data:`UNIFORM_RADIUS_MM` around
-    each sample in its tangent plane (at the nearest surface points) against its own.
+    The mean CIELAB of the surface colour at :data:`RING_POINTS` points
+    :data:`UNIFORM_RADIUS_MM` around each sample in its tangent plane (at the nearest
+    surface points) against its own colour.
     """
     if len(samples.points) == 0:
         return np.zeros(0, bool)
@@ -180,6 +182,26 @@ def uniform_surroundings(mesh: ColouredMesh, samples: SurfaceSamples) -> NDArray
     hit = nearest_on_surface(surface, ring.reshape(-1, 3))
     around = mesh.colour_at(hit.face_ids, hit.barycentric).reshape(len(ring), RING_POINTS, 4)
     own = srgb8_to_lab(samples.target_rgba[:, :3])
-    theirs = srgb8_to_lab(around[..., :3])
-    difference = colour.delta_E(theirs, own[:, None], method="CIE 2000")
-    return np.asarray((difference <= UNIFORM_DE).all(axis=1), bool)
+    theirs = srgb8_to_lab(around[..., :3]).mean(axis=1)
+    difference = colour.delta_E(theirs, own, method="CIE 2000")
+    return np.asarray(difference <= UNIFORM_DE, bool)
+
+
+def report_line(report: dict[str, Any] | None) -> str | None:
+    """Return the colour report's line for the user (None without a report)."""
+    if not report or report["ciede2000"]["median"] is None:
+        return None
+    inside, gamut = report["in_gamut"], report["gamut"]
+    reached = (
+        "none" if inside["median"] is None
+        else f"median {inside['median']:.2f}, p95 {inside['p95']:.2f}"
+    )  # fmt: skip
+    edges = report["near_colour_edges"]
+    edge = edges["in_gamut"]["median"]
+    return (
+        f"predicted colour vs target, CIEDE2000 ({report['optics']} optics, "
+        f"{report['samples_seen']:,} surface samples): in gamut, inside colour regions "
+        f"({report['in_gamut_samples']:,}) {reached}; near colour edges "
+        f"({edges['samples']:,}) median {'-' if edge is None else format(edge, '.2f')}; "
+        f"gamut error median {gamut['median']:.2f}, p95 {gamut['p95']:.2f}"
+    )

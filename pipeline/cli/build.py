@@ -14,6 +14,7 @@ from typing import Any, get_args
 import numpy as np
 
 from offset import METHODS
+from pipeline.build.colour_check import report_line
 from pipeline.build.stack import build_stack
 from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.runargs import add_running_arguments, running_from_args
@@ -305,23 +306,9 @@ def _report(out: Path, manifest: dict[str, Any], load_seconds: float) -> None:
     for name, record in manifest["files"].items():
         print(f"  {name}: {record['bytes']:,} bytes")
     print(json.dumps(manifest["voxel_counts"]))
-    report = manifest.get("colour_report")
-    if report and report["ciede2000"]["median"] is not None:
-        inside, gamut = report["in_gamut"], report["gamut"]
-        reached = (
-            "none"
-            if inside["median"] is None
-            else f"median {inside['median']:.2f}, p95 {inside['p95']:.2f}"
-        )
-        edges = report["near_colour_edges"]
-        edge = edges["in_gamut"]["median"]
-        print(
-            f"predicted colour vs target, CIEDE2000 ({report['optics']} optics, "
-            f"{report['samples_seen']:,} surface samples): in gamut, inside colour regions "
-            f"({report['in_gamut_samples']:,}) {reached}; near colour edges "
-            f"({edges['samples']:,}) median {'-' if edge is None else format(edge, '.2f')}; "
-            f"gamut error median {gamut['median']:.2f}, p95 {gamut['p95']:.2f}"
-        )
+    line = report_line(manifest.get("colour_report"))
+    if line is not None:
+        print(line)
     print(f"loaded in {load_seconds:.1f} s, built in {manifest['seconds']['total']:.1f} s")
 
 
