@@ -12,12 +12,11 @@ from pipeline import __version__
 from pipeline.atomic import atomic_path, write_text_atomic
 from pipeline.errors import InputError
 from pipeline.output.outdir import OutputFolder
+from pipeline.output.streams import gcvf_writer
 from pipeline.printer.chart import ChartLayout, chart_json, chart_layout, chart_slab
 from pipeline.printer.chart_preview import chart_preview
 from pipeline.printer.profile import PrinterProfile, load_profile
 from pipeline.printer.profile_toml import profile_text
-from voxel.io.gcvf_job import GcvfJobError
-from voxel.io.gcvf_writer import GcvfWriter
 from voxel.io.png_slices import PngSliceWriter
 
 #: What ``chart`` writes (``chart.json`` last: the folder's complete-run marker).
@@ -71,24 +70,7 @@ def run(args: argparse.Namespace) -> int:
 def _write_job(path: Path, layout: ChartLayout, profile: PrinterProfile) -> Path:
     table = [(m.index, m.name, m.rgba_key) for m in profile.materials[1:]]
     with atomic_path(path) as temporary:
-        try:
-            writer = GcvfWriter(
-                temporary,
-                layout.grid,
-                table,
-                background_rgba=profile.materials[0].rgba_key,
-                dpi=(int(profile.dpi[0]), int(profile.dpi[1])),
-                slice_thickness_nm=profile.slice_thickness_nm,
-                max_materials=profile.max_materials,
-                min_slices=profile.min_slices,
-                tray_mm=profile.tray_mm,
-            )
-        except GcvfJobError as error:
-            raise InputError(
-                f"--printer {profile.name}",
-                f"cannot make the chart's job: {error.problem}",
-                error.fix,
-            ) from None
+        writer = gcvf_writer(temporary, layout.grid, table, profile)
         with writer:
             for z0 in range(0, layout.grid.shape_zyx[0], SLAB_SLICES):  # loop over slabs
                 writer.write_slab(

@@ -10,6 +10,7 @@ succeeded; the writers only serialise.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -109,22 +110,7 @@ class StackOutputs:
 
     def _gcvf(self, profile: PrinterProfile, plan: MaterialPlan) -> GcvfWriter:
         table = _gcvf_table(profile, plan)
-        try:
-            writer = GcvfWriter(
-                self.folder.temporary("job.gcvf"),
-                self.grid,
-                table,
-                background_rgba=profile.materials[0].rgba_key,
-                dpi=(int(profile.dpi[0]), int(profile.dpi[1])),
-                slice_thickness_nm=profile.slice_thickness_nm,
-                max_materials=profile.max_materials,
-                min_slices=profile.min_slices,
-                tray_mm=profile.tray_mm,
-            )
-        except GcvfJobError as error:
-            raise InputError(
-                f"--printer {profile.name}", f"cannot make a .gcvf job: {error.problem}", error.fix
-            ) from None
+        writer = gcvf_writer(self.folder.temporary("job.gcvf"), self.grid, table, profile)
         return self.folder.stack.enter_context(writer)
 
     def write(
@@ -237,3 +223,32 @@ def gcvf_slices(profile: PrinterProfile, plan: MaterialPlan) -> KeySlices | None
     except GcvfJobError:
         return None
     return KeySlices.of(table, background, "max_y", None)
+
+
+def gcvf_writer(
+    path: Path, grid: GridSpec, table: list[tuple[int, str, RGBA]],
+    profile: PrinterProfile,
+) -> GcvfWriter:  # fmt: skip
+    """Return the ``.gcvf`` job writer of `profile` for `grid` at `path`.
+
+    Raises
+    ------
+    InputError
+        The profile's grid, materials or limits make no job (names ``--printer``).
+    """
+    try:
+        return GcvfWriter(
+            path,
+            grid,
+            table,
+            background_rgba=profile.materials[0].rgba_key,
+            dpi=(int(profile.dpi[0]), int(profile.dpi[1])),
+            slice_thickness_nm=profile.slice_thickness_nm,
+            max_materials=profile.max_materials,
+            min_slices=profile.min_slices,
+            tray_mm=profile.tray_mm,
+        )
+    except GcvfJobError as error:
+        raise InputError(
+            f"--printer {profile.name}", f"cannot make a .gcvf job: {error.problem}", error.fix
+        ) from None
