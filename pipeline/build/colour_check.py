@@ -38,8 +38,14 @@ from pipeline.printer.profile import PrinterProfile
 from voxel.colour.depth_effect import depth_effect
 from voxel.colour.kubelka_munk import observer, srgb_to_lab
 from voxel.colour.materials import MaterialPlan
-from voxel.colour.model_report import ModelReport
-from voxel.colour.report import SurfaceSamples, colour_regions, sample_surface, statistics
+from voxel.colour.model_report import ModelReport, summary
+from voxel.colour.report import (
+    SurfaceSamples,
+    colour_regions,
+    sample_surface,
+    statistics,
+    tangent_basis,
+)
 from voxel.colour.srgb import srgb8_to_lab
 from voxel.geometry.nearest import SurfaceIndex, nearest_on_surface
 
@@ -127,21 +133,11 @@ class ColourCheck:
         aim = model.deep_lab(shares)
         white = observer(self.profile.optics.wavelengths_nm).white_xy
         target = srgb_to_lab(samples.target_rgba[:, :3] / 255.0, white)
-        result = report.result(aim, target, in_gamut_de=IN_GAMUT_DE)
-        predicted = report.predicted_lab()
-        regions = colour_regions(samples.target_rgba[:, :3])
-        seen = np.isfinite(predicted).all(1)
-        total, gamut = report.errors(aim, target)
+        errors = report.errors(aim, target)
         interior = uniform_surroundings(self.mesh, samples)
-        inside = seen & (gamut <= IN_GAMUT_DE)
-        result["in_gamut_all"] = result.pop("in_gamut")
-        result["in_gamut_all_samples"] = result.pop("in_gamut_samples")
-        result["in_gamut"] = statistics(total[inside & interior])
-        result["in_gamut_samples"] = int((inside & interior).sum())
-        result["near_colour_edges"] = {
-            "samples": int((seen & ~interior).sum()),
-            "in_gamut": statistics(total[inside & ~interior]),
-        }
+        result = summary(errors, interior, in_gamut_de=IN_GAMUT_DE)
+        regions = colour_regions(samples.target_rgba[:, :3])
+        seen, total, gamut = errors.seen, errors.total, errors.gamut
         per_region = {}
         for name in sorted(set(regions[seen].tolist())):
             chosen = seen & (regions == name)
@@ -172,10 +168,7 @@ def uniform_surroundings(mesh: ColouredMesh, samples: SurfaceSamples) -> NDArray
         return np.zeros(0, bool)
     surface = SurfaceIndex.build(mesh.vertices, mesh.faces)
     angle = 2 * np.pi * np.arange(RING_POINTS) / RING_POINTS
-    helper = np.where(np.abs(samples.normals[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
-    u = np.cross(samples.normals, helper)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    v = np.cross(samples.normals, u)
+    u, v = tangent_basis(samples.normals)
     ring = samples.points[:, None] + UNIFORM_RADIUS_MM * (
         np.cos(angle)[None, :, None] * u[:, None] + np.sin(angle)[None, :, None] * v[:, None]
     )

@@ -218,5 +218,14 @@ def test_default_model_job(tmp_path, capsys):
         assert int(np.count_nonzero(materials == index[name])) == voxels
     report = manifest["colour_report"]
     assert report["samples_seen"] == report["samples"]
+    # the optics the report used, as written: every printed material of materials.tif
+    optics = json.loads((out / "manifest.json").read_text())["optics"]
+    assert optics["assumed"] is True and report["optics"] == "assumed"
+    assert {m["index"]: m["name"] for m in optics["materials"]} == {
+        m.index: m.name for m in J750.materials[1:]
+    }
+    assert set(np.unique(materials).tolist()) - {0} <= {m["index"] for m in optics["materials"]}
+    for m in optics["materials"]:
+        assert len(m["k_per_mm"]) == len(m["s_per_mm"]) == len(optics["wavelengths_nm"])
     assert main(["inspect", str(out)]) == 0
     assert any(p.name.startswith("halftone_z") for p in (out / "preview").iterdir())

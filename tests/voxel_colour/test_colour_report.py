@@ -9,7 +9,7 @@ import trimesh
 
 from pipeline.printer.profile import load_profile
 from voxel.colour.kubelka_munk import observer, r_infinity, reflectance_to_lab, saunderson, stack
-from voxel.colour.model_report import ModelReport
+from voxel.colour.model_report import ModelReport, summary
 from voxel.colour.report import colour_regions, sample_surface
 from voxel.grid import GridSpec
 
@@ -68,10 +68,39 @@ def test_slabs_give_the_same_counts_however_cut():
         cut.add_slab(z, materials[z : z + 7])
     np.testing.assert_array_equal(whole.counts, cut.counts)
     aim = np.tile(_expected(0.3), (len(samples.points), 1))
-    result = cut.result(aim, aim)
+    result = summary(cut.errors(aim, aim))
     assert result["samples_seen"] == len(samples.points)
 
 
 def test_regions_name_lightness_and_hue():
     names = colour_regions(np.array([[250, 250, 250], [20, 20, 20], [220, 30, 30]], np.uint8))
     assert names.tolist() == ["light neutral", "dark neutral", "mid red"]
+
+
+def test_a_sample_is_inside_its_colour_region_unless_near_an_edge():
+    # A cube whose +x face is half red (y < 0) and half blue, its other faces a smooth
+    # grey ramp along z: samples within the ring's reach of the red-blue edge are near an
+    # edge; those farther away, and those on the ramp (it averages to its centre), inside.
+    from pipeline.build.colour_check import UNIFORM_RADIUS_MM, uniform_surroundings
+    from pipeline.model.mesh import ColouredMesh
+
+    box = trimesh.creation.box((10.0, 10.0, 10.0)).subdivide().subdivide().subdivide()
+    centre = box.triangles_center
+    plus_x = box.face_normals[:, 0] > 0.5
+    corner_z = box.vertices[box.faces][..., 2]  # (F, 3): a smooth ramp between corners
+    grey = np.rint(120 + 10 * corner_z).astype(np.uint8)
+    rgba = np.stack([grey, grey, grey, np.full_like(grey, 255)], axis=-1)
+    rgba[plus_x & (centre[:, 1] < 0)] = (220, 30, 30, 255)
+    rgba[plus_x & (centre[:, 1] >= 0)] = (30, 30, 220, 255)
+    mesh = ColouredMesh(box.vertices, box.faces.astype(np.int64), "vertex", corner_rgba=rgba)
+    samples = sample_surface(mesh.vertices, mesh.faces, mesh.colour_at, 3000, seed=1)
+    inside = uniform_surroundings(mesh, samples)
+    on_x = samples.normals[:, 0] > 0.5
+    y, z = samples.points[:, 1], samples.points[:, 2]
+    away = np.minimum(5 - np.abs(y), 5 - np.abs(z))  # from the face's border
+    assert not inside[on_x & (np.abs(y) < UNIFORM_RADIUS_MM - 0.1) & (away > 0.5)].any()
+    assert inside[on_x & (np.abs(y) > UNIFORM_RADIUS_MM + 0.1) & (away > 0.5)].all()
+    ramp = (
+        (np.abs(samples.normals[:, 1]) > 0.5) & (np.abs(z) < 4) & (np.abs(samples.points[:, 0]) < 4)
+    )
+    assert inside[ramp].all()

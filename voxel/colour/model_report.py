@@ -19,7 +19,7 @@ and depth), reported for in-gamut targets apart.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import colour
 import numpy as np
@@ -129,25 +129,8 @@ class ModelReport:
         lab[~has.any(1)] = np.nan
         return lab
 
-    def errors(
-        self, aimed_lab: ArrayLike, target_lab: ArrayLike
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Return CIEDE2000 ``(N,)`` of prediction and of aim against the target.
-
-        The first is NaN where no material voxel was seen; the second is the gamut error.
-        """
-        aimed, target = np.asarray(aimed_lab, np.float64), np.asarray(target_lab, np.float64)
-        predicted = self.predicted_lab()
-        seen = np.isfinite(predicted).all(1)
-        total = np.full(len(aimed), np.nan)
-        total[seen] = colour.delta_E(predicted[seen], target[seen], method="CIE 2000")
-        gamut = np.asarray(colour.delta_E(aimed, target, method="CIE 2000"), np.float64)
-        return total, gamut
-
-    def result(
-        self, aimed_lab: ArrayLike, target_lab: ArrayLike, *, in_gamut_de: float = 1.0
-    ) -> dict[str, Any]:
-        """Return CIEDE2000 statistics with the errors apart (see the module).
+    def errors(self, aimed_lab: ArrayLike, target_lab: ArrayLike) -> ColumnErrors:
+        """Return each sample's CIEDE2000 errors, apart (the prediction made once).
 
         Parameters
         ----------
@@ -155,24 +138,67 @@ class ModelReport:
             The colour the separation aims at for each sample (its mix, deep).
         target_lab : (N, 3) float
             The target colour of each sample.
-        in_gamut_de : float
-            Targets whose gamut error is at most this count as in gamut.
         """
-        aimed = np.asarray(aimed_lab, np.float64)
+        aimed, target = np.asarray(aimed_lab, np.float64), np.asarray(target_lab, np.float64)
         predicted = self.predicted_lab()
         seen = np.isfinite(predicted).all(1)
-        total, gamut = self.errors(aimed_lab, target_lab)
-        reproduction = np.asarray(
-            colour.delta_E(predicted[seen], aimed[seen], method="CIE 2000"), np.float64
-        )
-        inside = seen & (gamut <= in_gamut_de)
-        return {
-            "model": "kubelka-munk voxel columns",
-            "samples": len(aimed),
-            "samples_seen": int(seen.sum()),
-            "in_gamut_samples": int(inside.sum()),
-            "gamut": statistics(gamut),
-            "reproduction": statistics(reproduction),
-            "in_gamut": statistics(total[inside]),
-            "ciede2000": statistics(total[seen]),
-        }
+        total = np.full(len(aimed), np.nan)
+        reproduction = np.full(len(aimed), np.nan)
+        total[seen] = colour.delta_E(predicted[seen], target[seen], method="CIE 2000")
+        reproduction[seen] = colour.delta_E(predicted[seen], aimed[seen], method="CIE 2000")
+        gamut = np.asarray(colour.delta_E(aimed, target, method="CIE 2000"), np.float64)
+        return ColumnErrors(seen, total, gamut, reproduction)
+
+
+class ColumnErrors(NamedTuple):
+    """CIEDE2000 errors of the samples, apart (see the module).
+
+    Attributes
+    ----------
+    seen : (N,) bool
+        A material voxel was read under the sample.
+    total : (N,) float64
+        Prediction against target (NaN where not seen).
+    gamut : (N,) float64
+        The separation's aim against the target.
+    reproduction : (N,) float64
+        Prediction against the aim (NaN where not seen).
+    """
+
+    seen: NDArray[np.bool_]
+    total: NDArray[np.float64]
+    gamut: NDArray[np.float64]
+    reproduction: NDArray[np.float64]
+
+
+def summary(
+    errors: ColumnErrors,
+    interior: NDArray[np.bool_] | None = None,
+    *,
+    in_gamut_de: float = 1.0,
+) -> dict[str, Any]:
+    """Return the errors' statistics, JSON-ready.
+
+    ``in_gamut`` is over the seen samples within `in_gamut_de` of the gamut that lie in
+    the `interior` of a colour region (all of them when None); ``in_gamut_all`` includes
+    the others, also given apart as ``near_colour_edges``.
+    """
+    seen, total = errors.seen, errors.total
+    inner = np.ones(len(seen), bool) if interior is None else np.asarray(interior, bool)
+    inside = seen & (errors.gamut <= in_gamut_de)
+    return {
+        "model": "kubelka-munk voxel columns",
+        "samples": len(seen),
+        "samples_seen": int(seen.sum()),
+        "gamut": statistics(errors.gamut),
+        "reproduction": statistics(errors.reproduction[seen]),
+        "ciede2000": statistics(total[seen]),
+        "in_gamut_all_samples": int(inside.sum()),
+        "in_gamut_all": statistics(total[inside]),
+        "in_gamut_samples": int((inside & inner).sum()),
+        "in_gamut": statistics(total[inside & inner]),
+        "near_colour_edges": {
+            "samples": int((seen & ~inner).sum()),
+            "in_gamut": statistics(total[inside & ~inner]),
+        },
+    }

@@ -1,8 +1,8 @@
 """Surface samples for the colour report, and what its parts share.
 
 :func:`sample_surface` draws points uniformly by area with their target colours;
-:func:`tangent_disc` spreads rays around each point in its tangent plane (light spreads
-sideways about as far as it goes down); :func:`colour_regions` names the target colours'
+:func:`tangent_lattice` spreads rays around each point in its tangent plane (light
+spreads sideways about as far as it goes down); :func:`colour_regions` names the target colours'
 regions (CIELAB lightness and hue bins) and :func:`statistics` condenses CIEDE2000
 values for the manifest. The prediction from the voxels is
 :class:`voxel.colour.model_report.ModelReport`.
@@ -88,23 +88,14 @@ def sample_surface(
     return SurfaceSamples(points, normals, face_ids.astype(np.int64), rgba)
 
 
-def tangent_disc(normals: NDArray[np.float64], radius: float, count: int) -> NDArray[np.float64]:
-    """Return offsets ``(N, count, 3)`` on a disc of `radius` in each point's tangent plane.
-
-    A golden-angle spiral (even density); one point is the centre when ``count == 1``.
-    """
+def tangent_basis(
+    normals: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Return two unit vectors ``(N, 3)`` spanning the tangent plane of each unit normal."""
     helper = np.where(np.abs(normals[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
     u = np.cross(normals, helper)
     u /= np.linalg.norm(u, axis=1, keepdims=True)
-    v = np.cross(normals, u)
-    i = np.arange(count)
-    r = radius * np.sqrt((i + 0.5) / count) if count > 1 else np.zeros(1)
-    theta = i * np.pi * (3.0 - np.sqrt(5.0))
-    a, b = r * np.cos(theta), r * np.sin(theta)
-    offsets: NDArray[np.float64] = (
-        a[None, :, None] * u[:, None, :] + b[None, :, None] * v[:, None, :]
-    )
-    return offsets
+    return u, np.cross(normals, u)
 
 
 def tangent_lattice(
@@ -116,17 +107,12 @@ def tangent_lattice(
     included), in the tangent plane of each unit normal.
     """
     reach = int(np.floor(radius / spacing))
-    a, b = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1))
-    inside = a**2 + b**2 <= (radius / spacing) ** 2
-    a, b = a[inside] * spacing, b[inside] * spacing
-    helper = np.where(np.abs(normals[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    u = np.cross(normals, helper)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    v = np.cross(normals, u)
-    offsets: NDArray[np.float64] = (
-        a[None, :, None] * u[:, None, :] + b[None, :, None] * v[:, None, :]
-    )
-    return offsets
+    i, j = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1))
+    inside = i**2 + j**2 <= (radius / spacing) ** 2
+    a, b = i[inside] * spacing, j[inside] * spacing
+    u, v = tangent_basis(normals)
+    offsets = a[None, :, None] * u[:, None, :] + b[None, :, None] * v[:, None, :]
+    return np.asarray(offsets, np.float64)
 
 
 def colour_regions(srgb: NDArray[np.uint8]) -> NDArray[np.str_]:
