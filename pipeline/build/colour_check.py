@@ -36,7 +36,7 @@ from pipeline.model.mesh import ColouredMesh
 from pipeline.printer.material_plan import layer_model
 from pipeline.printer.profile import PrinterProfile
 from voxel.colour.depth_effect import depth_effect
-from voxel.colour.kubelka_munk import observer, srgb_to_lab
+from voxel.colour.kubelka_munk import observer, srgb_to_lab_d50
 from voxel.colour.materials import MaterialPlan
 from voxel.colour.model_report import ModelReport, summary
 from voxel.colour.report import (
@@ -132,7 +132,7 @@ class ColourCheck:
         shares = model.shares(samples.target_rgba)
         aim = model.deep_lab(shares)
         white = observer(self.profile.optics.wavelengths_nm).white_xy
-        target = srgb_to_lab(samples.target_rgba[:, :3] / 255.0, white)
+        target = srgb_to_lab_d50(samples.target_rgba[:, :3] / 255.0, white)
         errors = report.errors(aim, target)
         interior = uniform_surroundings(self.mesh, samples)
         result = summary(errors, interior, in_gamut_de=IN_GAMUT_DE)

@@ -1,6 +1,6 @@
 """Separation by inverting the two-flux model: the mix whose deep layer shows the target.
 
-For a target colour (CIELAB under D50, from sRGB by :func:`kubelka_munk.srgb_to_lab`),
+For a target colour (CIELAB under D50, from sRGB by :func:`kubelka_munk.srgb_to_lab_d50`),
 the proportions ``p`` of the opaque materials (non-negative, summing to 1) are those
 whose mixture, infinitely deep and under the resin surface, is closest to it in
 CIEDE2000:

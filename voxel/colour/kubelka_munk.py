@@ -277,7 +277,7 @@ def reflectance_to_lab(reflectance: ArrayLike, seen: Observer) -> NDArray[np.flo
     return np.asarray(colour.XYZ_to_Lab(xyz, seen.white_xy), np.float64)
 
 
-def srgb_to_lab(rgb: ArrayLike, white_xy: ArrayLike | None = None) -> NDArray[np.float64]:
+def srgb_to_lab_d50(rgb: ArrayLike, white_xy: ArrayLike | None = None) -> NDArray[np.float64]:
     """CIELAB (D50 white) of sRGB colours ``(..., 3)`` in ``[0, 1]``.
 
     sRGB (D65) to XYZ, Bradford to D50 (or `white_xy`), CIELAB.

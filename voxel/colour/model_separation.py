@@ -1,7 +1,8 @@
 """The separation table from the two-flux model: each node's mix whose deep layer shows it.
 
 At every node of the sRGB table (:func:`voxel.colour.separation.node_codes`) the target
-is converted to CIELAB under the model's D50 white (:func:`voxel.colour.kubelka_munk.srgb_to_lab`:
+is converted to CIELAB under the model's D50 white
+(:func:`voxel.colour.kubelka_munk.srgb_to_lab_d50`:
 sRGB (D65) to XYZ, Bradford to D50) and the opaque materials' shares are those whose
 mixture, infinitely deep, is closest to it in CIEDE2000, with the least-grain tie-break
 (:func:`voxel.colour.inversion.invert`). Targets outside the printable colours are
@@ -22,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from voxel.colour.inversion import DeepColour, invert
-from voxel.colour.kubelka_munk import observer, srgb_to_lab
+from voxel.colour.kubelka_munk import observer, srgb_to_lab_d50
 from voxel.colour.optics import Optics
 from voxel.colour.separation import (
     DEFAULT_STEP,
@@ -110,7 +111,7 @@ def solve_model_table(optics: Optics, rows: tuple[int, ...], step: int) -> NDArr
     grid = np.stack(np.meshgrid(codes, codes, codes, indexing="ij"), axis=-1).reshape(-1, 3)
     deep = DeepColour(optics, rows)
     white = observer(optics.wavelengths_nm).white_xy
-    found = invert(deep, srgb_to_lab(grid / 255.0, white))
+    found = invert(deep, srgb_to_lab_d50(grid / 255.0, white))
     n = len(codes)
     table = found.proportions.astype(np.float32).reshape(n, n, n, len(rows))
     table.setflags(write=False)
