@@ -30,6 +30,7 @@ and chunks, never over faces.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -194,12 +195,37 @@ def texture_sides(
     return side
 
 
-def _texture_colour(mesh: ColouredMesh, samples_per_texel: float, max_side: int) -> FaceColour:
+def face_samples(
+    mesh: ColouredMesh, *, samples_per_texel: float = 1.0, max_side: int = 32
+) -> Iterator[tuple[NDArray[np.int64], NDArray[np.uint8]]]:
+    """Yield the colour samples of every face, in chunks (see the module for which).
+
+    Parameters
+    ----------
+    mesh : ColouredMesh
+        Any colour source.
+    samples_per_texel, max_side : see :func:`face_colour`.
+
+    Yields
+    ------
+    faces : (C,) int64
+        The chunk's faces; every face is in exactly one chunk.
+    rgba : (C, S, 4) uint8
+        Their ``S`` samples each (``S`` is the same within a chunk).
+    """
+    if mesh.colour_kind == "vertex":
+        assert mesh.corner_rgba is not None
+        yield np.arange(mesh.n_faces, dtype=np.int64), np.asarray(mesh.corner_rgba, np.uint8)
+        return
+    if mesh.colour_kind != "texture":
+        if mesh.colour_kind == "face":
+            assert mesh.face_rgba is not None
+            rgba = np.asarray(mesh.face_rgba, np.uint8)
+        else:
+            rgba = np.broadcast_to(np.asarray(mesh.default_rgba, np.uint8), (mesh.n_faces, 4))
+        yield np.arange(mesh.n_faces, dtype=np.int64), rgba[:, None, :]
+        return
     side = texture_sides(mesh, samples_per_texel=samples_per_texel, max_side=max_side)
-    n_faces = mesh.n_faces
-    lab = np.empty((n_faces, 3), dtype=np.float64)
-    alpha = np.empty(n_faces, dtype=np.float64)
-    spread = np.empty(n_faces, dtype=np.float64)
     for m in np.unique(side):  # loop over sample-count classes, not faces
         pattern = stratified_barycentric(int(m))
         faces = np.flatnonzero(side == m)
@@ -209,9 +235,20 @@ def _texture_colour(mesh: ColouredMesh, samples_per_texel: float, max_side: int)
             rgba = mesh.colour_at(
                 np.repeat(chunk, len(pattern)), np.tile(pattern, (len(chunk), 1))
             ).reshape(len(chunk), len(pattern), 4)
-            part = _statistics(rgba)
-            lab[chunk], alpha[chunk], spread[chunk] = part.lab, part.alpha, part.spread_de00
-    return FaceColour(lab=lab, alpha=alpha, spread_de00=spread, n_samples=side * side)
+            yield chunk, rgba
+
+
+def _texture_colour(mesh: ColouredMesh, samples_per_texel: float, max_side: int) -> FaceColour:
+    n_faces = mesh.n_faces
+    lab = np.empty((n_faces, 3), dtype=np.float64)
+    alpha = np.empty(n_faces, dtype=np.float64)
+    spread = np.empty(n_faces, dtype=np.float64)
+    count = np.empty(n_faces, dtype=np.int64)
+    for chunk, rgba in face_samples(mesh, samples_per_texel=samples_per_texel, max_side=max_side):
+        part = _statistics(rgba)
+        lab[chunk], alpha[chunk], spread[chunk] = part.lab, part.alpha, part.spread_de00
+        count[chunk] = rgba.shape[1]
+    return FaceColour(lab=lab, alpha=alpha, spread_de00=spread, n_samples=count)
 
 
 def _statistics(rgba: NDArray[np.uint8]) -> FaceColour:

@@ -25,7 +25,7 @@ from scipy.sparse import linalg as sparse_linalg
 from offset.adjacency import bend_angles, edge_adjacency, face_normals
 from pipeline.config import as_json
 from pipeline.model.mesh import ColouredMesh
-from pipeline.thickness.face_colour import FaceColour, face_colour
+from pipeline.thickness.face_colour import FaceColour, face_colour, face_samples
 from pipeline.thickness.lightness_rule import lightness_thickness
 from pipeline.thickness.optical_rule import OpticalFaces, optical_thickness
 from pipeline.thickness.rule import (
@@ -138,7 +138,7 @@ def face_thickness(
     if rule.rule == "optical":
         if model is None:
             raise ValueError("the optical rule needs the printer's LayerModel (model=...)")
-        optical = optical_thickness(colour, model, rule)
+        optical = optical_thickness(colour, model, rule, face_samples(mesh))
         own = optical.thickness_mm
     else:
         own = lightness_thickness(colour.lightness, colour.chroma, colour.alpha, rule)
@@ -282,6 +282,10 @@ def thickness_summary(thickness: FaceThickness) -> dict[str, Any]:
         optical = {
             "delta_e": t.rule.colour_layer.delta_e,
             "settling_mm": _stats(t.optical.thickness_mm, area),
+            "robust_colour_settling_mm": _stats(t.optical.robust_mm, area),
+            "deepened_by_samples_faces": int(
+                np.count_nonzero(t.optical.thickness_mm > t.optical.robust_mm)
+            ),
             "not_settled_faces": int(np.count_nonzero(~settled)),
             "not_settled_area_mm2": float(area[~settled].sum()),
         }

@@ -10,11 +10,18 @@ same mix infinitely deep. The face's colour layer is its *settling depth*: the l
 diluted with clear material, which hardly scatters) is flagged as not settled and gets
 ``max_mm``. The common limits and the smoothing of :mod:`pipeline.thickness.rule` follow.
 
-Faces of equal colour are settled once.
+A face's depth serves all of it: it is the deepest settling depth among the face's
+colour samples (:func:`pipeline.thickness.face_colour.face_samples`: the texels a
+textured face covers, a vertex-coloured face's corners), so a texture detail that needs
+more depth than the face's robust colour (a yellow line on a grey face) gets it. The
+robust colour's own mix and depth are kept beside it, to show why.
+
+Equal colours are settled once.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import NamedTuple
 
 import numpy as np
@@ -22,7 +29,7 @@ from numpy.typing import NDArray
 
 from pipeline.thickness.face_colour import FaceColour
 from pipeline.thickness.rule import ThicknessRule
-from voxel.colour.settling import LayerModel
+from voxel.colour.settling import LayerModel, Settling
 from voxel.colour.srgb import lab_to_srgb8
 
 
@@ -32,15 +39,21 @@ class OpticalFaces(NamedTuple):
     Attributes
     ----------
     thickness_mm : (F,) float64, mm
-        Settling depth (``max_mm`` where not settled), before the common limits.
+        The deepest settling depth among the face's colour samples (``max_mm`` where one
+        does not settle), before the common limits.
     shares : (F, P) float64
-        The separation's shares of the face's colour (columns as the separation's roles).
+        The separation's shares of the face's robust colour (columns as the separation's
+        roles).
     settled : (F,) bool
-        The colour settles within ``max_mm``.
+        Every colour sample of the face settles within ``max_mm``.
     deep_lab : (F, 3) float64
-        CIELAB (D50) of the face's mix infinitely deep.
+        CIELAB (D50) of the robust colour's mix infinitely deep.
     roles : tuple of str
         Role of each column of ``shares``.
+    robust_mm : (F,) float64, mm
+        Settling depth of the robust colour alone (``<= thickness_mm``).
+    deepest_rgba : (F, 4) uint8
+        The colour sample (sRGB + alpha) that needs ``thickness_mm``.
     """
 
     thickness_mm: NDArray[np.float64]
@@ -48,6 +61,8 @@ class OpticalFaces(NamedTuple):
     settled: NDArray[np.bool_]
     deep_lab: NDArray[np.float64]
     roles: tuple[str, ...]
+    robust_mm: NDArray[np.float64]
+    deepest_rgba: NDArray[np.uint8]
 
 
 def face_rgba(colour: FaceColour) -> NDArray[np.uint8]:
@@ -58,7 +73,12 @@ def face_rgba(colour: FaceColour) -> NDArray[np.uint8]:
     return rgba
 
 
-def optical_thickness(colour: FaceColour, model: LayerModel, rule: ThicknessRule) -> OpticalFaces:
+def optical_thickness(
+    colour: FaceColour,
+    model: LayerModel,
+    rule: ThicknessRule,
+    samples: Iterable[tuple[NDArray[np.int64], NDArray[np.uint8]]] | None = None,
+) -> OpticalFaces:
     """Return each face's settling depth and mix (see the module).
 
     Parameters
@@ -69,17 +89,73 @@ def optical_thickness(colour: FaceColour, model: LayerModel, rule: ThicknessRule
         The printer's optics, separation and what lies beneath the colour layer.
     rule : ThicknessRule
         ``colour_layer.delta_e`` and ``colour_layer.max_mm``.
+    samples : iterable of (faces (C,) int64, rgba (C, S, 4) uint8), optional
+        Every face's colour samples (:func:`~pipeline.thickness.face_colour.face_samples`);
+        without them each face's depth is its robust colour's.
     """
     rgba = face_rgba(colour)
-    distinct, inverse = np.unique(rgba, axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    shares = model.shares(distinct)
-    layer = rule.colour_layer
-    found = model.settle(shares, delta_e=layer.delta_e, max_mm=layer.max_mm)
+    settle = _Settler(model, rule)
+    shares, robust = settle.robust(rgba)
+    depth, settled, deepest = robust.depth_mm, robust.settled, rgba
+    if samples is not None:
+        depth, settled, deepest = depth.copy(), settled.copy(), rgba.copy()
+        for faces, chunk in samples:  # loop over chunks of faces, not faces
+            need, ok = settle.samples(chunk.reshape(-1, 4))
+            need, ok = need.reshape(chunk.shape[:2]), ok.reshape(chunk.shape[:2])
+            pick = np.argmax(need, axis=1)
+            rows = np.arange(len(faces))
+            deeper = need[rows, pick] > depth[faces]
+            depth[faces[deeper]] = need[rows, pick][deeper]
+            deepest[faces[deeper]] = chunk[rows, pick][deeper]
+            settled[faces] &= ok.all(axis=1)
     return OpticalFaces(
-        found.depth_mm[inverse],
-        shares[inverse],
-        found.settled[inverse],
-        found.deep_lab[inverse],
-        model.separation.roles,
+        depth, shares, settled, robust.deep_lab, model.separation.roles, robust.depth_mm, deepest
     )
+
+
+class _Settler:
+    """Settling depths of sRGBA colours, each distinct colour settled once."""
+
+    def __init__(self, model: LayerModel, rule: ThicknessRule) -> None:
+        self.model, self.layer = model, rule.colour_layer
+        self.keys = np.zeros(0, np.uint32)  # packed RGBA, sorted
+        self.depth = np.zeros(0, np.float64)
+        self.settled = np.zeros(0, bool)
+
+    def _settle(self, shares: NDArray[np.float64]) -> Settling:
+        return self.model.settle(shares, delta_e=self.layer.delta_e, max_mm=self.layer.max_mm)
+
+    def robust(self, rgba: NDArray[np.uint8]) -> tuple[NDArray[np.float64], Settling]:
+        """Shares ``(F, P)`` and settling of colours ``(F, 4) uint8`` (remembered)."""
+        distinct, inverse = np.unique(rgba, axis=0, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        shares = self.model.shares(distinct)
+        found = self._settle(shares)
+        self._remember(_packed(distinct), found)
+        return shares[inverse], Settling(
+            found.depth_mm[inverse], found.settled[inverse], found.deep_lab[inverse]
+        )
+
+    def samples(self, rgba: NDArray[np.uint8]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """Settling depth ``(N,)`` mm and whether settled ``(N,)`` of colours ``(N, 4)``."""
+        keys = _packed(rgba)
+        distinct, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        new = ~np.isin(distinct, self.keys)
+        if new.any():
+            found = self._settle(self.model.shares(rgba[first[new]]))
+            self._remember(distinct[new], found)
+        at = np.searchsorted(self.keys, distinct)
+        return self.depth[at][inverse], self.settled[at][inverse]
+
+    def _remember(self, keys: NDArray[np.uint32], found: Settling) -> None:
+        keys = np.concatenate([self.keys, keys])
+        order = np.argsort(keys, kind="stable")
+        self.keys = keys[order]
+        self.depth = np.concatenate([self.depth, found.depth_mm])[order]
+        self.settled = np.concatenate([self.settled, found.settled])[order]
+
+
+def _packed(rgba: NDArray[np.uint8]) -> NDArray[np.uint32]:
+    """``(N, 4) uint8`` colours as one ``uint32`` each (R most significant)."""
+    packed = np.ascontiguousarray(rgba, np.uint8).view(">u4").reshape(-1)
+    return packed.astype(np.uint32)

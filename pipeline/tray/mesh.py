@@ -113,4 +113,6 @@ def _concatenate_optical(parts: Sequence[FaceThickness]) -> OpticalFaces | None:
         settled=np.concatenate([f.settled for f in found]),
         deep_lab=np.concatenate([f.deep_lab for f in found]),
         roles=found[0].roles,
+        robust_mm=np.concatenate([f.robust_mm for f in found]),
+        deepest_rgba=np.concatenate([f.deepest_rgba for f in found]),
     )

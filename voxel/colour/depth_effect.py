@@ -11,6 +11,10 @@ Two questions, both answered per share of the surface:
 - **Volume for 95 % coverage**: one constant depth must reach the 95th percentile of the
   settling depths; per-face depths need only each sample's own settling depth (capped at
   that percentile). Their ratio is the volume a constant layer wastes.
+- **Volume for the same coverage**: the constant depth that covers the share the build's
+  depths cover (that percentile of the settling depths) against the build's mean depth:
+  where 95 % cannot settle within ``max_mm`` (colours diluted with clear, weakly
+  scattering mixes), the comparison at the coverage reached.
 """
 
 from __future__ import annotations
@@ -51,7 +55,10 @@ def depth_effect(
     dict
         ``mean_depth_mm``; ``covered_share`` of ``adaptive`` and ``constant``;
         ``for_95_percent``: ``constant_mm``, ``adaptive_mean_mm`` and
-        ``constant_over_adaptive`` (None where 95 % do not settle within ``max_mm``).
+        ``constant_over_adaptive`` (None where 95 % do not settle within ``max_mm``);
+        ``for_same_coverage``: ``covered_share``, ``constant_mm``, ``adaptive_mean_mm`` and
+        ``constant_over_adaptive`` (None where that share does not settle within
+        ``max_mm``).
     """
     depth = np.asarray(depth_mm, np.float64)
     mean = float(depth.mean())
@@ -74,6 +81,17 @@ def depth_effect(
             "adaptive_mean_mm": round(adaptive_mean, 6),
             "constant_over_adaptive": round(q95 / adaptive_mean, 6) if adaptive_mean > 0 else None,
         }
+    covered = float(adaptive.mean())
+    reach = float(np.quantile(needed, covered, method="inverted_cdf")) if covered > 0 else 0.0
+    same: dict[str, float | None] = {
+        "covered_share": round(covered, 6),
+        "constant_mm": None,
+        "adaptive_mean_mm": round(mean, 6),
+        "constant_over_adaptive": None,
+    }
+    if reach <= max_mm:
+        same["constant_mm"] = round(reach, 6)
+        same["constant_over_adaptive"] = round(reach / mean, 6) if mean > 0 else None
     return {
         "delta_e": delta_e,
         "mean_depth_mm": round(mean, 6),
@@ -81,4 +99,5 @@ def depth_effect(
         "constant": {"covered_share": round(float(constant.mean()), 6)},
         "not_settled_share": round(float((~settling.settled).mean()), 6),
         "for_95_percent": for_95,
+        "for_same_coverage": same,
     }
