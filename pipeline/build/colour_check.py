@@ -10,10 +10,11 @@ optics over each voxel column) and reports CIEDE2000 with the errors apart:
 - ``reproduction``: that aim against the prediction from the voxels (halftone, voxels,
   depth);
 - ``in_gamut``: the target against the prediction, for targets within 1 of the gamut
-  whose colour is the same all around them (:data:`UNIFORM_RADIUS_MM`: the colour
-  regions' interiors, what a measured patch is); ``in_gamut_all`` with the samples near a
-  colour edge too, whose columns see the neighbouring colour (light spreads sideways, so
-  no print keeps an edge sharper than that: a resolution limit, given apart);
+  whose colour is the same all around them, as far as their light spreads and
+  :data:`UNIFORM_MARGIN_MM` beyond (the colour regions' interiors, what a measured
+  patch is); ``in_gamut_all`` with the samples near a colour edge too, whose columns see
+  the neighbouring colour (light spreads sideways, so no print keeps an edge sharper
+  than that: a resolution limit, given apart);
   ``ciede2000`` for all samples.
 
 and what the colour layer's per-face depth buys against one constant depth
@@ -24,7 +25,7 @@ optics, assumed or measured, as the report says.
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from typing import Any, NamedTuple
 
 import colour
 import numpy as np
@@ -38,7 +39,7 @@ from pipeline.printer.profile import PrinterProfile
 from voxel.colour.depth_effect import depth_effect
 from voxel.colour.kubelka_munk import observer, srgb_to_lab_d50
 from voxel.colour.materials import MaterialPlan
-from voxel.colour.model_report import ModelReport, summary
+from voxel.colour.model_report import ModelReport, lateral_reach, summary
 from voxel.colour.report import (
     SurfaceSamples,
     colour_regions,
@@ -46,6 +47,7 @@ from voxel.colour.report import (
     statistics,
     tangent_basis,
 )
+from voxel.colour.settling import LayerModel
 from voxel.colour.srgb import srgb8_to_lab
 from voxel.geometry.nearest import SurfaceIndex, nearest_on_surface
 
@@ -53,12 +55,22 @@ from voxel.geometry.nearest import SurfaceIndex, nearest_on_surface
 IN_GAMUT_DE = 1.0
 
 #: A sample lies inside a colour region when the mean CIELAB of the surface colour at
-#: :data:`RING_POINTS` points this far around it (the report's disc and a margin) is its
-#: own colour within :data:`UNIFORM_DE` CIEDE2000: a smooth gradient averages to its
-#: centre, an edge does not.
-UNIFORM_RADIUS_MM = 0.35
-RING_POINTS = 8
+#: :data:`RING_POINTS` points around it, its lateral reach (the report's disc) and this
+#: margin away, is its own colour within :data:`UNIFORM_DE` CIEDE2000 (a smooth gradient
+#: averages to its centre) and no point is farther than :data:`EDGE_DE` from it (a sample
+#: on an edge, whose own colour is the blend of the two sides, averages to itself too).
+UNIFORM_MARGIN_MM = 0.1
+RING_POINTS = 12
 UNIFORM_DE = 1.0
+EDGE_DE = 5.0
+
+
+class _Columns(NamedTuple):
+    samples: SurfaceSamples
+    report: ModelReport
+    model: LayerModel
+    shares: NDArray[np.float64]
+    reach: NDArray[np.float64]
 
 
 class ColourCheck:
@@ -98,31 +110,11 @@ class ColourCheck:
         self._report = pool.submit(self._make_report)
         pool.shutdown(wait=False)
 
-    def _make_report(self) -> tuple[SurfaceSamples, ModelReport]:
+    def _make_report(self) -> _Columns:
         mesh, config = self.mesh, self.config
         samples = sample_surface(
             mesh.vertices, mesh.faces, mesh.colour_at, config.report_samples, seed=0
         )
-        report = ModelReport(samples.points, samples.normals, self.plan.grid, self.profile.optics)
-        return samples, report
-
-    @property
-    def samples(self) -> SurfaceSamples:
-        """The surface samples (waits for them)."""
-        return self._report.result()[0]
-
-    @property
-    def report(self) -> ModelReport:
-        """The accumulator (waits for it to be made)."""
-        return self._report.result()[1]
-
-    def add_slab(self, z_start: int, materials: NDArray[np.uint8]) -> None:
-        """Take the material indices ``(Zs, Y, X) uint8`` of rows ``z_start..``."""
-        self.report.add_slab(z_start, materials)
-
-    def result(self) -> dict[str, Any]:
-        """Return the report: errors apart, per region, and what per-face depth buys."""
-        samples, report = self.samples, self.report
         backing = [
             float(np.median(row))
             for k, row in enumerate(self.plan.thickness)
@@ -130,12 +122,38 @@ class ColourCheck:
         ]
         model = layer_model(self.profile, self.materials, backing)
         shares = model.shares(samples.target_rgba)
+        reach = lateral_reach(*model.absorption_scattering(shares))
+        grid, optics = self.plan.grid, self.profile.optics
+        surface = SurfaceIndex.build(mesh.vertices, mesh.faces)
+        report = ModelReport(
+            samples.points, samples.normals, grid, optics, disc_radius_mm=reach, surface=surface
+        )
+        return _Columns(samples, report, model, shares, reach)
+
+    @property
+    def samples(self) -> SurfaceSamples:
+        """The surface samples (waits for them)."""
+        return self._report.result().samples
+
+    @property
+    def report(self) -> ModelReport:
+        """The accumulator (waits for it to be made)."""
+        return self._report.result().report
+
+    def add_slab(self, z_start: int, materials: NDArray[np.uint8]) -> None:
+        """Take the material indices ``(Zs, Y, X) uint8`` of rows ``z_start..``."""
+        self.report.add_slab(z_start, materials)
+
+    def result(self) -> dict[str, Any]:
+        """Return the report: errors apart, per region, and what per-face depth buys."""
+        samples, report, model, shares, reach = self._report.result()
         aim = model.deep_lab(shares)
         white = observer(self.profile.optics.wavelengths_nm).white_xy
         target = srgb_to_lab_d50(samples.target_rgba[:, :3] / 255.0, white)
         errors = report.errors(aim, target)
-        interior = uniform_surroundings(self.mesh, samples)
+        interior = uniform_surroundings(self.mesh, samples, reach + UNIFORM_MARGIN_MM)
         result = summary(errors, interior, in_gamut_de=IN_GAMUT_DE)
+        result["lateral_reach_mm"] = statistics(reach)
         regions = colour_regions(samples.target_rgba[:, :3])
         seen, total, gamut = errors.seen, errors.total, errors.gamut
         per_region = {}
@@ -157,27 +175,30 @@ class ColourCheck:
         return result
 
 
-def uniform_surroundings(mesh: ColouredMesh, samples: SurfaceSamples) -> NDArray[np.bool_]:
+def uniform_surroundings(
+    mesh: ColouredMesh, samples: SurfaceSamples, radius_mm: NDArray[np.float64]
+) -> NDArray[np.bool_]:
     """Return which samples lie inside a colour region, not at an edge (see the module).
 
-    The mean CIELAB of the surface colour at :data:`RING_POINTS` points
-    :data:`UNIFORM_RADIUS_MM` around each sample in its tangent plane (at the nearest
-    surface points) against its own colour.
+    The mean CIELAB of the surface colour at :data:`RING_POINTS` points `radius_mm`
+    ``(N,)`` around each sample in its tangent plane (at the nearest surface points)
+    against its own colour, and the farthest of them.
     """
     if len(samples.points) == 0:
         return np.zeros(0, bool)
     surface = SurfaceIndex.build(mesh.vertices, mesh.faces)
     angle = 2 * np.pi * np.arange(RING_POINTS) / RING_POINTS
     u, v = tangent_basis(samples.normals)
-    ring = samples.points[:, None] + UNIFORM_RADIUS_MM * (
+    ring = samples.points[:, None] + np.asarray(radius_mm, np.float64)[:, None, None] * (
         np.cos(angle)[None, :, None] * u[:, None] + np.sin(angle)[None, :, None] * v[:, None]
     )
     hit = nearest_on_surface(surface, ring.reshape(-1, 3))
     around = mesh.colour_at(hit.face_ids, hit.barycentric).reshape(len(ring), RING_POINTS, 4)
     own = srgb8_to_lab(samples.target_rgba[:, :3])
-    theirs = srgb8_to_lab(around[..., :3]).mean(axis=1)
-    difference = colour.delta_E(theirs, own, method="CIE 2000")
-    return np.asarray(difference <= UNIFORM_DE, bool)
+    theirs = srgb8_to_lab(around[..., :3])
+    mean = colour.delta_E(theirs.mean(axis=1), own, method="CIE 2000")
+    each = colour.delta_E(theirs, own[:, None], method="CIE 2000").max(axis=1)
+    return np.asarray((mean <= UNIFORM_DE) & (each <= EDGE_DE), bool)
 
 
 def report_line(report: dict[str, Any] | None) -> str | None:

@@ -9,7 +9,7 @@ import trimesh
 
 from pipeline.printer.profile import load_profile
 from voxel.colour.kubelka_munk import observer, r_infinity, reflectance_to_lab, saunderson, stack
-from voxel.colour.model_report import ModelReport, summary
+from voxel.colour.model_report import REACH_LIMITS_MM, ModelReport, lateral_reach, summary
 from voxel.colour.report import colour_regions, sample_surface
 from voxel.grid import GridSpec
 
@@ -81,7 +81,7 @@ def test_a_sample_is_inside_its_colour_region_unless_near_an_edge():
     # A cube whose +x face is half red (y < 0) and half blue, its other faces a smooth
     # grey ramp along z: samples within the ring's reach of the red-blue edge are near an
     # edge; those farther away, and those on the ramp (it averages to its centre), inside.
-    from pipeline.build.colour_check import UNIFORM_RADIUS_MM, uniform_surroundings
+    from pipeline.build.colour_check import uniform_surroundings
     from pipeline.model.mesh import ColouredMesh
 
     box = trimesh.creation.box((10.0, 10.0, 10.0)).subdivide().subdivide().subdivide()
@@ -94,13 +94,68 @@ def test_a_sample_is_inside_its_colour_region_unless_near_an_edge():
     rgba[plus_x & (centre[:, 1] >= 0)] = (30, 30, 220, 255)
     mesh = ColouredMesh(box.vertices, box.faces.astype(np.int64), "vertex", corner_rgba=rgba)
     samples = sample_surface(mesh.vertices, mesh.faces, mesh.colour_at, 3000, seed=1)
-    inside = uniform_surroundings(mesh, samples)
+    radius = 0.35
+    inside = uniform_surroundings(mesh, samples, np.full(len(samples.points), radius))
     on_x = samples.normals[:, 0] > 0.5
     y, z = samples.points[:, 1], samples.points[:, 2]
     away = np.minimum(5 - np.abs(y), 5 - np.abs(z))  # from the face's border
-    assert not inside[on_x & (np.abs(y) < UNIFORM_RADIUS_MM - 0.1) & (away > 0.5)].any()
-    assert inside[on_x & (np.abs(y) > UNIFORM_RADIUS_MM + 0.1) & (away > 0.5)].all()
+    assert not inside[on_x & (np.abs(y) < radius - 0.1) & (away > 0.5)].any()
+    assert inside[on_x & (np.abs(y) > radius + 0.1) & (away > 0.5)].all()
     ramp = (
         (np.abs(samples.normals[:, 1]) > 0.5) & (np.abs(z) < 4) & (np.abs(samples.points[:, 0]) < 4)
     )
     assert inside[ramp].all()
+
+
+def test_lateral_reach_is_longer_in_translucent_mixes_and_within_its_limits():
+    white = lateral_reach(OPTICS.k_per_mm[[WHITE]], OPTICS.s_per_mm[[WHITE]], (0.0, 100.0))
+    magenta = lateral_reach(OPTICS.k_per_mm[[MAGENTA]], OPTICS.s_per_mm[[MAGENTA]], (0.0, 100.0))
+    band = int(np.argmax(r_infinity(OPTICS.k_per_mm[MAGENTA], OPTICS.s_per_mm[MAGENTA])))
+    k, s = OPTICS.k_per_mm[MAGENTA, band], OPTICS.s_per_mm[MAGENTA, band]
+    assert magenta[0] == pytest.approx(1 / np.sqrt(k * (k + 2 * s)))
+    assert magenta[0] > 3 * white[0]
+    clipped = lateral_reach(OPTICS.k_per_mm[[WHITE, MAGENTA]], OPTICS.s_per_mm[[WHITE, MAGENTA]])
+    assert clipped.min() >= REACH_LIMITS_MM[0] and clipped.max() <= REACH_LIMITS_MM[1]
+
+
+def test_rays_follow_a_curved_surface():
+    # A cylinder (radius 2.5 mm, axis x) with 0.3 mm of magenta over white: with the
+    # surface given, the columns of 1 mm discs on its side read the stack; in the tangent
+    # plane alone they start in the air and cut the layer obliquely.
+    from voxel.geometry.nearest import SurfaceIndex
+
+    radius, depth = 2.5, 0.3
+    cylinder = trimesh.creation.cylinder(radius=radius, height=6.0, sections=256)
+    cylinder.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
+    voxel = np.array([0.0423, 0.0846, 0.027])
+    origin = np.array([-3.0, -2.8, -2.8])
+    shape = tuple(int(v) for v in np.ceil(np.array([5.6, 5.6, 6.0])[::-1] / voxel[::-1]))
+    grid = GridSpec(tuple(origin), tuple(voxel), shape)
+    z, y = (
+        (origin[2] + voxel[2] * np.arange(shape[0])),
+        (origin[1] + voxel[1] * np.arange(shape[1])),
+    )
+    from_axis = np.hypot(z[:, None], y[None, :])  # (Z, Y): the same for every x
+    layer = np.where(
+        from_axis < radius, np.where(from_axis > radius - depth, MAGENTA + 1, WHITE + 1), 0
+    )
+    materials = np.ascontiguousarray(
+        np.repeat(layer[:, :, None], shape[2], axis=2).astype(np.uint8)
+    )
+    rng = np.random.default_rng(5)
+    angle = rng.uniform(0, 2 * np.pi, 60)
+    normals = np.column_stack([np.zeros(60), np.cos(angle), np.sin(angle)])
+    points = np.column_stack(
+        [rng.uniform(-1.0, 1.0, 60), radius * normals[:, 1], radius * normals[:, 2]]
+    )
+    surface = SurfaceIndex.build(
+        np.asarray(cylinder.vertices), np.asarray(cylinder.faces, np.int64)
+    )
+    expected = _expected(depth)
+    errors = {}
+    for name, given in (("curved", surface), ("plane", None)):
+        report = ModelReport(points, normals, grid, OPTICS, disc_radius_mm=1.0, surface=given)
+        report.add_slab(0, materials)
+        errors[name] = colour.delta_E(report.predicted_lab(), expected, method="CIE 2000")
+    assert np.median(errors["curved"]) < 0.3 and errors["curved"].max() < 0.6
+    assert np.median(errors["plane"]) > 2 * np.median(errors["curved"])

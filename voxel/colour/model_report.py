@@ -1,16 +1,29 @@
 """Printed colour predicted by the two-flux model from the halftoned material voxels.
 
 For each surface sample the voxel column under it *as written* is read: rays start on a
-disc of ``disc_radius_mm`` around the point in its tangent plane (light spreads sideways
-about as far as it goes down) and step inward along the normal, one smallest voxel size
-at a time. The material voxels they pass are counted per depth bin (``bin_mm`` thick, to
-``depth_mm``): each bin's material shares over the disc are one layer's mix (Duncan), the
-layers are stacked from the bottom up (the deepest bin's mix continued infinitely deep
-beneath them) and seen through the surface (Saunderson), all under the printer's
+disc around the point in its tangent plane (one per voxel column beneath it, see
+:mod:`~voxel.colour.column_kernel`) and step inward along the normal, one smallest
+voxel size at a time. The disc is how far light spreads sideways under the sample
+before it comes back out: the *lateral reach* of the sample's mix
+(:func:`lateral_reach`), the two-flux attenuation length ``1 / sqrt(K (K + 2 S))`` in
+the band the mix reflects most, within ``[0.25, 1.0]`` mm (:data:`REACH_LIMITS_MM`). A
+white pastel spreads light a few tenths of a millimetre, a translucent yellow a
+millimetre and more; a disc that small under a translucent mix would see the halftone's
+grain that its light averages away.
+
+Light enters where the surface is: on a curved surface (a rounded edge) the tangent
+plane leaves the part, so where a disc's rim lies farther than :data:`FLAT_MM` from the
+surface, its rays start on a quadric fitted to the surface under the disc and go in
+along its normals (:func:`_surface_quadrics`).
+
+The material voxels the rays pass are counted per depth bin (``bin_mm`` thick, to
+``depth_mm``): each bin's material shares over the disc are one layer's mix (Duncan),
+the layers are stacked from the bottom up (the deepest bin's mix continued infinitely
+deep beneath them) and seen through the surface (Saunderson), all under the printer's
 :class:`~optics.Optics`. Void voxels (outside the part) do not count; a bin without
 material voxels adds no layer.
 
-:class:`ModelReport` is fed slab by slab, as the writers are, and keeps only the rays
+:class:`ModelReport` is fed slab by slab, as the writers are, and keeps only the discs
 and the counts ``(N, bins, M)``. Its result separates the errors: the *gamut* error
 (target against the colour the separation aimed at, what no printing can reach) and the
 *reproduction* error (that aim against the prediction from the voxels: halftone, voxels
@@ -25,7 +38,7 @@ import colour
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from voxel.colour.column_kernel import Rays, count_slab
+from voxel.colour.column_kernel import Discs, count_slab, lattice_spacing
 from voxel.colour.kubelka_munk import (
     Layer,
     layer,
@@ -36,8 +49,75 @@ from voxel.colour.kubelka_munk import (
     saunderson,
 )
 from voxel.colour.optics import Optics
-from voxel.colour.report import statistics, tangent_lattice
+from voxel.colour.report import statistics, tangent_basis
+from voxel.geometry.nearest import SurfaceIndex, nearest_on_surface
 from voxel.grid import GridSpec
+
+#: A disc whose rim lies within this of the surface (mm) is flat enough for its rays to
+#: start in the tangent plane (a quarter of the default depth bin).
+FLAT_MM = 0.025
+
+#: Points on the rim of a disc tested against :data:`FLAT_MM`.
+RIM_POINTS = 8
+
+#: Smallest and largest lateral reach (mm): at least a few voxels of the finest printer
+#: grid across, at most half the depth the columns are read (light that spreads farther
+#: has gone deeper than that).
+REACH_LIMITS_MM = (0.25, 1.0)
+
+
+def lateral_reach(
+    k: ArrayLike, s: ArrayLike, limits_mm: tuple[float, float] = REACH_LIMITS_MM
+) -> NDArray[np.float64]:
+    """Return how far light spreads sideways in mixes ``(N,)`` mm (see the module).
+
+    Parameters
+    ----------
+    k, s : (N, B) float, 1/mm
+        Absorption and scattering of each mix per band.
+    limits_mm : (float, float), mm
+        The reach is clipped to these.
+
+    Examples
+    --------
+    >>> float(lateral_reach([[0.5]], [[0.75]], (0.0, 9.0))[0])  # 1 / sqrt(0.5 * 2)
+    1.0
+    """
+    k, s = np.asarray(k, np.float64), np.asarray(s, np.float64)
+    band = np.argmax(r_infinity(k, s), axis=1)
+    rows = np.arange(len(k))
+    kb, sb = k[rows, band], s[rows, band]
+    rate = np.sqrt(kb * (kb + 2.0 * sb))
+    length = np.divide(1.0, rate, out=np.full(len(k), np.inf), where=rate > 0)
+    return np.clip(length, *limits_mm)
+
+
+def _surface_quadrics(
+    surface: SurfaceIndex,
+    points: NDArray[np.float64],
+    frame: NDArray[np.float64],
+    radius_mm: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Return each disc's quadric height field ``(N, 5)`` mm (see :class:`Discs`).
+
+    The surface's height below each tangent plane, measured at :data:`RIM_POINTS` points
+    of the disc's rim (their nearest surface points), fitted by least squares; 0 where
+    the rim lies within :data:`FLAT_MM` of the surface.
+    """
+    angle = 2.0 * np.pi * np.arange(RIM_POINTS) / RIM_POINTS
+    ca, sa = np.cos(angle), np.sin(angle)
+    u, v, n = frame[:, 1], frame[:, 2], frame[:, 3]
+    rim = points[:, None, :] + radius_mm[:, None, None] * (
+        ca[None, :, None] * u[:, None, :] + sa[None, :, None] * v[:, None, :]
+    )
+    hit = nearest_on_surface(surface, rim.reshape(-1, 3))
+    corners = surface.vertices[surface.faces[hit.face_ids]]
+    on = np.einsum("nc,nck->nk", hit.barycentric, corners).reshape(rim.shape)
+    height = np.einsum("nrk,nk->nr", rim - on, n)  # (N, RIM): the rim above the surface
+    design = np.stack([ca**2, ca * sa, sa**2, ca, sa], axis=1)  # (RIM, 5)
+    quadric = np.linalg.lstsq(design, height.T, rcond=None)[0].T
+    quadric[np.abs(height).max(axis=1) <= FLAT_MM] = 0.0
+    return np.ascontiguousarray(quadric)
 
 
 class ModelReport:
@@ -55,11 +135,11 @@ class ModelReport:
         How deep the columns are read.
     bin_mm : float, mm
         Thickness of one layer of the stack.
-    disc_radius_mm : float, mm
-        Radius of the rays' disc in the tangent plane.
-    ray_spacing_mm : float, mm, optional
-        Spacing of the rays' square lattice on the disc (default: the smaller of the
-        voxel's x and y sizes, so every voxel under the disc is read).
+    disc_radius_mm : float or (N,) float, mm
+        Radius of each sample's disc in the tangent plane (:func:`lateral_reach`).
+    surface : SurfaceIndex, optional
+        The surface the samples lie on: rays of discs that leave it start on it (see the
+        module). Without it every ray starts in the tangent plane.
     """
 
     def __init__(
@@ -71,8 +151,8 @@ class ModelReport:
         *,
         depth_mm: float = 2.0,
         bin_mm: float = 0.1,
-        disc_radius_mm: float = 0.25,
-        ray_spacing_mm: float | None = None,
+        disc_radius_mm: ArrayLike = 0.25,
+        surface: SurfaceIndex | None = None,
     ) -> None:
         p = np.asarray(points, np.float64)
         n = np.asarray(normals, np.float64)
@@ -84,19 +164,19 @@ class ModelReport:
         self.n_materials = len(optics.names) + 1
         self.step_mm = float(min(grid.voxel_mm))
         self.n_steps = int(np.ceil(depth_mm / self.step_mm))
-        spacing = min(grid.voxel_mm[:2]) if ray_spacing_mm is None else ray_spacing_mm
-        offsets = tangent_lattice(n, disc_radius_mm, spacing)
-        lateral_rays = offsets.shape[1]
-        starts = p[:, None, :] + offsets
+        radius = np.ascontiguousarray(
+            np.broadcast_to(np.asarray(disc_radius_mm, np.float64), (len(p),))
+        )
+        u, v = tangent_basis(n)
+        frame = np.ascontiguousarray(np.stack([p, u, v, n], axis=1))
+        quadric = (
+            np.zeros((len(p), 5)) if surface is None
+            else _surface_quadrics(surface, p, frame, radius)
+        )  # fmt: skip
         grid_values = np.array([*grid.origin_mm, *grid.voxel_mm], np.float64)
         walk = np.array([self.step_mm, self.n_steps, self.bin_mm], np.float64)
-        self._rays = Rays(
-            np.ascontiguousarray(starts.reshape(-1, 3)),
-            np.ascontiguousarray(np.repeat(-n, lateral_rays, axis=0)),
-            np.repeat(np.arange(len(p), dtype=np.int64), lateral_rays),
-            grid_values,
-            walk,
-        )
+        spacing = lattice_spacing(frame[:, 1:3], radius, np.asarray(grid.voxel_mm))
+        self._discs = Discs(frame, radius, spacing, quadric, grid_values, walk)
         self._counts = np.zeros((len(p), self.n_bins, self.n_materials), np.int64)
 
     @property
@@ -106,7 +186,7 @@ class ModelReport:
 
     def add_slab(self, z_start: int, materials: NDArray[np.uint8]) -> None:
         """Count the material indices ``(Zs, Y, X) uint8`` of rows ``z_start..``."""
-        count_slab(self._rays, int(z_start), np.ascontiguousarray(materials), self._counts)
+        count_slab(self._discs, int(z_start), np.ascontiguousarray(materials), self._counts)
 
     def predicted_lab(self) -> NDArray[np.float64]:
         """CIELAB ``(N, 3)`` of every sample (NaN where no material voxel was seen)."""

@@ -1,8 +1,8 @@
 """Surface samples for the colour report, and what its parts share.
 
 :func:`sample_surface` draws points uniformly by area with their target colours;
-:func:`tangent_lattice` spreads rays around each point in its tangent plane (light
-spreads sideways about as far as it goes down); :func:`colour_regions` names the target colours'
+:func:`tangent_basis` gives each point's tangent plane (the rays of the report's
+discs lie in it); :func:`colour_regions` names the target colours'
 regions (CIELAB lightness and hue bins) and :func:`statistics` condenses CIEDE2000
 values for the manifest. The prediction from the voxels is
 :class:`voxel.colour.model_report.ModelReport`.
@@ -91,28 +91,11 @@ def sample_surface(
 def tangent_basis(
     normals: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Return two unit vectors ``(N, 3)`` spanning the tangent plane of each unit normal."""
+    """Return unit vectors ``u``, ``v`` ``(N, 3)`` spanning each tangent plane (``u x v = n``)."""
     helper = np.where(np.abs(normals[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
     u = np.cross(normals, helper)
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     return u, np.cross(normals, u)
-
-
-def tangent_lattice(
-    normals: NDArray[np.float64], radius: float, spacing: float
-) -> NDArray[np.float64]:
-    """Return offsets ``(N, R, 3)`` on a square lattice within a disc in each tangent plane.
-
-    The lattice points ``spacing`` apart within `radius` of the centre (the centre
-    included), in the tangent plane of each unit normal.
-    """
-    reach = int(np.floor(radius / spacing))
-    i, j = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1))
-    inside = i**2 + j**2 <= (radius / spacing) ** 2
-    a, b = i[inside] * spacing, j[inside] * spacing
-    u, v = tangent_basis(normals)
-    offsets = a[None, :, None] * u[:, None, :] + b[None, :, None] * v[:, None, :]
-    return np.asarray(offsets, np.float64)
 
 
 def colour_regions(srgb: NDArray[np.uint8]) -> NDArray[np.str_]:

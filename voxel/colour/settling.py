@@ -169,10 +169,16 @@ class LayerModel:
         return np.asarray(colour.delta_E(lab, deep, method="CIE 2000"), np.float64)
 
     def settle(self, shares: NDArray[np.float64], *, delta_e: float, max_mm: float) -> Settling:
-        """Return the settling depths of mixes ``(N, P)`` over :attr:`background`."""
-        k, s = self.absorption_scattering(shares)
+        """Return the settling depths of mixes ``(N, P)`` over :attr:`background`.
+
+        Equal mixes are settled once.
+        """
+        distinct, inverse = np.unique(np.asarray(shares, np.float64), axis=0, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        k, s = self.absorption_scattering(distinct)
         seen = observer(self.optics.wavelengths_nm)
-        return settling_depth(
+        found = settling_depth(
             k, s, self.background, seen, k1=self.optics.k1, k2=self.optics.k2,
             delta_e=delta_e, max_mm=max_mm,
         )  # fmt: skip
+        return Settling(found.depth_mm[inverse], found.settled[inverse], found.deep_lab[inverse])
