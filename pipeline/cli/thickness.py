@@ -112,9 +112,11 @@ def table_lines(summary: dict[str, Any]) -> list[str]:
     if optical is not None:
         settling = optical["settling_mm"]
         lines.append(
-            f"optical rule: each face's mix settles within CIEDE2000 {optical['delta_e']:g} "
+            f"optical rule: each face's colours settle within CIEDE2000 {optical['delta_e']:g} "
             f"at {settling['min_mm']:.3f}-{settling['max_mm']:.3f} mm (p50 "
-            f"{settling['p50_mm']:.3f}); {optical['not_settled_faces']:,} faces "
+            f"{settling['p50_mm']:.3f}; {optical['deepened_by_samples_faces']:,} faces deeper "
+            f"than their robust colour needs, for a colour they cover); "
+            f"{optical['not_settled_faces']:,} faces "
             f"({optical['not_settled_area_mm2']:.1f} mm2) still change at max_mm"
         )
     return lines

@@ -13,10 +13,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.output.ply import read_face_ply
+from voxel.geometry.closest_point import triangle_d2
 from voxel.geometry.nearest import SurfaceIndex, nearest_faces
 
 
@@ -78,3 +80,32 @@ class Surface:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         face_ids, depth = nearest_faces(self.index, np.ascontiguousarray(points_mm, np.float64))
         return depth, face_ids
+
+    def deciding_face(self, point_mm: NDArray[np.float64]) -> tuple[float, int]:
+        """Return the distance to the surface and the face whose layers hold a point.
+
+        The build gives a voxel the layers of its nearest face, the lowest index among
+        faces at the same distance (:mod:`voxel.geometry.distance_scan`); here "the same"
+        allows a relative ``1e-9``, so a translated copy of the model (a tray) decides as
+        the model alone.
+
+        Parameters
+        ----------
+        point_mm : (3,) float64, mm
+            The point ``(x, y, z)``.
+        """
+        corners = self.index.vertices[self.index.faces]  # (F, 3, 3)
+        d2 = _squared_distances(np.ascontiguousarray(point_mm, np.float64), corners)
+        nearest = float(d2.min())
+        face = int(np.flatnonzero(d2 <= nearest * (1.0 + 1e-9) + 1e-18)[0])
+        return float(np.sqrt(nearest)), face
+
+
+@numba.njit(cache=True, nogil=True)
+def _squared_distances(p: NDArray[np.float64], corners: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Exact squared distance ``(F,)`` from `p` to each triangle ``(F, 3, 3)``."""
+    d2 = np.empty(corners.shape[0])
+    for f in range(corners.shape[0]):
+        a, b, c = corners[f, 0], corners[f, 1], corners[f, 2]
+        d2[f] = triangle_d2(p[0], p[1], p[2], a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2])
+    return d2

@@ -200,10 +200,9 @@ def probe(folder: BuildFolder, z: int, y: int, x: int) -> dict[str, Any]:
             "name": material.name if material else f"material {index}",
         }
     if folder.surface is not None:
-        depth, face = folder.surface.nearest(centre[None, :])
-        f = int(face[0])
+        distance, f = folder.surface.deciding_face(centre)
         result["depth"] = {
-            "mm": float(depth[0]),
+            "mm": distance,
             "inside": layer_index != 0,
             "face": f,
             "colour_layer_mm": float(folder.surface.colour_layer_mm[f]),
