@@ -21,6 +21,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+from report_models import MODELS as ALL_MODELS
+from report_models import ROOT
+
 from pipeline.config import MaterialSettings
 from pipeline.loading import load_model
 from pipeline.model.mesh import ColouredMesh
@@ -31,13 +34,7 @@ from pipeline.thickness.rule import DEFAULT_RULE
 from voxel.colour.depth_effect import depth_effect
 from voxel.colour.report import sample_surface
 
-ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared" / "meshes"
-MODELS = {
-    "default": (ROOT / "data" / "colour_target" / "colour_target.obj", None),
-    "spot_30mm": (SHARED / "spot" / "spot_triangulated.obj", 30.0),
-    "duck_30mm": (SHARED / "duck" / "Duck.glb", 30.0),
-}
+MODELS = {name: ALL_MODELS[name] for name in ("default", "spot_30mm", "duck_30mm")}
 
 
 def _scaled(mesh: ColouredMesh, size_mm: float | None) -> ColouredMesh:

@@ -272,6 +272,7 @@ def summary(
         "samples_seen": int(seen.sum()),
         "gamut": statistics(errors.gamut),
         "reproduction": statistics(errors.reproduction[seen]),
+        "reproduction_inside_colour_regions": statistics(errors.reproduction[seen & inner]),
         "ciede2000": statistics(total[seen]),
         "in_gamut_all_samples": int(inside.sum()),
         "in_gamut_all": statistics(total[inside]),
