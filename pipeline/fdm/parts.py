@@ -28,6 +28,9 @@ from numpy.typing import NDArray
 #: the inner vertex (caps the stretch at 1 / 0.3 of the reach on sharp corners).
 MIN_COSINE = 0.3
 
+#: Share of the distance at which neighbouring inner vertices would meet that they may move.
+FOLD_SHARE = 0.5
+
 PartKind = Literal["part", "modifier"]
 
 
@@ -105,6 +108,20 @@ def inner_vertices(
     need = reach_mm[:, None] / np.maximum(cos, MIN_COSINE)
     stretch = np.zeros(vertices.shape[0])
     np.maximum.at(stretch, faces.ravel(), need.ravel())
+    # Where the surface bends faster than the reach (a rounded edge of radius below it),
+    # inward vertex normals meet: an edge a-b moved by t along them shrinks to nothing
+    # at t = |b - a|^2 / ((n_b - n_a) . (b - a)). Stop at FOLD_SHARE of that, so no patch
+    # turns inside out (there the patch is shallower than the reach, see the module).
+    a, b = faces.ravel(), np.roll(faces, -1, axis=1).ravel()
+    step = vertices[b] - vertices[a]
+    closing = np.einsum("ij,ij->i", vnormal[b] - vnormal[a], step)
+    meet = np.full(a.shape, np.inf)
+    convex = closing > 1e-12
+    meet[convex] = np.einsum("ij,ij->i", step, step)[convex] / closing[convex]
+    limit = np.full(vertices.shape[0], np.inf)
+    np.minimum.at(limit, a, meet)
+    np.minimum.at(limit, b, meet)
+    stretch = np.minimum(stretch, FOLD_SHARE * limit)
     inner: NDArray[np.float64] = vertices - stretch[:, None] * vnormal
     return inner
 

@@ -105,6 +105,12 @@ def _print_config(project: FdmProject) -> str:
         "wipe_tower_x": s.wipe_tower_mm[0],
         "wipe_tower_y": s.wipe_tower_mm[1],
         "mmu_segmented_region_max_width": 0,
+        # one purge volume per pair of filaments: the defaults hold 5 x 5, and more
+        # filaments than that run PrusaSlicer 2.5 out of memory (std::bad_alloc)
+        "wiping_volumes_matrix": ",".join(
+            "0" if i == j else "140" for i in range(n) for j in range(n)
+        ),
+        "wiping_volumes_extruders": each("70,70"),
         "gcode_flavor": "marlin2",
         "use_relative_e_distances": 1,
         "layer_gcode": "G92 E0",
