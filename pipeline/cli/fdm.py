@@ -15,6 +15,7 @@ from pipeline.cli.values import parse_lengths
 from pipeline.errors import InputError
 from pipeline.fdm import SLICERS, FdmSettings, make_project, parse_filaments, write_projects
 from pipeline.fdm.make import check_slicers
+from pipeline.fdm.project import check_filament_count
 from pipeline.loading import load_model
 from pipeline.printer.profile import load_profile
 
@@ -61,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     filaments = parse_filaments(args.filaments)
     slicers = check_slicers(args.slicer.replace(" ", "").split(","))
+    check_filament_count(filaments, slicers)  # refused before any work
     constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness, 1)
     settings = FdmSettings(
         layer_height_mm=parse_lengths("--layer-height", args.layer_height, 1)[0],

@@ -54,7 +54,7 @@ def test_box_every_side_filament_is_used(box_gcode):
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("model", "scale"),
-    [("default", 1.0), ("spot/spot_triangulated.obj", 40.0), ("duck/Duck.glb", 0.3)],
+    [("default", 1.0), ("spot/spot_triangulated.obj", 40.0), ("duck/Duck.glb", 30.0)],
 )
 def test_real_models_slice(shared_mesh, tmp_path, capsys, model, scale):
     path = (
