@@ -36,7 +36,7 @@ def slice_with_prusa(project: Path, gcode: Path) -> subprocess.CompletedProcess[
     """Run ``prusa-slicer --export-gcode`` (skip without it, except in CI)."""
     if PRUSA is None:
         if os.environ.get("CI"):
-            pytest.fail("prusa-slicer is missing (CI must run it: scripts/bootstrap.sh installs it)")
+            pytest.fail("prusa-slicer is missing (CI must slice: scripts/bootstrap.sh installs it)")
         pytest.skip("prusa-slicer is missing: apt-get install prusa-slicer")
     done = subprocess.run(
         [PRUSA, "--export-gcode", str(project), "--output", str(gcode)],

@@ -48,9 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--layer-height", default="0.2", metavar="MM", help="layer height (default 0.2)"
     )
-    parser.add_argument(
-        "--nozzle", default="0.4", metavar="MM", help="nozzle width (default 0.4)"
-    )
+    parser.add_argument("--nozzle", default="0.4", metavar="MM", help="nozzle width (default 0.4)")
     parser.add_argument(
         "--dither", action="store_true",
         help="dither the filament choice over neighbouring faces (error diffusion)",

@@ -35,7 +35,7 @@ _HEADER = (
     f'<model unit="millimeter" xml:lang="en-US" xmlns="{CORE_NS}" '
     f'xmlns:BambuStudio="{BAMBU_NS}" xmlns:p="{PRODUCTION_NS}" requiredextensions="p">\n'
     ' <metadata name="BambuStudio:3mfVersion">1</metadata>\n'
-    f" <metadata name=\"Application\">shellvox {__version__}</metadata>\n"
+    f' <metadata name="Application">shellvox {__version__}</metadata>\n'
 )
 
 
@@ -65,8 +65,7 @@ def _model(project: FdmProject) -> str:
         for k in range(1, parent)
     )
     return (
-        _HEADER
-        + " <resources>\n"
+        _HEADER + " <resources>\n"
         f'  <object id="{parent}" name={attr(project.name)} type="model">\n'
         f"   <components>\n{components}   </components>\n  </object>\n </resources>\n"
         f' <build>\n  <item objectid="{parent}" '
@@ -110,7 +109,7 @@ def _model_settings(project: FdmProject) -> str:
             ("matrix", IDENTITY),
             ("extruder", part.filament + 1),
         ):
-            rows.append(f"      <metadata key=\"{key}\" value={attr(value)}/>\n")
+            rows.append(f'      <metadata key="{key}" value={attr(value)}/>\n')
         rows.append(f'      <mesh_stat face_count="{len(part.faces)}" edges_fixed="0"/>\n')
         rows.append("    </part>\n")
     rows += [

@@ -58,7 +58,7 @@ def make_project(
     depth_mm: ArrayLike,
     filaments: Filaments,
     *,
-    settings: FdmSettings = FdmSettings(),
+    settings: FdmSettings | None = None,
     slicers: Sequence[str] = SLICERS,
     method: str = "robust",
     dither: bool = False,
@@ -76,7 +76,8 @@ def make_project(
         :func:`pipeline.fdm.project.skin_depth`).
     filaments : Filaments
         The core's first.
-    settings : FdmSettings
+    settings : FdmSettings, optional
+        Default :class:`FdmSettings()`.
     slicers : sequence of {"prusa", "bambu"}
         Checked for the filament count they take.
     method : str
@@ -92,6 +93,7 @@ def make_project(
     FdmError
         Too many filaments for a slicer, or a depth below the nozzle width.
     """
+    settings = FdmSettings() if settings is None else settings
     check_filament_count(filaments, check_slicers(slicers))
     v, f = mesh.vertices, mesh.faces
     depth = skin_depth(v, f, np.asarray(depth_mm, np.float64), settings, lift=lift)
@@ -105,8 +107,11 @@ def make_project(
     return plan_project(name, v, f, chosen, depth, filaments, settings, shells)
 
 
-def write_projects(folder: Path, stem: str, project: FdmProject, slicers: Sequence[str]) -> list[Path]:
+def write_projects(
+    folder: Path, stem: str, project: FdmProject, slicers: Sequence[str]
+) -> list[Path]:
     """Write ``folder/<stem>_<slicer>.3mf`` for each slicer; return the paths."""
     return [
-        WRITERS[slicer](folder / f"{stem}_{slicer}.3mf", project) for slicer in check_slicers(slicers)
+        WRITERS[slicer](folder / f"{stem}_{slicer}.3mf", project)
+        for slicer in check_slicers(slicers)
     ]

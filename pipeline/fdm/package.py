@@ -39,7 +39,8 @@ def mesh_xml(
     """Return ``<mesh>`` with ``<vertices>`` and ``<triangles>`` (3MF core), as text."""
     rows = [f"{indent}<mesh>\n{indent} <vertices>\n"]
     rows.extend(
-        f'{indent}  <vertex x="{x:.9g}" y="{y:.9g}" z="{z:.9g}"/>\n' for x, y, z in vertices.tolist()
+        f'{indent}  <vertex x="{x:.9g}" y="{y:.9g}" z="{z:.9g}"/>\n'
+        for x, y, z in vertices.tolist()
     )
     rows.append(f"{indent} </vertices>\n{indent} <triangles>\n")
     rows.extend(f'{indent}  <triangle v1="{a}" v2="{b}" v3="{c}"/>\n' for a, b, c in faces.tolist())
@@ -64,10 +65,12 @@ def write_package(target: str | Path, entries: Mapping[str, str]) -> Path:
     The file appears atomically (:func:`pipeline.atomic.atomic_path`).
     """
     target = Path(target)
-    with atomic_path(target) as temporary:
-        with zipfile.ZipFile(temporary, "w", zipfile.ZIP_DEFLATED) as archive:
-            archive.writestr("[Content_Types].xml", CONTENT_TYPES)
-            archive.writestr("_rels/.rels", RELS)
-            for name, text in entries.items():
-                archive.writestr(name, text)
+    with (
+        atomic_path(target) as temporary,
+        zipfile.ZipFile(temporary, "w", zipfile.ZIP_DEFLATED) as archive,
+    ):
+        archive.writestr("[Content_Types].xml", CONTENT_TYPES)
+        archive.writestr("_rels/.rels", RELS)
+        for name, text in entries.items():
+            archive.writestr(name, text)
     return target

@@ -51,7 +51,7 @@ def _model(project: FdmProject) -> str:
         f'<model unit="millimeter" xml:lang="en-US" xmlns="{CORE_NS}" '
         f'xmlns:slic3rpe="{SLIC3RPE_NS}">\n'
         ' <metadata name="slic3rpe:Version3mf">1</metadata>\n'
-        f" <metadata name=\"Application\">shellvox {__version__}</metadata>\n"
+        f' <metadata name="Application">shellvox {__version__}</metadata>\n'
         " <resources>\n"
         f'  <object id="1" name={attr(project.name)} type="model">\n'
         + mesh_xml(vertices, faces, indent="   ")

@@ -57,9 +57,7 @@ def test_box_every_side_filament_is_used(box_gcode):
     [("default", 1.0), ("spot/spot_triangulated.obj", 40.0), ("duck/Duck.glb", 30.0)],
 )
 def test_real_models_slice(shared_mesh, tmp_path, capsys, model, scale):
-    path = (
-        "data/colour_target/colour_target.obj" if model == "default" else str(shared_mesh(model))
-    )
+    path = "data/colour_target/colour_target.obj" if model == "default" else str(shared_mesh(model))
     out = tmp_path / "out"
     status = main([
         "fdm", path, "-o", str(out), "--scale", str(scale), "--thickness", "1.2",
