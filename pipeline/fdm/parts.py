@@ -144,8 +144,7 @@ def thick_patch(
     faces : (M, 3) int64
     """
     picked = faces[chosen]
-    used, local = np.unique(picked, return_inverse=True)
-    local = local.reshape(picked.shape)
+    used, local = _fans(picked)
     n = used.shape[0]
     edges = np.concatenate([local[:, [0, 1]], local[:, [1, 2]], local[:, [2, 0]]])
     keys = edges[:, 0] * n + edges[:, 1]
@@ -154,6 +153,49 @@ def thick_patch(
     walls = np.concatenate([np.stack([b, a, a + n], 1), np.stack([b, a + n, b + n], 1)])
     solid = np.concatenate([local, local[:, ::-1] + n, walls]).astype(np.int64)
     return np.concatenate([vertices[used], inner[used]]), solid
+
+
+def _fans(picked: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Return one vertex per fan of the chosen faces around each vertex, and their faces.
+
+    Two chosen faces that meet only at a vertex (a bow tie) get that vertex once each,
+    so the thickened patch is 2-manifold: corners of a vertex are one fan when chosen faces
+    join them across an edge (label propagation over those links, then pointer jumping).
+
+    Returns
+    -------
+    used : (U,) int64
+        The original vertex of each new vertex.
+    local : (K, 3) int64
+        The chosen faces in new vertex indices.
+    """
+    k = picked.shape[0]
+    corner = np.arange(3 * k).reshape(k, 3)
+    heads, tails = picked.ravel(), np.roll(picked, -1, axis=1).ravel()
+    head_corner, tail_corner = corner.ravel(), np.roll(corner, -1, axis=1).ravel()
+    n = int(picked.max()) + 1
+    key = heads * n + tails
+    order = np.argsort(key)
+    at = np.searchsorted(key[order], tails * n + heads)
+    at = np.minimum(at, key.size - 1)
+    twin = order[at]
+    inner = key[twin] == tails * n + heads  # the edge's twin is chosen too
+    links = np.concatenate([
+        np.stack([head_corner[inner], tail_corner[twin[inner]]], axis=1),
+        np.stack([tail_corner[inner], head_corner[twin[inner]]], axis=1),
+    ])  # fmt: skip
+    label = np.arange(3 * k)
+    while True:  # as many rounds as the widest fan has corners
+        low = np.minimum(label[links[:, 0]], label[links[:, 1]])
+        before = label.copy()
+        np.minimum.at(label, links[:, 0], low)
+        np.minimum.at(label, links[:, 1], low)
+        label = label[label]
+        if np.array_equal(label, before):
+            break
+    _, first, local = np.unique(label, return_index=True, return_inverse=True)
+    used: NDArray[np.int64] = picked.ravel()[first]
+    return used, local.reshape(k, 3).astype(np.int64)
 
 
 def plan_parts(
