@@ -87,3 +87,34 @@ def test_settings_reach_the_gcode(tmp_path):
     text = (tmp_path / "small.gcode").read_text()
     assert "; extruder_colour = #FFFFFF;#FF0000;#00FF00;#0000FF;#FFFF00" in text
     assert "; layer_height = 0.15" in text
+
+
+def test_box_skin_depth_per_face(tmp_path, capsys):
+    # +x side 2.0 mm deep, the others 1.2 mm: PrusaSlicer prints each side's own depth
+    mesh = coloured_box()
+    deep = mesh.vertices[mesh.faces].mean(axis=1)[:, 0] > 9.9
+    depth = np.where(deep, 2.0, SKIN_MM)
+    project = make_project(mesh, depth, parse_filaments(BOX_FILAMENTS), name="box")
+    (path,) = write_projects(tmp_path, "box", project, ["prusa"])
+    slice_with_prusa(path, tmp_path / "box.gcode")
+    ex = read_extrusion(tmp_path / "box.gcode")
+    z = min(set(ex.z.tolist()), key=lambda q: abs(q - 5.0))
+    p = ex.xy[ex.z == z] - project.placement_mm[:2]
+    tool, e = ex.tool[ex.z == z], ex.e[ex.z == z]
+    middle = (np.abs(p[:, 1]) < 6.0) & (np.abs(p[:, 0]) < 10.5)  # away from the corners
+    half_line = 0.45 / 2
+    shares = {}
+    for name, distance, skin_mm, filament in (
+        ("+x", 10 - p[:, 0], 2.0, 1),
+        ("-x", 10 + p[:, 0], SKIN_MM, 2),
+    ):
+        skin = middle & (distance < skin_mm - half_line)
+        core = middle & (distance > skin_mm + half_line) & (distance < 5.0)
+        shares[name] = (
+            e[skin][tool[skin] == filament].sum() / e[skin].sum(),
+            e[core][tool[core] == 0].sum() / e[core].sum(),
+        )
+    with capsys.disabled():
+        print(f"\nbox, +x 2.0 mm / -x 1.2 mm: (skin, core) shares {shares}")
+    for skin_share, core_share in shares.values():
+        assert skin_share >= 0.95 and core_share >= 0.95
