@@ -49,3 +49,7 @@ class OutputBusy(InputError):
 
 class ResourceError(InputError):
     """The run would not fit the machine (memory, disk, index range); ``--force`` overrides."""
+
+
+class FdmError(InputError):
+    """An FDM project that cannot be made as asked: filaments, colours, depth or slicer."""

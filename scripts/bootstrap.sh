@@ -8,22 +8,28 @@ need=()
 # libgs-common: Ghostscript's CMYK ICC profiles, for the --icc test (tests/voxel_colour/test_separation.py)
 # chromium: the browser the viewer's test drives (tests/viewer/test_viewer_browser.py, Playwright);
 # Debian packages it, Ubuntu only as a snap: where apt has none, that test skips (fails in CI)
+# prusa-slicer: slices the `shellvox fdm` projects in tests (tests/fdm/test_fdm_prusaslicer.py);
+# headless with --export-gcode; where apt has none, those tests skip (fail in CI)
+OPTIONAL=(chromium prusa-slicer)
 installed() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q "install ok installed"; }
-for pkg in python3-openvdb python3-venv python3-dev libgs-common chromium; do
+for pkg in python3-openvdb python3-venv python3-dev libgs-common "${OPTIONAL[@]}"; do
     installed "$pkg" || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then
     sudo_cmd=""
     [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
     $sudo_cmd apt-get update -qq
-    # the policy read whole first: under pipefail, grep -q closing the pipe early makes
-    # apt-cache die of SIGPIPE and the candidate look missing
-    policy="$(apt-cache policy chromium 2>/dev/null || true)"
-    if ! installed chromium && ! grep -q "Candidate: [0-9]" <<< "$policy"; then
-        echo "shellvox set-up: apt has no chromium here; the browser test will skip" >&2
-        need=("${need[@]/chromium}")
-        read -r -a need <<< "${need[*]}"
-    fi
+    for pkg in "${OPTIONAL[@]}"; do
+        # the policy read whole first: under pipefail, grep -q closing the pipe early makes
+        # apt-cache die of SIGPIPE and the candidate look missing
+        policy="$(apt-cache policy "$pkg" 2>/dev/null || true)"
+        if ! installed "$pkg" && ! grep -q "Candidate: [0-9]" <<< "$policy"; then
+            echo "shellvox set-up: apt has no $pkg here; the tests that need it will skip" >&2
+            kept=()
+            for other in "${need[@]}"; do [ "$other" = "$pkg" ] || kept+=("$other"); done
+            need=("${kept[@]}")
+        fi
+    done
 fi
 if [ ${#need[@]} -gt 0 ]; then
     echo "shellvox set-up: installing system packages: ${need[*]}"

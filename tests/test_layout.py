@@ -9,7 +9,8 @@ The layers of ``pipeline``, bottom up (a module imports only its own layer and t
 0. bottom: ``pipeline`` (the version), ``errors``, ``config``, ``faults``, ``atomic``
 1. ``model`` (the coloured mesh, textures, topology)
 2. ``loading``, ``thickness``, ``printer`` (side by side: none imports another)
-3. ``output`` (the folder, the streams, the manifest and its checks, shells, PLY)
+3. ``output`` (the folder, the streams, the manifest and its checks, shells, PLY) and, beside
+   it, ``fdm`` (the 3MF projects for FDM slicers, from the model, thickness and shells)
 4. ``run`` (slab tasks and where they run)
 5. ``build`` (one model's stack)
 6. ``tray`` (several models, one job)
@@ -32,11 +33,11 @@ PACKAGES = ("pipeline", "voxel", "offset")
 LAYERS = {
     "pipeline": 0, "pipeline.errors": 0, "pipeline.config": 0, "pipeline.faults": 0,
     "pipeline.atomic": 0, "pipeline.model": 1, "pipeline.loading": 2, "pipeline.thickness": 2,
-    "pipeline.printer": 2, "pipeline.output": 3, "pipeline.run": 4, "pipeline.build": 5,
-    "pipeline.tray": 6, "pipeline.cli": 7,
+    "pipeline.printer": 2, "pipeline.output": 3, "pipeline.fdm": 3, "pipeline.run": 4,
+    "pipeline.build": 5, "pipeline.tray": 6, "pipeline.cli": 7,
 }  # fmt: skip
 READERS = ("pipeline.report", "pipeline.viewer")
-STAGES = ("model", "loading", "thickness", "printer", "output", "run", "build", "tray",
+STAGES = ("model", "loading", "thickness", "printer", "output", "fdm", "run", "build", "tray",
           "report", "viewer", "cli")  # fmt: skip
 MAX_TOP_MODULES = {"pipeline": 8, "voxel": 10}
 MAX_LINES = 400

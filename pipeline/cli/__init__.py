@@ -24,7 +24,9 @@ from pipeline import __version__
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.faults import DeferredSignals, describe, signals_raise, unblock_signals
 
-COMMANDS = ("info", "thickness", "shells", "build", "inspect", "view", "chart", "calibrate")
+COMMANDS = (
+    "info", "thickness", "shells", "build", "fdm", "inspect", "view", "chart", "calibrate"
+)  # fmt: skip
 
 
 def _subcommands() -> dict[str, ModuleType]:

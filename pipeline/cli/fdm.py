@@ -1,0 +1,98 @@
+"""Write a colour-skin 3MF project per FDM slicer (PrusaSlicer, Bambu Studio / OrcaSlicer)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from offset import METHODS
+from pipeline.cli.loadargs import add_load_arguments, load_options
+from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness
+from pipeline.cli.values import parse_lengths
+from pipeline.errors import InputError
+from pipeline.fdm import SLICERS, FdmSettings, make_project, parse_filaments, write_projects
+from pipeline.fdm.make import check_slicers
+from pipeline.fdm.project import check_filament_count
+from pipeline.loading import load_model
+from pipeline.printer.profile import load_profile
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``fdm``'s arguments."""
+    add_load_arguments(parser)
+    parser.add_argument(
+        "-o", "--output", type=Path, required=True, metavar="DIR",
+        help="output folder for <stem>_prusa.3mf and <stem>_bambu.3mf",
+    )  # fmt: skip
+    parser.add_argument(
+        "--filaments", required=True, metavar="#RRGGBB,#RRGGBB,...",
+        help="filament colours, the core's first (at least two)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--thickness", metavar="MM",
+        help="the skin's depth on every face in mm (default: the colour layer of the "
+        "thickness rule, raised to one extrusion width where thinner)",
+    )  # fmt: skip
+    add_rule_arguments(parser, printer=True)
+    parser.add_argument(
+        "--method", choices=METHODS, default=METHODS[0],
+        help=f"offset construction of the core (default {METHODS[0]})",
+    )  # fmt: skip
+    parser.add_argument(
+        "--slicer", default=",".join(SLICERS), metavar="prusa,bambu",
+        help="which projects to write (default both)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--layer-height", default="0.2", metavar="MM", help="layer height (default 0.2)"
+    )
+    parser.add_argument("--nozzle", default="0.4", metavar="MM", help="nozzle width (default 0.4)")
+    parser.add_argument(
+        "--dither", action="store_true",
+        help="dither the filament choice over neighbouring faces (error diffusion)",
+    )  # fmt: skip
+
+
+def run(args: argparse.Namespace) -> int:
+    """Write the projects and print a summary."""
+    started = time.perf_counter()
+    filaments = parse_filaments(args.filaments)
+    slicers = check_slicers(args.slicer.replace(" ", "").split(","))
+    check_filament_count(filaments, slicers)  # refused before any work
+    constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness, 1)
+    settings = FdmSettings(
+        layer_height_mm=parse_lengths("--layer-height", args.layer_height, 1)[0],
+        nozzle_mm=parse_lengths("--nozzle", args.nozzle, 1)[0],
+    )
+    out: Path = args.output
+    if out.exists() and not out.is_dir():
+        raise InputError(out, "exists and is not a folder", "choose another -o DIR")
+    options = load_options(args)
+    mesh = load_model(args.model, options)
+    profile = load_profile(args.printer)
+    choice = choose_thickness(args, mesh, constant, profile=profile, max_faces=options.max_faces)
+    project = make_project(
+        choice.mesh,
+        choice.thickness_mm[0],
+        filaments,
+        settings=settings,
+        slicers=slicers,
+        method=args.method,
+        dither=args.dither,
+        lift=choice.faces is not None,
+        name=args.model.stem,
+    )
+    out.mkdir(parents=True, exist_ok=True)
+    paths = write_projects(out, args.model.stem, project, slicers)
+    counts = np.bincount(project.face_filament, minlength=len(filaments))
+    shares = ", ".join(f"{h} {c:,}" for h, c in zip(filaments.hex, counts, strict=True))
+    depth = project.depth_mm
+    print(
+        f"faces per filament: {shares}; skin depth {depth.min():.3g}-{depth.max():.3g} mm; "
+        f"{len(project.parts)} volumes; {time.perf_counter() - started:.1f} s"
+    )
+    for path in paths:
+        print(path)
+    return 0
