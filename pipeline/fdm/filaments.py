@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import colour
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -91,7 +92,7 @@ def nearest_filament(
     neighbours : (F, 3) int64, optional
         Face adjacency (``-1`` for none). Given, the choice is dithered: each face's
         CIELAB error (its colour minus its filament's) is spread evenly over its
-        neighbours not yet chosen, visiting the faces in order.
+        neighbours not yet chosen (:func:`_dithered`).
 
     Returns
     -------
@@ -114,13 +115,41 @@ def nearest_filament(
 def _dithered(
     lab: NDArray[np.float64], filaments: Filaments, neighbours: NDArray[np.int64]
 ) -> NDArray[np.int64]:
+    """Error diffusion over the faces, a class of mutually non-adjacent faces at a time.
+
+    The faces are split into classes no two neighbours share (:func:`_face_classes`);
+    the classes are visited in turn, every face of one at once: each takes its nearest
+    filament, and its error goes in equal shares to its neighbours of later classes.
+    """
     target = lab.copy()
+    classes = _face_classes(neighbours)
     chosen = np.full(lab.shape[0], -1, np.int64)
-    for face in range(lab.shape[0]):  # error diffusion is sequential by nature
-        distance = colour.delta_E(target[face][None, :], filaments.lab, method="CIE 2000")
-        pick = int(np.argmin(distance))
-        chosen[face] = pick
-        open_ = [n for n in neighbours[face] if n >= 0 and chosen[n] < 0]
-        if open_:
-            target[open_] += (target[face] - filaments.lab[pick]) / len(open_)
+    for k in range(int(classes.max(initial=-1)) + 1):  # a loop over classes, not faces
+        faces = np.flatnonzero(classes == k)
+        distance = colour.delta_E(target[faces, None, :], filaments.lab[None], method="CIE 2000")
+        pick = np.argmin(np.atleast_2d(distance), axis=1)
+        chosen[faces] = pick
+        around = neighbours[faces]  # (C, 3)
+        later = (around >= 0) & (classes[np.maximum(around, 0)] > k)
+        share = np.divide(1.0, later.sum(axis=1), out=np.zeros(len(faces)), where=later.any(1))
+        error = (target[faces] - filaments.lab[pick]) * share[:, None]
+        rows, slot = np.nonzero(later)
+        np.add.at(target, around[rows, slot], error[rows])
     return chosen
+
+
+@numba.njit(cache=True)
+def _face_classes(neighbours: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Greedy colouring of the faces by index: the least class no earlier neighbour has."""
+    classes = np.full(neighbours.shape[0], -1, np.int64)
+    for face in range(neighbours.shape[0]):
+        taken = 0
+        for j in range(neighbours.shape[1]):
+            n = neighbours[face, j]
+            if n >= 0 and classes[n] >= 0:
+                taken |= 1 << classes[n]
+        k = 0
+        while taken & (1 << k):
+            k += 1
+        classes[face] = k
+    return classes
