@@ -38,8 +38,18 @@ def main() -> None:
     results = {}
     with tempfile.TemporaryDirectory() as scratch:
         for name, (path, size_mm) in MODELS.items():
-            command = [sys.executable, "-m", "pipeline.cli", "build", str(path), "--printer",
-                       "j750", "--no-progress", "-o", str(Path(scratch) / name)]  # fmt: skip
+            command = [
+                sys.executable,
+                "-m",
+                "pipeline.cli",
+                "build",
+                str(path),
+                "--printer",
+                "j750",
+                "--no-progress",
+                "-o",
+                str(Path(scratch) / name),
+            ]
             if size_mm is not None:
                 mesh = load_model(path)
                 extent = float((mesh.vertices.max(0) - mesh.vertices.min(0)).max())

@@ -23,13 +23,19 @@ def coloured_box(size=(20.0, 20.0, 10.0)) -> ColouredMesh:
     box = trimesh.creation.box(size)
     normal = box.face_normals
     rgba = np.full((len(box.faces), 4), 255, np.uint8)
-    for axis, sign, rgb in ((0, 1, (255, 0, 0)), (0, -1, (0, 255, 0)),
-                            (1, 1, (0, 0, 255)), (1, -1, (255, 255, 0))):  # fmt: skip
+    for axis, sign, rgb in (
+        (0, 1, (255, 0, 0)),
+        (0, -1, (0, 255, 0)),
+        (1, 1, (0, 0, 255)),
+        (1, -1, (255, 255, 0)),
+    ):
         rgba[sign * normal[:, axis] > 0.9, :3] = rgb
     return ColouredMesh(
-        np.asarray(box.vertices, np.float64), np.asarray(box.faces, np.int64), "face",
+        np.asarray(box.vertices, np.float64),
+        np.asarray(box.faces, np.int64),
+        "face",
         face_rgba=rgba,
-    )  # fmt: skip
+    )
 
 
 def slice_with_prusa(project: Path, gcode: Path) -> subprocess.CompletedProcess[str]:
@@ -40,7 +46,10 @@ def slice_with_prusa(project: Path, gcode: Path) -> subprocess.CompletedProcess[
         pytest.skip("prusa-slicer is missing: apt-get install prusa-slicer")
     done = subprocess.run(
         [PRUSA, "--export-gcode", str(project), "--output", str(gcode)],
-        capture_output=True, text=True, timeout=600, check=False,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
     assert done.returncode == 0 and gcode.is_file(), done.stderr[-2000:]
     return done

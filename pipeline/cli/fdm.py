@@ -24,35 +24,47 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``fdm``'s arguments."""
     add_load_arguments(parser)
     parser.add_argument(
-        "-o", "--output", type=Path, required=True, metavar="DIR",
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        metavar="DIR",
         help="output folder for <stem>_prusa.3mf and <stem>_bambu.3mf",
-    )  # fmt: skip
+    )
     parser.add_argument(
-        "--filaments", required=True, metavar="#RRGGBB,#RRGGBB,...",
+        "--filaments",
+        required=True,
+        metavar="#RRGGBB,#RRGGBB,...",
         help="filament colours, the core's first (at least two)",
-    )  # fmt: skip
+    )
     parser.add_argument(
-        "--thickness", metavar="MM",
+        "--thickness",
+        metavar="MM",
         help="the skin's depth on every face in mm (default: the colour layer of the "
         "thickness rule, raised to one extrusion width where thinner)",
-    )  # fmt: skip
+    )
     add_rule_arguments(parser, printer=True)
     parser.add_argument(
-        "--method", choices=METHODS, default=METHODS[0],
+        "--method",
+        choices=METHODS,
+        default=METHODS[0],
         help=f"offset construction of the core (default {METHODS[0]})",
-    )  # fmt: skip
+    )
     parser.add_argument(
-        "--slicer", default=",".join(SLICERS), metavar="prusa,bambu",
+        "--slicer",
+        default=",".join(SLICERS),
+        metavar="prusa,bambu",
         help="which projects to write (default both)",
-    )  # fmt: skip
+    )
     parser.add_argument(
         "--layer-height", default="0.2", metavar="MM", help="layer height (default 0.2)"
     )
     parser.add_argument("--nozzle", default="0.4", metavar="MM", help="nozzle width (default 0.4)")
     parser.add_argument(
-        "--dither", action="store_true",
+        "--dither",
+        action="store_true",
         help="dither the filament choice over neighbouring faces (error diffusion)",
-    )  # fmt: skip
+    )
 
 
 def run(args: argparse.Namespace) -> int:

@@ -180,10 +180,12 @@ def _fans(picked: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int6
     at = np.minimum(at, key.size - 1)
     twin = order[at]
     inner = key[twin] == tails * n + heads  # the edge's twin is chosen too
-    links = np.concatenate([
-        np.stack([head_corner[inner], tail_corner[twin[inner]]], axis=1),
-        np.stack([tail_corner[inner], head_corner[twin[inner]]], axis=1),
-    ])  # fmt: skip
+    links = np.concatenate(
+        [
+            np.stack([head_corner[inner], tail_corner[twin[inner]]], axis=1),
+            np.stack([tail_corner[inner], head_corner[twin[inner]]], axis=1),
+        ]
+    )
     label = np.arange(3 * k)
     while True:  # as many rounds as the widest fan has corners
         low = np.minimum(label[links[:, 0]], label[links[:, 1]])

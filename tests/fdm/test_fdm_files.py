@@ -168,8 +168,11 @@ def test_api_refusals_are_value_errors():
     with pytest.raises(FdmError, match="at least two"):
         parse_filaments("#FFFFFF")
     lifted = make_project(
-        mesh, np.full(mesh.n_faces, 0.3), parse_filaments(BOX_FILAMENTS), lift=True,
+        mesh,
+        np.full(mesh.n_faces, 0.3),
+        parse_filaments(BOX_FILAMENTS),
+        lift=True,
         settings=FdmSettings(layer_height_mm=0.2),
-    )  # fmt: skip
+    )
     # raised to one extrusion width (0.45 mm); up and down faces to whole layers (0.6 mm)
     assert sorted(set(np.round(lifted.depth_mm, 6).tolist())) == [0.45, 0.6]

@@ -59,10 +59,22 @@ def test_box_every_side_filament_is_used(box_gcode):
 def test_real_models_slice(shared_mesh, tmp_path, capsys, model, scale):
     path = "data/colour_target/colour_target.obj" if model == "default" else str(shared_mesh(model))
     out = tmp_path / "out"
-    status = main([
-        "fdm", path, "-o", str(out), "--scale", str(scale), "--thickness", "1.2",
-        "--filaments", "#FFFFFF,#000000,#FF0000,#0000FF,#FFD000,#00A000", "--slicer", "prusa",
-    ])  # fmt: skip
+    status = main(
+        [
+            "fdm",
+            path,
+            "-o",
+            str(out),
+            "--scale",
+            str(scale),
+            "--thickness",
+            "1.2",
+            "--filaments",
+            "#FFFFFF,#000000,#FF0000,#0000FF,#FFD000,#00A000",
+            "--slicer",
+            "prusa",
+        ]
+    )
     assert status == 0
     (project,) = out.glob("*_prusa.3mf")
     slice_with_prusa(project, tmp_path / "model.gcode")

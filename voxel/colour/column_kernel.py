@@ -105,16 +105,25 @@ def ray(
     outward = f[3] + ha * f[1] + hb * f[2]
     norm = math.sqrt(outward[0] ** 2 + outward[1] ** 2 + outward[2] ** 2)
     return (
-        start[0], start[1], start[2],
-        -outward[0] / norm, -outward[1] / norm, -outward[2] / norm,
-    )  # fmt: skip
+        start[0],
+        start[1],
+        start[2],
+        -outward[0] / norm,
+        -outward[1] / norm,
+        -outward[2] / norm,
+    )
 
 
 @numba.njit(cache=True, nogil=True)
 def walk(
-    discs: Discs, i: int, a: float, b: float, z0: int,
-    materials: NDArray[np.uint8], counts: NDArray[np.int64],
-) -> None:  # fmt: skip
+    discs: Discs,
+    i: int,
+    a: float,
+    b: float,
+    z0: int,
+    materials: NDArray[np.uint8],
+    counts: NDArray[np.int64],
+) -> None:
     """Count the steps in rows ``z0 ..`` of disc `i`'s ray at ``(a, b)``."""
     n_z, n_y, n_x = materials.shape
     n_bins, n_materials = counts.shape[1], counts.shape[2]

@@ -170,9 +170,10 @@ class ModelReport:
         u, v = tangent_basis(n)
         frame = np.ascontiguousarray(np.stack([p, u, v, n], axis=1))
         quadric = (
-            np.zeros((len(p), 5)) if surface is None
+            np.zeros((len(p), 5))
+            if surface is None
             else _surface_quadrics(surface, p, frame, radius)
-        )  # fmt: skip
+        )
         grid_values = np.array([*grid.origin_mm, *grid.voxel_mm], np.float64)
         walk = np.array([self.step_mm, self.n_steps, self.bin_mm], np.float64)
         spacing = lattice_spacing(frame[:, 1:3], radius, np.asarray(grid.voxel_mm))
