@@ -1,12 +1,14 @@
 """What ``manifest.json`` says about a build: input, grid, layers, counts, materials, timings.
 
 :class:`Tally` counts the voxels of the slabs as they come (per layer, per layer and
-material, and the slabs' diagnostics); :func:`stack_manifest` assembles the manifest,
-which :meth:`pipeline.output.folder.BuildFolder.commit` completes with the files and writes.
+material, and the slabs' diagnostics); :func:`stack_manifest` assembles the whole manifest
+from the build's results, which :meth:`pipeline.output.folder.BuildFolder.commit` completes
+with the files (and the total time) and writes.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -91,9 +93,19 @@ def stack_manifest(
     thickness: NDArray[np.float64],
     shells: list[Shell] | None,
     tally: Tally,
-    seconds: dict[str, float],
+    seconds: Mapping[str, float],
+    *,
+    shell_agreement: dict[str, Any] | None,
+    summaries: Mapping[str, Any],
+    slab_rows: int,
+    faces: FaceThickness | None,
+    profile: PrinterProfile | None,
+    colour_report: dict[str, Any] | None,
+    estimate: Mapping[str, Any],
+    run: Mapping[str, Any],
+    tray: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Return the manifest's input, config, grid, layers, counts and timings.
+    """Return the whole manifest of a stack, but for ``files`` (:meth:`BuildFolder.commit`).
 
     Parameters
     ----------
@@ -108,9 +120,28 @@ def stack_manifest(
     shells : list of Shell or None
         The shells as written (their face counts are reported).
     tally : Tally
-        The voxel counts.
-    seconds : dict
-        Timings (the manifest holds this dict: later entries appear in it).
+        The voxel counts (and, with `profile`, the materials).
+    seconds : mapping
+        The stages' timings (copied; ``total`` is added when the manifest is written).
+    shell_agreement : dict or None
+        How well the distance layers agree with the shell meshes.
+    summaries : mapping
+        The writers' summaries (``tiff``, ``vdb``, ``gcvf``, ...), in the manifest's order.
+    slab_rows : int
+        Rows of a slab.
+    faces : FaceThickness or None
+        The thickness rule's result (``thickness``).
+    profile : PrinterProfile or None
+        The printer, when the voxels have materials (``printer``, ``optics``,
+        ``materials``, ``material_voxels_per_layer``).
+    colour_report : dict or None
+        The colour report, when there is one.
+    estimate : mapping
+        The cost estimate, as a dict.
+    run : mapping
+        How the slabs ran (scheduler, checkpoints, slabs resumed).
+    tray : dict or None
+        A tray's section (its models and their places).
     """
     n_bands = len(thickness)
     depth = np.cumsum(thickness, axis=0)
@@ -155,7 +186,7 @@ def stack_manifest(
     for entry in layers:
         entry["voxels"] = int(tally.counts[entry["index"]])
         entry["colour"] = entry["index"] in config.colour_layers
-    return {
+    manifest: dict[str, Any] = {
         "tool": f"shellvox {__version__}",
         "input": {"path": mesh.source, "sha256": _sha256(mesh.source), "faces": mesh.n_faces},
         "config": as_json(config),
@@ -168,8 +199,24 @@ def stack_manifest(
         "layers": layers,
         "voxel_counts": {entry["name"]: entry["voxels"] for entry in layers},
         "diagnostics": tally.diagnostics,
-        "seconds": seconds,
+        "seconds": dict(seconds),
+        "shell_agreement": shell_agreement,
+        **summaries,
+        "slab_rows": slab_rows,
+        "thickness": thickness_entry(config, faces),
     }
+    if profile is not None:
+        manifest["printer"] = profile.name
+        manifest["optics"] = profile.optics.manifest()
+        manifest["materials"] = tally.materials(profile)
+        manifest["material_voxels_per_layer"] = tally.per_layer(profile)
+    if colour_report is not None:
+        manifest["colour_report"] = colour_report
+    manifest["estimate"] = dict(estimate)
+    manifest["run"] = dict(run)
+    if tray is not None:
+        manifest["tray"] = tray
+    return manifest
 
 
 def thickness_entry(config: BuildConfig, faces: FaceThickness | None) -> dict[str, Any]:

@@ -30,9 +30,8 @@ from pipeline.build.stack import _Job, _material_plan, stack_model
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.model.mesh import ColouredMesh
-from pipeline.output.folder import BuildFolder
 from pipeline.printer.profile import PrinterProfile
-from pipeline.run.checkpoints import RunFolder, RunSettings, model_key, run_key
+from pipeline.run.checkpoints import RunSettings, model_key, run_key
 from pipeline.thickness.face_thickness import FaceThickness
 from pipeline.tray.mesh import TrayMesh, concatenate_thickness
 from pipeline.tray.plan import TrayPlan
@@ -116,8 +115,7 @@ def build_tray(
     build_plan = BuildPlan(
         plan.grid, rows, np.cumsum(rows, axis=0), plan.rows, plan.workers, plan.estimate
     )
-    seconds: dict[str, float] = {}
-    materials = _material_plan(profile, config, int(rows.shape[0]), seconds)
+    materials, seconds = _material_plan(profile, config, int(rows.shape[0]))
     running = settle_running(running, build_plan)
     entry = plan.manifest(mesh.face_starts)
     parts = json.dumps([[model_key(meshes[p.part]), p.offset_zyx] for p in places])
@@ -139,11 +137,9 @@ class _TrayJob(_Job):
     tray: TrayStack | None = None
     entry: dict[str, Any] | None = None
 
-    def run(self, folder: BuildFolder, run: RunFolder | None) -> dict[str, Any]:
-        """Run the build (:meth:`_Job.run`) and add the manifest's ``tray`` section."""
-        manifest = super().run(folder, run)
-        manifest["tray"] = self.entry
-        return manifest
+    def _tray_entry(self) -> dict[str, Any] | None:
+        """Return the manifest's ``tray`` section: the models and their places."""
+        return self.entry
 
     def _model(self, shells: list[Shell] | None) -> StackModel:
         """Return the tray: the slab runner hands it to compute_slab, which takes trays."""
