@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +34,28 @@ from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.obj.mtl import MtlEntry, fallback_factor, read_materials, texture_materials
 from pipeline.model.mesh import ColouredMesh
 from voxel.colour.srgb import encode_uint8
+
+
+class _Statements(NamedTuple):
+    """The statements of an OBJ file that shellvox reads, as text."""
+
+    positions: list[str]  # the rest of each ``v`` line
+    uvs: list[str]  # of each ``vt`` line
+    face_lines: list[list[str]]  # the corners of each ``f`` line
+    face_material_names: list[str]  # the ``usemtl`` name in force at each ``f`` line
+    mtllibs: list[str]
+
+
+class _Geometry(NamedTuple):
+    """Triangulated geometry of an OBJ file, in file units."""
+
+    xyz: NDArray[np.float64]  # (V, 3)
+    faces: NDArray[np.int64]  # (F, 3) position indices
+    vertex_rgb: NDArray[np.float64] | None  # (V, 3) ``v x y z r g b``, 0..1 or 0..255
+    uv_rows: NDArray[np.float64]  # (T, 2)
+    uv_index: NDArray[np.int64] | None  # (F, 3) indices into uv_rows, None without ``vt``
+    names: NDArray[np.object_]  # (F,) each face's material name
+    used: list[str]  # the material names used, sorted
 
 
 def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
@@ -52,104 +75,140 @@ def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
     ColouredMesh
         In file units, vertices not yet merged by position.
     """
+    statements = _statements(path)
+    geometry = _geometry(path, statements)
+    entries = read_materials(path, statements.mtllibs, options)
+    _warn_undefined(path, entries, geometry.used, geometry.names, options)
+    textured = _textured(path, entries, geometry, options)
+    if textured or (options.texture is not None and not entries):
+        return _textured_mesh(path, entries, textured, geometry, options)
+    if options.texture is not None:  # has_uv, an MTL, but no map_Kd on the faces
+        _warn_texture_unused(path, options.texture, "the MTL gives its faces no map_Kd")
+    return _untextured_mesh(path, entries, geometry, options)
+
+
+def _statements(path: Path) -> _Statements:
+    """Read the ``v``, ``vt``, ``f``, ``usemtl`` and ``mtllib`` statements of the file."""
     # Tabs separate statements as well as spaces do (MeshLab): one replace over the text
     # keeps the per-line work to a partition.
     text = path.read_text(encoding="utf-8", errors="replace").replace("\t", " ")
-    positions: list[str] = []
-    uvs: list[str] = []
-    face_lines: list[list[str]] = []
-    face_material_names: list[str] = []
-    mtllibs: list[str] = []
+    found = _Statements([], [], [], [], [])
     material = ""
     for raw in text.splitlines():
         key, _, rest = raw.strip().partition(" ")
         if key == "v":
-            positions.append(rest)
+            found.positions.append(rest)
         elif key == "vt":
-            uvs.append(rest)
+            found.uvs.append(rest)
         elif key == "f":
-            face_lines.append(rest.split())
-            face_material_names.append(material)
+            found.face_lines.append(rest.split())
+            found.face_material_names.append(material)
         elif key == "usemtl":
             material = rest.strip()
         elif key == "mtllib":
-            mtllibs.append(rest.strip())
-    if not positions or not face_lines:
+            found.mtllibs.append(rest.strip())
+    if not found.positions or not found.face_lines:
         raise InputError(path, "has no vertices or no faces", "export the mesh with its faces")
+    return found
 
-    vertex_rows = _parse_rows(path, positions, "v", 3)
+
+def _geometry(path: Path, statements: _Statements) -> _Geometry:
+    """Parse the vertices and texture coordinates and triangulate the faces."""
+    vertex_rows = _parse_rows(path, statements.positions, "v", 3)
     xyz = vertex_rows[:, :3]
     vertex_rgb = vertex_rows[:, 3:6] if vertex_rows.shape[1] >= 6 else None
+    uvs = statements.uvs
     uv_rows = _parse_rows(path, uvs, "vt", 1) if uvs else np.zeros((0, 2))
     if uv_rows.shape[1] == 1:  # "vt u": v defaults to 0
         uv_rows = np.concatenate([uv_rows, np.zeros_like(uv_rows)], axis=1)
     uv_rows = uv_rows[:, :2]
-    pos_index, uv_index, triangle_owner = _triangulate(path, face_lines, len(xyz), len(uv_rows))
-    faces = pos_index
-    names = np.asarray(face_material_names, dtype=object)[triangle_owner]
+    faces, uv_index, owner = _triangulate(path, statements.face_lines, len(xyz), len(uv_rows))
+    names = np.asarray(statements.face_material_names, dtype=object)[owner]
     used = sorted(set(names.tolist()))
-    has_uv = uv_index is not None and bool((uv_index >= 0).all())
+    return _Geometry(xyz, faces, vertex_rgb, uv_rows, uv_index, names, used)
 
-    entries = read_materials(path, mtllibs, options)
-    _warn_undefined(path, entries, used, names, options)
-    textured = [n for n in used if n in entries and entries[n].texture is not None]
-    if not has_uv:
-        if options.texture is not None:
-            raise InputError(
-                path,
-                "has no texture coordinates ('vt' on every face), so --texture cannot be applied",
-                "export the OBJ with UVs, or pass --colour R,G,B instead of --texture",
-            )
-        if textured:
-            warnings.warn(
-                f"{path}: material(s) {', '.join(map(repr, textured))} have a texture but "
-                "not every face has texture coordinates ('vt'); their Kd colour is used",
-                ShellvoxWarning,
-                stacklevel=3,
-            )
-        textured = []
-    if textured or (options.texture is not None and not entries):
-        assert uv_index is not None
-        table, texture_used = texture_materials(path, entries, textured, used, options)
-        if options.texture is not None and not texture_used:
-            _warn_texture_unused(path, options.texture, "the MTL's textures were all found")
-        if vertex_rgb is not None:
-            warnings.warn(
-                f"{path}: its vertex colours ('v x y z r g b') are ignored: "
-                "the materials' textures colour the faces",
-                ShellvoxWarning,
-                stacklevel=3,
-            )
-        if not entries:
-            names = np.full(len(faces), "", dtype=object)
-            used = [""]
-        lookup = {name: i for i, name in enumerate(used)}
-        face_material = np.array([lookup[n] for n in names.tolist()], dtype=np.int64)
-        if all(table[name].image is None for name in used):  # every texture replaced
-            colours = np.array([encode_uint8(table[name].factor) for name in used], np.uint8)
-            return ColouredMesh(
-                xyz, faces, "face", face_rgba=colours[face_material], source=str(path)
-            )
-        return ColouredMesh(
-            xyz,
-            faces,
-            "texture",
-            corner_uv=uv_rows[uv_index],
-            face_material=face_material,
-            materials=tuple(table[name] for name in used),
-            source=str(path),
+
+def _textured(
+    path: Path, entries: dict[str, MtlEntry], geometry: _Geometry, options: LoadOptions
+) -> list[str]:
+    """Return the used materials whose texture colours the faces (none without ``vt``)."""
+    uv_index = geometry.uv_index
+    has_uv = uv_index is not None and bool((uv_index >= 0).all())
+    textured = [n for n in geometry.used if n in entries and entries[n].texture is not None]
+    if has_uv:
+        return textured
+    if options.texture is not None:
+        raise InputError(
+            path,
+            "has no texture coordinates ('vt' on every face), so --texture cannot be applied",
+            "export the OBJ with UVs, or pass --colour R,G,B instead of --texture",
         )
+    if textured:
+        warnings.warn(
+            f"{path}: material(s) {', '.join(map(repr, textured))} have a texture but "
+            "not every face has texture coordinates ('vt'); their Kd colour is used",
+            ShellvoxWarning,
+            stacklevel=4,
+        )
+    return []
+
+
+def _textured_mesh(
+    path: Path,
+    entries: dict[str, MtlEntry],
+    textured: list[str],
+    geometry: _Geometry,
+    options: LoadOptions,
+) -> ColouredMesh:
+    """Return the mesh coloured by its materials' textures (or, all replaced, their factors)."""
+    xyz, faces, names, used = geometry.xyz, geometry.faces, geometry.names, geometry.used
+    assert geometry.uv_index is not None
+    table, texture_used = texture_materials(path, entries, textured, used, options)
+    if options.texture is not None and not texture_used:
+        _warn_texture_unused(
+            path, options.texture, "the MTL's textures were all found", stacklevel=5
+        )
+    if geometry.vertex_rgb is not None:
+        warnings.warn(
+            f"{path}: its vertex colours ('v x y z r g b') are ignored: "
+            "the materials' textures colour the faces",
+            ShellvoxWarning,
+            stacklevel=4,
+        )
+    if not entries:
+        names = np.full(len(faces), "", dtype=object)
+        used = [""]
+    lookup = {name: i for i, name in enumerate(used)}
+    face_material = np.array([lookup[n] for n in names.tolist()], dtype=np.int64)
+    if all(table[name].image is None for name in used):  # every texture replaced
+        colours = np.array([encode_uint8(table[name].factor) for name in used], np.uint8)
+        return ColouredMesh(xyz, faces, "face", face_rgba=colours[face_material], source=str(path))
+    return ColouredMesh(
+        xyz,
+        faces,
+        "texture",
+        corner_uv=geometry.uv_rows[geometry.uv_index],
+        face_material=face_material,
+        materials=tuple(table[name] for name in used),
+        source=str(path),
+    )
+
+
+def _untextured_mesh(
+    path: Path, entries: dict[str, MtlEntry], geometry: _Geometry, options: LoadOptions
+) -> ColouredMesh:
+    """Return the mesh coloured by its vertex colours, else its materials' ``Kd``, or none."""
+    xyz, faces, used = geometry.xyz, geometry.faces, geometry.used
     coloured = [n for n in used if n in entries]
-    if options.texture is not None:  # has_uv, an MTL, but no map_Kd on the faces
-        _warn_texture_unused(path, options.texture, "the MTL gives its faces no map_Kd")
-    if vertex_rgb is not None:
+    if geometry.vertex_rgb is not None:
         if coloured:
             warnings.warn(
                 f"{path}: the Kd colours of material(s) {', '.join(map(repr, coloured))} "
                 "are ignored: its vertex colours ('v x y z r g b') colour the faces",
                 ShellvoxWarning,
-                stacklevel=3,
+                stacklevel=4,
             )
+        vertex_rgb = geometry.vertex_rgb
         rgb = vertex_rgb if vertex_rgb.max() > 1.0 + 1e-9 else vertex_rgb * 255.0
         rgba = np.concatenate([np.clip(np.rint(rgb), 0, 255), np.full((len(rgb), 1), 255.0)], 1)
         return ColouredMesh(
@@ -162,16 +221,16 @@ def read_obj(path: Path, options: LoadOptions) -> ColouredMesh:
             np.uint8,
         )
         lookup = {name: i for i, name in enumerate(used)}
-        face_index = np.array([lookup[n] for n in names.tolist()], dtype=np.int64)
+        face_index = np.array([lookup[n] for n in geometry.names.tolist()], dtype=np.int64)
         return ColouredMesh(xyz, faces, "face", face_rgba=colours[face_index], source=str(path))
     return ColouredMesh(xyz, faces, "none", source=str(path))
 
 
-def _warn_texture_unused(path: Path, texture: Path, reason: str) -> None:
+def _warn_texture_unused(path: Path, texture: Path, reason: str, *, stacklevel: int = 4) -> None:
     warnings.warn(
         f"{path}: --texture {texture} is not used: {reason}",
         ShellvoxWarning,
-        stacklevel=4,
+        stacklevel=stacklevel,
     )
 
 
