@@ -3,7 +3,7 @@
 With the ``"shells"`` layer rule the voxels are counted between the shells, so the shells
 come first, in this process. With the ``"distance"`` rule and ``shell_meshes`` they are a
 second realisation of the layers, computed beside the voxels in a spawned process
-(:class:`pipeline.run.children.ChildCall`: it dies with the build); the voxels do not depend
+(:class:`pipeline.run._children.ChildCall`: it dies with the build); the voxels do not depend
 on them, so a failure there is a warning, not an error. The shells for the files are
 cleaned and jittered here (:func:`offset.for_file.shell_for_file`; in the spawned process
 when there is one); the voxels of the ``"shells"`` rule use them as computed.
@@ -27,8 +27,8 @@ from offset.for_file import shell_for_file
 from offset.shells import Shell
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
-from pipeline.model.mesh import ColouredMesh
-from pipeline.run.children import ChildCall
+from pipeline.model._mesh import ColouredMesh
+from pipeline.run._children import ChildCall
 
 #: Seconds between updates of the shells' progress bar.
 TICK_S = 0.5

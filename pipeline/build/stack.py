@@ -6,14 +6,14 @@ serialise. The parts of a build:
 - :mod:`pipeline.build.plan` the grid, slabs and workers, and the cost estimate: a build
   that cannot fit is refused before anything is allocated;
 - :mod:`pipeline.build.shell_job` the offset shells, before the voxels or beside them;
-- :mod:`pipeline.run.runner` the slabs, here, in forked workers or on a Dask cluster,
-  and :mod:`pipeline.output.streams` the streaming writers they feed;
-- :mod:`pipeline.run.checkpoints` the checkpoints of finished slabs, so a killed build can
+- :mod:`pipeline.run._runner` the slabs, here, in forked workers or on a Dask cluster,
+  and :mod:`pipeline.output._streams` the streaming writers they feed;
+- :mod:`pipeline.run._checkpoints` the checkpoints of finished slabs, so a killed build can
   be resumed;
-- :mod:`pipeline.output.folder` the output folder: every file under a temporary name,
+- :mod:`pipeline.output._folder` the output folder: every file under a temporary name,
   renamed only when the whole build succeeded, ``manifest.json`` last (assembled by
-  :mod:`pipeline.output.manifest`, with every file's size and SHA-256), so a failed run
-  leaves nothing that looks complete (:mod:`pipeline.output.outdir`).
+  :mod:`pipeline.output._manifest`, with every file's size and SHA-256), so a failed run
+  leaves nothing that looks complete (:mod:`pipeline.output._outdir`).
 """
 
 from __future__ import annotations
@@ -37,25 +37,25 @@ from pipeline.build.shell_job import ShellJob
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
 from pipeline.faults import DeferredSignals
-from pipeline.model.mesh import ColouredMesh
-from pipeline.output.folder import BuildFolder
-from pipeline.output.manifest import Tally, stack_manifest
-from pipeline.output.streams import StackOutputs, gcvf_slices
+from pipeline.model._mesh import ColouredMesh
+from pipeline.output._folder import BuildFolder
+from pipeline.output._manifest import Tally, stack_manifest
+from pipeline.output._streams import StackOutputs, gcvf_slices
 from pipeline.printer.material_plan import build_material_plan
 from pipeline.printer.profile import PrinterProfile
-from pipeline.run.checkpoints import (
+from pipeline.run._checkpoints import (
     RunFolder,
     RunSettings,
     run_key,
 )
-from pipeline.run.runner import SlabRunner
-from pipeline.run.task import SLAB_ARRAYS, material_tally
+from pipeline.run._runner import SlabRunner
+from pipeline.run._task import SLAB_ARRAYS, material_tally
 from pipeline.thickness.face_thickness import FaceThickness
 from voxel.agreement import shell_agreement
 from voxel.colour.materials import MaterialPlan, materials_for_slab
-from voxel.geometry.nearest import SurfaceIndex
-from voxel.io.tiff_pages import PageEncoder
-from voxel.io.vdb.encode import VdbEncoder
+from voxel.geometry._nearest import SurfaceIndex
+from voxel.io._tiff_pages import PageEncoder
+from voxel.io.vdb._encode import VdbEncoder
 from voxel.sampler import LayerSampler
 from voxel.slab import StackModel
 
@@ -100,7 +100,7 @@ def build_stack(
         Receives one line with the cost estimate before any work starts.
     running : RunSettings, optional
         Where the slabs run (``workers``, or a Dask scheduler), checkpoints and resume
-        (:mod:`pipeline.run.checkpoints`); default: this machine, with checkpoints.
+        (:mod:`pipeline.run._checkpoints`); default: this machine, with checkpoints.
 
     Returns
     -------

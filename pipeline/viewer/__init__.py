@@ -1,1 +1,4 @@
-"""``shellvox view``: a local web viewer of a build's slices (see :mod:`pipeline.viewer.server`)."""
+"""``shellvox view``: a local web viewer of a build's slices.
+
+See :mod:`pipeline.viewer._server`.
+"""

@@ -82,7 +82,7 @@ def test_a_sample_is_inside_its_colour_region_unless_near_an_edge():
     # grey ramp along z: samples within the ring's reach of the red-blue edge are near an
     # edge; those farther away, and those on the ramp (it averages to its centre), inside.
     from pipeline.build.colour_check import UNIFORM_RADIUS_MM, uniform_surroundings
-    from pipeline.model.mesh import ColouredMesh
+    from pipeline.model._mesh import ColouredMesh
 
     box = trimesh.creation.box((10.0, 10.0, 10.0)).subdivide().subdivide().subdivide()
     centre = box.triangles_center

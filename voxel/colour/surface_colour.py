@@ -4,9 +4,9 @@ The colour layer of a printer-resolution build has 1e7 to 1e8 voxels, each needi
 barycentric coordinates of its nearest point and a colour lookup (face, vertex or
 bilinear texture colour, in linear light). :class:`SurfaceColour` holds a mesh's colour
 source as plain arrays and :func:`voxel_colours` does both steps in one compiled loop
-over the voxels, with the arithmetic of :func:`voxel.geometry.nearest.closest_barycentric`, of
-:mod:`voxel.colour.srgb` and of ``pipeline.model.texture`` /
-``pipeline.model.mesh.ColouredMesh.colour_at``
+over the voxels, with the arithmetic of :func:`voxel.geometry._nearest.closest_barycentric`, of
+:mod:`voxel.colour.srgb` and of ``pipeline.model._texture`` /
+``pipeline.model._mesh.ColouredMesh.colour_at``
 term for term, so the colours are those of the numpy path (tests compare them).
 """
 
@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from voxel.colour.srgb import DECODE_LUT
-from voxel.geometry.closest_point import barycentric
+from voxel.geometry._closest_point import barycentric
 
 #: ``kind`` codes.
 CONSTANT, FACE, VERTEX, TEXTURE = 0, 1, 2, 3
@@ -104,7 +104,7 @@ def voxel_colours(
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _wrap(index: int, size: int, mode: int) -> int:
-    """Map a texel index into ``[0, size)`` (``pipeline.model.texture._wrap``)."""
+    """Map a texel index into ``[0, size)`` (``pipeline.model._texture._wrap``)."""
     if 0 <= index < size:
         return index
     if mode == REPEAT:
@@ -245,7 +245,7 @@ def _sample(
 ) -> None:  # fmt: skip
     """Linear RGBA of material ``m`` at ``(u, v = t)``.
 
-    See ``pipeline.model.texture.Material.sample``.
+    See ``pipeline.model._texture.Material.sample``.
     """
     offset, height, width = image[m, 0], image[m, 1], image[m, 2]
     if height == 0:

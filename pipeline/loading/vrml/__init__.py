@@ -1,1 +1,1 @@
-"""VRML 2.0: the parser (:mod:`~pipeline.loading.vrml.parse`) and the reader."""
+"""VRML 2.0: the parser (:mod:`~pipeline.loading.vrml._parse`) and the reader."""
