@@ -8,3 +8,36 @@
 - :mod:`~pipeline.output._shells` shell meshes as files; :mod:`~pipeline.output._ply` the
   float64 PLY with per-face values.
 """
+
+from __future__ import annotations
+
+from pipeline.output._checks import check_files, read_manifest, verify_files
+from pipeline.output._folder import BuildFolder
+from pipeline.output._manifest import Tally, stack_manifest
+from pipeline.output._outdir import LOCK_NAME, SHELL_OUTPUTS, OutputFolder, remove_leftovers, sha256
+from pipeline.output._ply import read_face_ply, write_ply, write_thickness_ply
+from pipeline.output._shells import read_ply, save_shells, write_shell
+from pipeline.output._streams import StackOutputs, gcvf_slices, gcvf_writer
+
+__all__ = [
+    "LOCK_NAME",
+    "SHELL_OUTPUTS",
+    "BuildFolder",
+    "OutputFolder",
+    "StackOutputs",
+    "Tally",
+    "check_files",
+    "gcvf_slices",
+    "gcvf_writer",
+    "read_face_ply",
+    "read_manifest",
+    "read_ply",
+    "remove_leftovers",
+    "save_shells",
+    "sha256",
+    "stack_manifest",
+    "verify_files",
+    "write_ply",
+    "write_shell",
+    "write_thickness_ply",
+]

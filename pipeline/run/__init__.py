@@ -10,3 +10,54 @@
 
 Nothing here imports :mod:`pipeline.build`.
 """
+
+from __future__ import annotations
+
+from pipeline.run._checkpoints import (
+    CHECKPOINT_AFTER_S,
+    JOURNAL,
+    RUN_FOLDER,
+    RunFolder,
+    RunSettings,
+    check_resumable,
+    checkpoints,
+    model_key,
+    run_key,
+)
+from pipeline.run._children import ChildCall, ChildDied
+from pipeline.run._chunks import decode_chunk, encode_chunk
+from pipeline.run._runner import SlabRunner
+from pipeline.run._slots import EXTRA_SLOTS, SlabSlots
+from pipeline.run._task import (
+    SLAB_ARRAYS,
+    SlabJob,
+    StackSlab,
+    material_tally,
+    resolve_workers,
+    stack_slab,
+)
+
+__all__ = [
+    "CHECKPOINT_AFTER_S",
+    "EXTRA_SLOTS",
+    "JOURNAL",
+    "RUN_FOLDER",
+    "SLAB_ARRAYS",
+    "ChildCall",
+    "ChildDied",
+    "RunFolder",
+    "RunSettings",
+    "SlabJob",
+    "SlabRunner",
+    "SlabSlots",
+    "StackSlab",
+    "check_resumable",
+    "checkpoints",
+    "decode_chunk",
+    "encode_chunk",
+    "material_tally",
+    "model_key",
+    "resolve_workers",
+    "run_key",
+    "stack_slab",
+]

@@ -91,7 +91,7 @@ def _slab_job():
 
     from pipeline.config import LoadOptions
     from pipeline.loading import load_model
-    from pipeline.run._runner import SlabJob
+    from pipeline.run._task import SlabJob
     from voxel.geometry._nearest import SurfaceIndex
     from voxel.grid import GridSpec
     from voxel.io.vdb._encode import VdbEncoder

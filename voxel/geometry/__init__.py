@@ -8,3 +8,41 @@
   points (libigl), the one module of :mod:`voxel` that :mod:`offset` uses;
 - :mod:`~voxel.geometry._layer_kernel` the per-voxel pass: layers, SDF band, colour voxels.
 """
+
+from __future__ import annotations
+
+from voxel.geometry._closest_point import barycentric
+from voxel.geometry._distance_scan import nearest_in_reach, nearest_within
+from voxel.geometry._layer_kernel import assign_layers, colour_voxels, layer_material_counts
+from voxel.geometry._nearest import (
+    Nearest,
+    SurfaceIndex,
+    closest_barycentric,
+    distance_to_surface,
+    nearest_faces,
+    nearest_on_surface,
+    on_faces,
+    winding_numbers,
+)
+from voxel.geometry._voronoi import voronoi_regions
+from voxel.geometry._winding import inside_slab, winding_slab
+
+__all__ = [
+    "Nearest",
+    "SurfaceIndex",
+    "assign_layers",
+    "barycentric",
+    "closest_barycentric",
+    "colour_voxels",
+    "distance_to_surface",
+    "inside_slab",
+    "layer_material_counts",
+    "nearest_faces",
+    "nearest_in_reach",
+    "nearest_on_surface",
+    "nearest_within",
+    "on_faces",
+    "voronoi_regions",
+    "winding_numbers",
+    "winding_slab",
+]
