@@ -18,6 +18,8 @@ Python's zlib.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba
 import numpy as np
 from numpy.typing import NDArray
@@ -95,12 +97,33 @@ def _length_table() -> NDArray[np.int64]:
     return table
 
 
-_CODES, _CODE_LENGTHS = _literal_codes()
-_LENGTHS = _length_table()
-_DISTANCE_CODES = np.array(_canonical(_DISTANCE_LENGTHS), dtype=np.uint32)
-_DISTANCE_CODE_LENGTHS = np.array(_DISTANCE_LENGTHS, dtype=np.uint8)
-_HEADER_VALUE, _HEADER_COUNT = _header()
-_HEADER_BITS = np.frombuffer(_HEADER_VALUE.to_bytes(256, "little"), dtype=np.uint8).copy()
+class _Tables(NamedTuple):
+    """The fixed code of every stream, as the compiled encoder reads it."""
+
+    codes: NDArray[np.uint32]  # (286,) literal/length codes
+    code_lengths: NDArray[np.uint8]  # (286,) their lengths in bits
+    lengths: NDArray[np.int64]  # (259, 3) per match length: symbol, extra bits, extra value
+    distance_codes: NDArray[np.uint32]  # (30,) distance codes
+    distance_lengths: NDArray[np.uint8]  # (30,) their lengths in bits
+    header: NDArray[np.uint8]  # the dynamic block's header, bits packed little-endian
+    header_bits: int  # bits of the header
+
+
+def _tables() -> _Tables:
+    codes, code_lengths = _literal_codes()
+    header_value, header_bits = _header()
+    return _Tables(
+        codes,
+        code_lengths,
+        _length_table(),
+        np.array(_canonical(_DISTANCE_LENGTHS), dtype=np.uint32),
+        np.array(_DISTANCE_LENGTHS, dtype=np.uint8),
+        np.frombuffer(header_value.to_bytes(256, "little"), dtype=np.uint8).copy(),
+        header_bits,
+    )
+
+
+_TABLES = _tables()
 
 
 def zlib_compress(data: bytes | NDArray[np.uint8], period: int = 1) -> bytes:
@@ -128,11 +151,9 @@ def zlib_compress(data: bytes | NDArray[np.uint8], period: int = 1) -> bytes:
     else:
         raw = np.ascontiguousarray(data).reshape(-1).view(np.uint8)
     # worst case: header, 10 bits a byte (all literals), end of block, Adler-32
-    out = np.empty(2 + _HEADER_COUNT // 8 + 1 + (10 * len(raw) + 7) // 8 + 2 + 4 + 8, np.uint8)
-    size = _encode(
-        raw, period, _CODES, _CODE_LENGTHS, _LENGTHS, _DISTANCE_CODES, _DISTANCE_CODE_LENGTHS,
-        _HEADER_BITS, _HEADER_COUNT, out,
-    )  # fmt: skip
+    header_bytes = _TABLES.header_bits // 8
+    out = np.empty(2 + header_bytes + 1 + (10 * len(raw) + 7) // 8 + 2 + 4 + 8, np.uint8)
+    size = _encode(raw, period, _TABLES, out)
     return out[:size].tobytes()
 
 
@@ -149,19 +170,9 @@ def _match(raw: NDArray[np.uint8], i: int, distance: int, n: int) -> int:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _encode(
-    raw: NDArray[np.uint8],
-    period: int,
-    codes: NDArray[np.uint32],
-    code_lengths: NDArray[np.uint8],
-    lengths: NDArray[np.int64],
-    distance_codes: NDArray[np.uint32],
-    distance_lengths: NDArray[np.uint8],
-    header: NDArray[np.uint8],
-    header_bits: int,
-    out: NDArray[np.uint8],
-) -> int:
+def _encode(raw: NDArray[np.uint8], period: int, tables: _Tables, out: NDArray[np.uint8]) -> int:
     """Write the zlib stream of ``raw`` into ``out``; return its size."""
+    codes, code_lengths, lengths, distance_codes, distance_lengths, header, header_bits = tables
     n = len(raw)
     out[0] = 0x78  # deflate, 32 KiB window
     out[1] = 0x01  # fastest; (0x78 * 256 + 0x01) % 31 == 0
@@ -300,33 +311,29 @@ def compress_segments(
     raw = np.ascontiguousarray(raw).reshape(-1).view(np.uint8)
     bounds = np.asarray(bounds, dtype=np.int64)
     sizes = np.diff(bounds)
-    worst = 2 + _HEADER_COUNT // 8 + 1 + (10 * sizes + 7) // 8 + 2 + 4 + 8
+    worst = 2 + _TABLES.header_bits // 8 + 1 + (10 * sizes + 7) // 8 + 2 + 4 + 8
     out = np.empty(int(worst.sum()), dtype=np.uint8)
     lengths = np.zeros(len(sizes), dtype=np.int64)
-    used = _encode_segments(
-        raw, bounds, np.concatenate([[0], np.cumsum(worst)]).astype(np.int64), period,
-        _CODES, _CODE_LENGTHS, _LENGTHS, _DISTANCE_CODES, _DISTANCE_CODE_LENGTHS,
-        _HEADER_BITS, _HEADER_COUNT, out, lengths,
-    )  # fmt: skip
+    room = np.concatenate([[0], np.cumsum(worst)]).astype(np.int64)
+    used = _encode_segments(raw, bounds, room, period, _TABLES, out, lengths)
     return out[:used], lengths
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _encode_segments(
-    raw: NDArray[np.uint8], bounds: NDArray[np.int64], room: NDArray[np.int64], period: int,
-    codes: NDArray[np.uint32], code_lengths: NDArray[np.uint8], lengths: NDArray[np.int64],
-    distance_codes: NDArray[np.uint32], distance_lengths: NDArray[np.uint8],
-    header: NDArray[np.uint8], header_bits: int, out: NDArray[np.uint8],
+    raw: NDArray[np.uint8],
+    bounds: NDArray[np.int64],
+    room: NDArray[np.int64],
+    period: int,
+    tables: _Tables,
+    out: NDArray[np.uint8],
     packed_lengths: NDArray[np.int64],
-) -> int:  # fmt: skip
+) -> int:
     """Encode each segment into ``out`` back to back; return the bytes used."""
     pos = 0
     for n in range(len(bounds) - 1):
         segment = raw[bounds[n] : bounds[n + 1]]
-        size = _encode(
-            segment, period, codes, code_lengths, lengths, distance_codes, distance_lengths,
-            header, header_bits, out[pos : pos + room[n + 1] - room[n]],
-        )  # fmt: skip
+        size = _encode(segment, period, tables, out[pos : pos + room[n + 1] - room[n]])
         packed_lengths[n] = size
         pos += size
     return pos
