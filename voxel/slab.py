@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from voxel.colour.colour_at import ColourAt, nearest_colour
 from voxel.colour.surface_colour import SurfaceColour, voxel_colours
 from voxel.geometry._distance_scan import nearest_in_reach, nearest_within
-from voxel.geometry._layer_kernel import assign_layers, colour_voxels
+from voxel.geometry._layer_kernel import LayerInputs, LayerOutputs, assign_layers, colour_voxels
 from voxel.geometry._nearest import SurfaceIndex, nearest_faces, on_faces
 from voxel.geometry._winding import inside_slab
 from voxel.grid import GridSpec
@@ -207,9 +207,16 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     reach = reach_mm(model)
     if reach > 0:
         near = nearest_in_reach(
-            model.surface.vertices, model.surface.faces, grid, z_start, z_stop, reach,
-            inside=inside, outside_reach_mm=half_width, regions=model.surface.regions,
-        )  # fmt: skip
+            model.surface.vertices,
+            model.surface.faces,
+            grid,
+            z_start,
+            z_stop,
+            reach,
+            inside=inside,
+            outside_reach_mm=half_width,
+            regions=model.surface.regions,
+        )
         squared, face, n_tests = near
     else:
         squared = np.zeros(shape)
@@ -221,9 +228,9 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     sdf_band = np.empty(shape, dtype=bool)
     layer_counts = np.zeros(256, dtype=np.int64)
     n_colour, n_unreached, n_reached = assign_layers(
-        inside, squared, face, depth, by_distance, half_width, is_colour, layers, sdf, sdf_band,
-        layer_counts,
-    )  # fmt: skip
+        LayerInputs(inside, squared, face, depth, by_distance, half_width, is_colour),
+        LayerOutputs(layers, sdf, sdf_band, layer_counts),
+    )
     del squared
     flat = colour_voxels(layers, is_colour, n_colour)
     face_ids = face.reshape(-1)[flat].astype(np.int64)
@@ -244,9 +251,18 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
         rgba.reshape(-1, 4)[flat] = nearest_colour(nearest, model.colour_at)
     del points
     return SlabResult(
-        z_start, z_stop, layers, rgba, sdf, sdf_band, unbalanced, violations,
-        n_reached + n_unreached, n_tests, layer_counts[: model.n_bands + 2],
-    )  # fmt: skip
+        z_start,
+        z_stop,
+        layers,
+        rgba,
+        sdf,
+        sdf_band,
+        unbalanced,
+        violations,
+        n_reached + n_unreached,
+        n_tests,
+        layer_counts[: model.n_bands + 2],
+    )
 
 
 def _beyond_reach(

@@ -13,7 +13,13 @@ from __future__ import annotations
 
 from voxel.geometry._closest_point import barycentric
 from voxel.geometry._distance_scan import nearest_in_reach, nearest_within
-from voxel.geometry._layer_kernel import assign_layers, colour_voxels, layer_material_counts
+from voxel.geometry._layer_kernel import (
+    LayerInputs,
+    LayerOutputs,
+    assign_layers,
+    colour_voxels,
+    layer_material_counts,
+)
 from voxel.geometry._nearest import (
     Nearest,
     SurfaceIndex,
@@ -28,6 +34,8 @@ from voxel.geometry._voronoi import voronoi_regions
 from voxel.geometry._winding import inside_slab, winding_slab
 
 __all__ = [
+    "LayerInputs",
+    "LayerOutputs",
     "Nearest",
     "SurfaceIndex",
     "assign_layers",

@@ -47,6 +47,22 @@ from voxel.geometry._voronoi import FACE, VoronoiRegions, voronoi_regions
 from voxel.grid import GridSpec
 
 
+class _Mesh(NamedTuple):
+    """The triangles the scan tests."""
+
+    vertices: NDArray[np.float64]  # (V, 3) mm
+    faces: NDArray[np.int64]  # (F, 3)
+
+
+class _ScanGrid(NamedTuple):
+    """Where the scan writes: the grid's placement, the slab's first row, the reach."""
+
+    origin: NDArray[np.float64]  # (3,) mm, x y z
+    voxel: NDArray[np.float64]  # (3,) mm, x y z
+    z_start: int
+    reach: float  # mm
+
+
 class NearestInReach(NamedTuple):
     """Nearest faces of the voxel centres of a slab, where closer than the reach.
 
@@ -192,12 +208,8 @@ def nearest_within(
     z_min[is_face] = face_z.min(axis=1)
     z_max[is_face] = face_z.max(axis=1)
     chosen = np.flatnonzero((z_max >= z_low) & (z_min <= z_high))
-    n_tests = _scan_regions(
-        vertices, faces, regions.kind, regions.anchor, regions.bounds_ptr, regions.bounds,
-        regions.tests_ptr, regions.tests, regions.normals, regions.spread, chosen, origin,
-        voxel, z_start,
-        reach_mm, squared, face,
-    )  # fmt: skip
+    scan = _ScanGrid(origin, voxel, z_start, reach_mm)
+    n_tests = _scan_regions(_Mesh(vertices, faces), regions, chosen, scan, squared, face)
     return NearestInReach(squared, face, int(n_tests))
 
 
@@ -226,21 +238,10 @@ def _segment_2d_d2(py: float, pz: float, ay: float, az: float, by: float, bz: fl
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _scan_regions(
-    vertices: NDArray[np.float64],
-    faces: NDArray[np.int64],
-    kind: NDArray[np.int8],
-    anchor: NDArray[np.int64],
-    bounds_ptr: NDArray[np.int64],
-    bounds: NDArray[np.float64],
-    tests_ptr: NDArray[np.int64],
-    tests: NDArray[np.int64],
-    normals: NDArray[np.float64],
-    spread: NDArray[np.float64],
+    mesh: _Mesh,
+    regions: VoronoiRegions,
     chosen: NDArray[np.int64],
-    origin: NDArray[np.float64],
-    voxel: NDArray[np.float64],
-    z_start: int,
-    reach: float,
+    scan: _ScanGrid,
     squared: NDArray[np.float64],
     face: NDArray[np.int32],
 ) -> int:
@@ -252,6 +253,11 @@ def _scan_regions(
     the model's size). A voxel takes a face of strictly smaller distance, or of equal
     distance and lower index, so the result does not depend on the order of regions.
     """
+    vertices, faces = mesh.vertices, mesh.faces
+    kind, anchor, normals, spread = regions.kind, regions.anchor, regions.normals, regions.spread
+    bounds_ptr, bounds = regions.bounds_ptr, regions.bounds
+    tests_ptr, tests = regions.tests_ptr, regions.tests
+    origin, voxel, z_start, reach = scan.origin, scan.voxel, scan.z_start, scan.reach
     n_zs, n_y, n_x = squared.shape
     ox, oy, oz = origin[0], origin[1], origin[2]
     vx, vy, vz = voxel[0], voxel[1], voxel[2]

@@ -10,29 +10,17 @@ here checks its input.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def assign_layers(
-    inside: NDArray[np.bool_],
-    squared: NDArray[np.float64],
-    face: NDArray[np.int32],
-    depth: NDArray[np.float64],
-    by_distance: bool,
-    half_width: float,
-    is_colour: NDArray[np.bool_],
-    layers: NDArray[np.uint8],
-    sdf: NDArray[np.float32],
-    sdf_band: NDArray[np.bool_],
-    counts: NDArray[np.int64],
-) -> tuple[int, int, int]:
-    """Fill ``layers`` (by distance), ``sdf`` and ``sdf_band`` of a slab in place.
+class LayerInputs(NamedTuple):
+    """What :func:`assign_layers` reads of a slab.
 
-    Parameters
+    Attributes
     ----------
     inside : (Zs, Y, X) bool
         Voxel centres inside the outer surface.
@@ -49,14 +37,48 @@ def assign_layers(
         Half width of the signed-distance band.
     is_colour : (256,) bool
         Layers whose voxels take a colour.
+    """
+
+    inside: NDArray[np.bool_]
+    squared: NDArray[np.float64]
+    face: NDArray[np.int32]
+    depth: NDArray[np.float64]
+    by_distance: bool
+    half_width: float
+    is_colour: NDArray[np.bool_]
+
+
+class LayerOutputs(NamedTuple):
+    """What :func:`assign_layers` fills in place.
+
+    Attributes
+    ----------
     layers : (Zs, Y, X) uint8
-        Output (or input, see ``by_distance``).
+        Output (or input, see ``LayerInputs.by_distance``).
     sdf : (Zs, Y, X) float32, mm
         Output: signed distance in the band, ``-+half_width`` inside / outside elsewhere.
     sdf_band : (Zs, Y, X) bool
         Output: ``|sdf| < half_width``.
     counts : (256,) int64
         Output: voxels per layer (added to).
+    """
+
+    layers: NDArray[np.uint8]
+    sdf: NDArray[np.float32]
+    sdf_band: NDArray[np.bool_]
+    counts: NDArray[np.int64]
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def assign_layers(given: LayerInputs, out: LayerOutputs) -> tuple[int, int, int]:
+    """Fill ``layers`` (by distance), ``sdf`` and ``sdf_band`` of a slab in place.
+
+    Parameters
+    ----------
+    given : LayerInputs
+        The inside test, the nearest faces within reach and the layers' rule.
+    out : LayerOutputs
+        The slab's layers, signed distances, band and counts per layer, filled in place.
 
     Returns
     -------
@@ -67,6 +89,8 @@ def assign_layers(
     n_reached : int
         Voxels with a nearest face.
     """
+    inside, squared, face, depth, by_distance, half_width, is_colour = given
+    layers, sdf, sdf_band, counts = out
     n_z, n_y, n_x = inside.shape
     n_bands = depth.shape[0]
     core = np.uint8(n_bands + 1)

@@ -25,7 +25,7 @@ References
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -37,9 +37,8 @@ EPSILON = 1e-9
 FACE, EDGE, VERTEX = 0, 1, 2
 
 
-@dataclass(frozen=True, eq=False)
-class VoronoiRegions:
-    """Bounds of the region of every face, edge and vertex of a mesh.
+class VoronoiRegions(NamedTuple):
+    """Bounds of the region of every face, edge and vertex of a mesh (the scan's input).
 
     Attributes
     ----------
@@ -199,9 +198,11 @@ MAX_CONE_BOUNDS = 24
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _cone_spread(
-    bounds_ptr: NDArray[np.int64], bounds: NDArray[np.float64], first: int,
+    bounds_ptr: NDArray[np.int64],
+    bounds: NDArray[np.float64],
+    first: int,
     spread: NDArray[np.float64],
-) -> None:  # fmt: skip
+) -> None:
     """Box of the directions ``{d : g . d <= 0 for the region's g, |d_k| <= 1}``.
 
     Regions ``first..N`` (edges and vertices): the bounds of their directions from the

@@ -62,9 +62,13 @@ class VdbEncoder:
 
     @classmethod
     def for_grid(
-        cls, grid: GridSpec, *, sdf_half_width_mm: float, material_grid: bool,
+        cls,
+        grid: GridSpec,
+        *,
+        sdf_half_width_mm: float,
+        material_grid: bool,
         compression_level: int | None = None,
-    ) -> VdbEncoder:  # fmt: skip
+    ) -> VdbEncoder:
         """Return the encoder of a :class:`VdbStackWriter` made with the same arguments."""
         kinds = grid_kinds(float(np.float32(sdf_half_width_mm)), material_grid)
         return cls(grid, kinds, sdf_half_width_mm, compression_level)
@@ -88,9 +92,14 @@ class VdbEncoder:
         for z0 in range(0, len(layers), LEAF):
             rows = slice(z0, z0 + LEAF)
             self.leaf_row(
-                spools, z_start + z0, layers[rows], rgb[rows], coloured[rows], sdf[rows],
+                spools,
+                z_start + z0,
+                layers[rows],
+                rgb[rows],
+                coloured[rows],
+                sdf[rows],
                 None if materials is None else materials[rows],
-            )  # fmt: skip
+            )
         return spools
 
     def leaf_row(
@@ -161,9 +170,13 @@ class VdbEncoder:
     ) -> None:
         """Spool gathered leaves ``(n, 512)`` of a grid whose inactive values are its background."""
         spool.add_leaves(
-            blocks.origins(which), values.astype(np.float32), active, None, self._level,
+            blocks.origins(which),
+            values.astype(np.float32),
+            active,
+            None,
+            self._level,
             spool.name in RUN_GRIDS,
-        )  # fmt: skip
+        )
 
 
 class _Blocks:

@@ -217,11 +217,16 @@ def _zipped_all(
 
 @numba.njit(cache=True, nogil=True)
 def _assemble(
-    raw: NDArray[np.uint8], bounds: NDArray[np.int64], packed: NDArray[np.uint8],
-    packed_starts: NDArray[np.int64], packed_lengths: NDArray[np.int64],
-    use: NDArray[np.bool_], prefix: NDArray[np.uint8], starts: NDArray[np.int64],
+    raw: NDArray[np.uint8],
+    bounds: NDArray[np.int64],
+    packed: NDArray[np.uint8],
+    packed_starts: NDArray[np.int64],
+    packed_lengths: NDArray[np.int64],
+    use: NDArray[np.bool_],
+    prefix: NDArray[np.uint8],
+    starts: NDArray[np.int64],
     body: NDArray[np.uint8],
-) -> None:  # fmt: skip
+) -> None:
     """Copy each leaf's size prefix and its packed or raw bytes to ``body``."""
     for n in range(len(starts)):
         at = starts[n]
