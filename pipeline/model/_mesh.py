@@ -186,9 +186,16 @@ class ColouredMesh:
         if self.colour_kind == "vertex":
             assert self.corner_rgba is not None
             return SurfaceColour(
-                VERTEX, np.ascontiguousarray(self.corner_rgba, dtype=np.uint8), no_uv,
-                no_material, pixels, image, wrap, filters, factor,
-            )  # fmt: skip
+                VERTEX,
+                np.ascontiguousarray(self.corner_rgba, dtype=np.uint8),
+                no_uv,
+                no_material,
+                pixels,
+                image,
+                wrap,
+                filters,
+                factor,
+            )
         if self.colour_kind == "texture":
             assert self.corner_uv is not None and self.face_material is not None
             images = [m.image for m in self.materials]
@@ -210,11 +217,16 @@ class ColouredMesh:
             filters = np.array([FILTER_CODES[m.filter] for m in self.materials], dtype=np.int64)
             factor = np.array([m.factor for m in self.materials], dtype=np.float64).reshape(-1, 4)
             return SurfaceColour(
-                TEXTURE, np.zeros((n_faces, 3, 4), np.uint8)[:0],
+                TEXTURE,
+                np.zeros((n_faces, 3, 4), np.uint8)[:0],
                 np.ascontiguousarray(self.corner_uv, dtype=np.float64),
                 np.ascontiguousarray(self.face_material, dtype=np.int64),
-                pixels, image, wrap, filters, factor,
-            )  # fmt: skip
+                pixels,
+                image,
+                wrap,
+                filters,
+                factor,
+            )
         rgba = np.asarray(self.default_rgba, dtype=np.uint8).reshape(1, 1, 4).repeat(3, axis=1)
         return SurfaceColour(
             CONSTANT, rgba, no_uv, no_material, pixels, image, wrap, filters, factor

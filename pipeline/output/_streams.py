@@ -226,9 +226,11 @@ def gcvf_slices(profile: PrinterProfile, plan: MaterialPlan) -> KeySlices | None
 
 
 def gcvf_writer(
-    path: Path, grid: GridSpec, table: list[tuple[int, str, RGBA]],
+    path: Path,
+    grid: GridSpec,
+    table: list[tuple[int, str, RGBA]],
     profile: PrinterProfile,
-) -> GcvfWriter:  # fmt: skip
+) -> GcvfWriter:
     """Return the ``.gcvf`` job writer of `profile` for `grid` at `path`.
 
     Raises

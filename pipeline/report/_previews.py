@@ -88,9 +88,13 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
                 f"mm): the most vivid colour-layer voxels ({int(stats.vivid[axis][index]):,})"
             )
             image = section_pair_image(
-                np.ascontiguousarray(layers), np.ascontiguousarray(rgb),
-                colour_layers=colour_layers, n_bands=n_bands, pixel_mm=pixel_mm, title=title,
-            )  # fmt: skip
+                np.ascontiguousarray(layers),
+                np.ascontiguousarray(rgb),
+                colour_layers=colour_layers,
+                n_bands=n_bands,
+                pixel_mm=pixel_mm,
+                title=title,
+            )
             written.append(_save(image, preview / f"section_{col_axis}{row_axis}.png"))
     written.append(_save(_outer_views(stats, (vx, vy, vz)), preview / "outer_views.png"))
     depths: list[list[NDArray[np.float64]]] = [[] for _ in range(n_bands)]
@@ -111,10 +115,12 @@ class _Scan:
 
     def __init__(self, shape: tuple[int, int, int]) -> None:
         n_z, n_y, n_x = shape
-        self.vivid = {"z": np.zeros(n_z, np.int64), "y": np.zeros(n_y, np.int64),
-                      "x": np.zeros(n_x, np.int64)}  # fmt: skip
-        self.inside = {"z": np.zeros(n_z, bool), "y": np.zeros(n_y, bool),
-                       "x": np.zeros(n_x, bool)}  # fmt: skip
+        self.vivid = {
+            "z": np.zeros(n_z, np.int64),
+            "y": np.zeros(n_y, np.int64),
+            "x": np.zeros(n_x, np.int64),
+        }
+        self.inside = {"z": np.zeros(n_z, bool), "y": np.zeros(n_y, bool), "x": np.zeros(n_x, bool)}
         self.colour_voxels = np.zeros(n_z, np.int64)
         # the outer colour layer seen along each axis: colour, and where it was seen
         self.top = np.zeros((n_y, n_x, 3), np.uint8)
@@ -216,13 +222,15 @@ def _outer_views(stats: _Scan, voxel_mm: tuple[float, float, float]) -> Image.Im
         ("top (from +z; x right, y up)", stats.top[up], stats.top_hit[up], (vx, vy)),
         ("front (from -y; x right, z up)", stats.front[up], stats.y_hit[up], (vx, vz)),
         ("right (from +x; y right, z up)", stats.right[up], stats.x_hit[up], (vy, vz)),
-        ("bottom (from -z; x left, y up)", stats.bottom[::-1, ::-1], stats.bottom_hit[::-1, ::-1],
-         (vx, vy)),
-        ("back (from +y; x left, z up)", stats.back[::-1, ::-1], stats.y_hit[::-1, ::-1],
-         (vx, vz)),
-        ("left (from -x; y left, z up)", stats.left[::-1, ::-1], stats.x_hit[::-1, ::-1],
-         (vy, vz)),
-    ]  # fmt: skip
+        (
+            "bottom (from -z; x left, y up)",
+            stats.bottom[::-1, ::-1],
+            stats.bottom_hit[::-1, ::-1],
+            (vx, vy),
+        ),
+        ("back (from +y; x left, z up)", stats.back[::-1, ::-1], stats.y_hit[::-1, ::-1], (vx, vz)),
+        ("left (from -x; y left, z up)", stats.left[::-1, ::-1], stats.x_hit[::-1, ::-1], (vy, vz)),
+    ]
     n_z, n_y = stats.x_hit.shape
     n_x = stats.y_hit.shape[1]
     largest_mm = max(n_x * vx, n_y * vy, n_z * vz)

@@ -34,8 +34,14 @@ CHUNK_LEVEL = 1
 _ARRAYS = ("layers", "rgba", "sdf", "sdf_band", "layer_counts")
 #: The voxel arrays a chunk with pages may leave out (:data:`pipeline.run._task.SLAB_ARRAYS`).
 _LEFT_OUT = SLAB_ARRAYS
-_COUNTERS = ("z_start", "z_stop", "n_unbalanced_rows", "n_nesting_violations",
-             "n_nearest_queries", "n_distance_tests")  # fmt: skip
+_COUNTERS = (
+    "z_start",
+    "z_stop",
+    "n_unbalanced_rows",
+    "n_nesting_violations",
+    "n_nearest_queries",
+    "n_distance_tests",
+)
 _SPOOL_TEXT = ("name", "value_type", "grid_class")
 _SPOOL_LISTS = {
     "leaf_origin": ((0, 3), np.int32),

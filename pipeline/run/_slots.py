@@ -92,11 +92,16 @@ class SlabSlots:
         self._baseline = sys.getrefcount(self._bases[0])
         self._state = [_FREE] * n
 
-    def store(self, slot: int, result: SlabResult, materials: NDArray[np.uint8] | None,
-              tally: NDArray[np.int64] | None,
-              vdb: list[GridSpool] | None = None,
-              pages: dict[str, list[bytes]] | None = None,
-              send: tuple[str, ...] | None = None) -> SlabInSlot:  # fmt: skip
+    def store(
+        self,
+        slot: int,
+        result: SlabResult,
+        materials: NDArray[np.uint8] | None,
+        tally: NDArray[np.int64] | None,
+        vdb: list[GridSpool] | None = None,
+        pages: dict[str, list[bytes]] | None = None,
+        send: tuple[str, ...] | None = None,
+    ) -> SlabInSlot:
         """Copy a slab into ``slot`` (worker side); return what to send back.
 
         With `send` and pages, of the voxel arrays only those named in `send` are copied

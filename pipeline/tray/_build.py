@@ -120,13 +120,27 @@ def build_tray(
     entry = plan.manifest(mesh.face_starts)
     parts = json.dumps([[model_key(meshes[p.part]), p.offset_zyx] for p in places])
     key = run_key(
-        mesh, config, plan.grid, plan.rows, rows, (profile, materials, entry["models"]),
+        mesh,
+        config,
+        plan.grid,
+        plan.rows,
+        rows,
+        (profile, materials, entry["models"]),
         model=hashlib.sha256(parts.encode()).hexdigest(),
-    )  # fmt: skip
+    )
     job = _TrayJob(
-        mesh, config, build_plan, face_thickness, profile, materials, progress, seconds,
-        running, tray=tray, entry=entry,
-    )  # fmt: skip
+        mesh,
+        config,
+        build_plan,
+        face_thickness,
+        profile,
+        materials,
+        progress,
+        seconds,
+        running,
+        tray=tray,
+        entry=entry,
+    )
     return run_job(job, Path(out_dir), key, started)
 
 

@@ -221,9 +221,15 @@ def plan_tray(
     pad = max(max(config.margin_mm, config.sdf_half_width_mm), float(voxel.max()))
     min_gap = max(reach + config.sdf_half_width_mm, 2 * pad + 5 * float(voxel.max()))
     layout = lay_out(
-        names, extents, requested, mode=mode, tray_mm=tray_mm, gap_mm=gap_mm,
-        min_gap_mm=min_gap, source=f"--tray {spec.source}" if spec.source else "--layout",
-    )  # fmt: skip
+        names,
+        extents,
+        requested,
+        mode=mode,
+        tray_mm=tray_mm,
+        gap_mm=gap_mm,
+        min_gap_mm=min_gap,
+        source=f"--tray {spec.source}" if spec.source else "--layout",
+    )
     placements, grid = _snap(parts, part_of, copies, names, layout.positions_mm, voxel)
     workers = resolve_workers(config.workers)
     rows = slab_rows_for(grid, config.slab_mb)

@@ -140,14 +140,20 @@ def _model(path: Path, number: int, entry: dict[str, Any]) -> TrayModel:
     if position is not None:
         values = _numbers(position)
         if values is None or len(values) not in (2, 3):
-            raise bad("position", f"expected [x, y] or [x, y, z] in mm, got {position!r}",
-                      "set e.g. position = [10, 20]")  # fmt: skip
+            raise bad(
+                "position",
+                f"expected [x, y] or [x, y, z] in mm, got {position!r}",
+                "set e.g. position = [10, 20]",
+            )
         position = (values[0], values[1], values[2] if len(values) == 3 else 0.0)
     rotation = entry.get("rotation", [0, 0, 0])
     angles = _numbers(rotation)
     if angles is None or len(angles) != 3:
-        raise bad("rotation", f"expected [x, y, z] in degrees, got {rotation!r}",
-                  "set e.g. rotation = [0, 0, 90]")  # fmt: skip
+        raise bad(
+            "rotation",
+            f"expected [x, y, z] in degrees, got {rotation!r}",
+            "set e.g. rotation = [0, 0, 90]",
+        )
     scale = entry.get("scale", 1.0)
     if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0 < scale < math.inf:
         raise bad("scale", f"expected a positive number, got {scale!r}", "set e.g. scale = 1.5")
@@ -158,19 +164,28 @@ def _model(path: Path, number: int, entry: dict[str, Any]) -> TrayModel:
     if thickness is not None:
         layers = _numbers(thickness)
         if not layers or not all(t > 0 for t in layers):
-            raise bad("thickness", f"expected positive mm per layer, got {thickness!r}",
-                      "set e.g. thickness = [0.5, 0.5]")  # fmt: skip
+            raise bad(
+                "thickness",
+                f"expected positive mm per layer, got {thickness!r}",
+                "set e.g. thickness = [0.5, 0.5]",
+            )
         thickness = tuple(layers)
     if rule is not None and (not isinstance(rule, str) or not rule):
-        raise bad("thickness_rule", f"expected a rule file name, got {rule!r}",
-                  'set e.g. thickness_rule = "rule.toml"')  # fmt: skip
+        raise bad(
+            "thickness_rule",
+            f"expected a rule file name, got {rule!r}",
+            'set e.g. thickness_rule = "rule.toml"',
+        )
     copies = entry.get("copies", 1)
     if isinstance(copies, bool) or not isinstance(copies, int) or copies < 1:
         raise bad("copies", f"expected a whole number >= 1, got {copies!r}", "set copies = 1")
     if copies > 1 and position is not None:
-        raise InputError(where, f"gives a position and copies = {copies}",
-                         "give each copy its own [[model]] with a position, or drop the "
-                         "position and use --layout auto")  # fmt: skip
+        raise InputError(
+            where,
+            f"gives a position and copies = {copies}",
+            "give each copy its own [[model]] with a position, or drop the "
+            "position and use --layout auto",
+        )
     folder = path.parent
     return TrayModel(
         file=folder / file,

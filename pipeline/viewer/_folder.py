@@ -127,8 +127,9 @@ class BuildFolder:
             if not materials_ok:
                 raise ValueError("its materials are not a list of {index, name, display_srgb}")
         except (KeyError, TypeError, ValueError) as error:
-            raise InputError(folder / "manifest.json", f"is not a valid build manifest ({error})",
-                             fix) from None  # fmt: skip
+            raise InputError(
+                folder / "manifest.json", f"is not a valid build manifest ({error})", fix
+            ) from None
         listed = manifest["files"]
         files = {"manifest.json": (folder / "manifest.json").resolve()}
         files.update({name: (folder / name).resolve() for name in SERVED_FILES if name in listed})

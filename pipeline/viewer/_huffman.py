@@ -47,9 +47,11 @@ def bits(data: NDArray[np.uint8], st: NDArray[np.int64], n: int) -> int:
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def decode_symbol(
-    data: NDArray[np.uint8], st: NDArray[np.int64], count: NDArray[np.int64],
+    data: NDArray[np.uint8],
+    st: NDArray[np.int64],
+    count: NDArray[np.int64],
     symbol: NDArray[np.int64],
-) -> int:  # fmt: skip
+) -> int:
     """Decode one symbol of a canonical Huffman code (puff's ``decode``); < 0 on failure."""
     code = 0
     first = 0
@@ -99,10 +101,15 @@ def construct(
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def dynamic_tables(
-    data: NDArray[np.uint8], st: NDArray[np.int64], lcount: NDArray[np.int64],
-    lsymbol: NDArray[np.int64], dcount: NDArray[np.int64], dsymbol: NDArray[np.int64],
-    ltable: NDArray[np.int64], dtable: NDArray[np.int64],
-) -> int:  # fmt: skip
+    data: NDArray[np.uint8],
+    st: NDArray[np.int64],
+    lcount: NDArray[np.int64],
+    lsymbol: NDArray[np.int64],
+    dcount: NDArray[np.int64],
+    dsymbol: NDArray[np.int64],
+    ltable: NDArray[np.int64],
+    dtable: NDArray[np.int64],
+) -> int:
     """Read a dynamic block's code tables (puff's ``dynamic``); 0 or a failure code."""
     nlen = bits(data, st, 5) + 257
     ndist = bits(data, st, 5) + 1

@@ -186,8 +186,9 @@ def pick_bytes(
         if w0 == w1:
             continue
         try:
-            symbols = decode(data[stream_bounds[s] : stream_bounds[s + 1]],
-                             max_inflated=max_inflated)  # fmt: skip
+            symbols = decode(
+                data[stream_bounds[s] : stream_bounds[s + 1]], max_inflated=max_inflated
+            )
             out[w0:w1] = pick(symbols, wanted[w0:w1])
         except InflateError as error:
             raise InflateError(f"stream {s}: {error}") from None

@@ -139,8 +139,9 @@ class _Handler(BaseHTTPRequestHandler):
         query = parse_qs(parts.query, keep_blank_values=True)
         try:
             if path in ("/", "/index.html"):
-                self._send(HTTPStatus.OK, self.server.static["index.html"], STATIC["index.html"],
-                           head=head)  # fmt: skip
+                self._send(
+                    HTTPStatus.OK, self.server.static["index.html"], STATIC["index.html"], head=head
+                )
             elif path.startswith("/static/") and path[8:] in self.server.static:
                 name = path[8:]
                 self._send(HTTPStatus.OK, self.server.static[name], STATIC[name], head=head)

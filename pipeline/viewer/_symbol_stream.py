@@ -76,9 +76,13 @@ def rotate(pattern: int, period: int, phase: int) -> int:
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def continues(
-    n: int, total: int, period: int, pattern: int, starts: NDArray[np.int64],
+    n: int,
+    total: int,
+    period: int,
+    pattern: int,
+    starts: NDArray[np.int64],
     infos: NDArray[np.int64],
-) -> bool:  # fmt: skip
+) -> bool:
     """Whether a run of ``pattern`` (period ``period``) at ``total`` goes on symbol ``n - 1``."""
     if n == 0 or infos[n - 1] >= 0:
         return False
@@ -90,9 +94,16 @@ def continues(
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def put(
-    source: NDArray[np.uint8], count: int, n: int, n_lits: int, total: int, tail: int,
-    starts: NDArray[np.int64], infos: NDArray[np.int64], lits: NDArray[np.uint8],
-) -> tuple[int, int, int, int]:  # fmt: skip
+    source: NDArray[np.uint8],
+    count: int,
+    n: int,
+    n_lits: int,
+    total: int,
+    tail: int,
+    starts: NDArray[np.int64],
+    infos: NDArray[np.int64],
+    lits: NDArray[np.uint8],
+) -> tuple[int, int, int, int]:
     """Append inflated bytes ``source[:count]``; return ``(n, n_lits, total, tail)``.
 
     Bytes go to the literals, except that a run of ``SHORT_RUN`` equal bytes becomes a
@@ -139,9 +150,11 @@ def put(
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def decode_stream(
-    data: NDArray[np.uint8], starts: NDArray[np.int64], infos: NDArray[np.int64],
+    data: NDArray[np.uint8],
+    starts: NDArray[np.int64],
+    infos: NDArray[np.int64],
     lits: NDArray[np.uint8],
-) -> tuple[int, int]:  # fmt: skip
+) -> tuple[int, int]:
     """Decode one zlib stream into symbols; return ``(n_symbols, n_lits)``.
 
     ``n_symbols`` is minus a failure code (:data:`FAILURES`) when the stream is invalid
