@@ -173,6 +173,12 @@ class LayerModel:
         k, s = self.absorption_scattering(shares)
         seen = observer(self.optics.wavelengths_nm)
         return settling_depth(
-            k, s, self.background, seen, k1=self.optics.k1, k2=self.optics.k2,
-            delta_e=delta_e, max_mm=max_mm,
-        )  # fmt: skip
+            k,
+            s,
+            self.background,
+            seen,
+            k1=self.optics.k1,
+            k2=self.optics.k2,
+            delta_e=delta_e,
+            max_mm=max_mm,
+        )
