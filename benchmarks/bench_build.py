@@ -42,10 +42,10 @@ from openvdb_module import load_openvdb  # noqa: E402
 from pipeline.build.stack import build_stack  # noqa: E402
 from pipeline.config import BuildConfig, LoadOptions  # noqa: E402
 from pipeline.loading import load_model  # noqa: E402
-from pipeline.model.mesh import ColouredMesh  # noqa: E402
+from pipeline.model._mesh import ColouredMesh  # noqa: E402
 from pipeline.printer.profile import load_profile  # noqa: E402
-from pipeline.run.task import resolve_workers  # noqa: E402
-from voxel.geometry.nearest import winding_numbers  # noqa: E402
+from pipeline.run._task import resolve_workers  # noqa: E402
+from voxel.geometry._nearest import winding_numbers  # noqa: E402
 
 MESHES = ROOT.parent / "shared" / "meshes"
 MODELS = {

@@ -6,7 +6,7 @@ and the slices of ``job.gcvf``), compresses every ``--every``-th one again with 
 encoder in this process, checks each stream inflates (zlib) to the page's bytes, and
 reports milliseconds and bytes per page, with the ratio to zlib's level 1 as the peer.
 For the TIFF stacks it also times what the viewer does with each encoder's pages: decode
-the deflate symbols (``pipeline.viewer.inflate.decode``) against zlib inflating them.
+the deflate symbols (``pipeline.viewer._inflate.decode``) against zlib inflating them.
 
     .venv/bin/python benchmarks/bench_compress.py out/spot35
 
@@ -29,14 +29,14 @@ import numpy as np
 import tifffile
 from PIL import Image
 
-try:  # not a dependency (see voxel/io/compression.py): measured where installed
+try:  # not a dependency (see voxel/io/_compression.py): measured where installed
     from isal import isal_zlib
 except ImportError:
     isal_zlib = None
 
-from pipeline.viewer.inflate import decode
-from voxel.io.compression import compress
-from voxel.io.deflate import zlib_compress
+from pipeline.viewer._inflate import decode
+from voxel.io._compression import compress
+from voxel.io._deflate import zlib_compress
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results" / "bench_compress.json"

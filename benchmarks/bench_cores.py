@@ -88,7 +88,7 @@ def main() -> None:
         from pipeline.config import BuildConfig, LoadOptions
         from pipeline.loading import load_model
         from pipeline.printer.profile import load_profile
-        from voxel.geometry.nearest import SurfaceIndex
+        from voxel.geometry._nearest import SurfaceIndex
         from voxel.slab import StackModel, compute_slab
 
         mesh = load_model(SPOT, LoadOptions(scale=args.size_mm / 1.75))

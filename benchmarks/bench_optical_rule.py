@@ -26,7 +26,7 @@ from report_models import ROOT
 
 from pipeline.config import MaterialSettings
 from pipeline.loading import load_model
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 from pipeline.printer.material_plan import build_material_plan, layer_model
 from pipeline.printer.profile import PrinterProfile, load_profile
 from pipeline.thickness.face_thickness import face_thickness

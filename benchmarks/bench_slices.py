@@ -7,12 +7,12 @@ Usage (from the repository root)::
 Slices are 1322 x 1176 voxels (x, y: the grid of spot scaled to 100 mm on the J750) with
 a synthetic model: an elliptic section whose size varies with z, a white core, and a
 1 mm skin halftoned at random among five materials (the worst case for compression).
-Measured: one slice encoded by :func:`voxel.io.png_encode.encode_png` and by Pillow
-(``compress_level=1``); :class:`voxel.io.gcvf_writer.GcvfWriter` with 1 and 2 encoding
+Measured: one slice encoded by :func:`voxel.io._png_encode.encode_png` and by Pillow
+(``compress_level=1``); :class:`voxel.io._gcvf_writer.GcvfWriter` with 1 and 2 encoding
 threads (slices/s, MB/s of RGBA pixels, bytes per slice); the peak of traced memory
 (numpy allocations) while writing `--slices` and four times as many, which must not
-grow with the height; :class:`voxel.io.png_slices.PngSliceWriter`; and the time the
-``material`` grid adds to :class:`voxel.io.vdb.writer.VdbStackWriter`.
+grow with the height; :class:`voxel.io._png_slices.PngSliceWriter`; and the time the
+``material`` grid adds to :class:`voxel.io.vdb._writer.VdbStackWriter`.
 """
 
 from __future__ import annotations
@@ -35,10 +35,10 @@ sys.path.insert(0, str(ROOT))
 
 from pipeline.printer.profile import load_profile  # noqa: E402
 from voxel.grid import GridSpec  # noqa: E402
-from voxel.io.gcvf_writer import GcvfWriter  # noqa: E402
-from voxel.io.png_encode import encode_png  # noqa: E402
-from voxel.io.png_slices import PngSliceWriter  # noqa: E402
-from voxel.io.vdb.writer import VdbStackWriter  # noqa: E402
+from voxel.io._gcvf_writer import GcvfWriter  # noqa: E402
+from voxel.io._png_encode import encode_png  # noqa: E402
+from voxel.io._png_slices import PngSliceWriter  # noqa: E402
+from voxel.io.vdb._writer import VdbStackWriter  # noqa: E402
 
 N_Y, N_X = 1176, 1322
 TABLE = [

@@ -48,16 +48,16 @@ def instrument() -> dict[str, list[float]]:
     Returns ``{part: [cpu_s, wall_s, calls]}``, filled as the build runs.
     """
     import pipeline.build.stack as build_module
-    import pipeline.run.task as runner
+    import pipeline.run._task as runner
     from pipeline.build.colour_check import ColourCheck
-    from pipeline.output.manifest import Tally
-    from pipeline.output.outdir import OutputFolder
-    from pipeline.output.streams import StackOutputs
+    from pipeline.output._manifest import Tally
+    from pipeline.output._outdir import OutputFolder
+    from pipeline.output._streams import StackOutputs
     from voxel.colour.report import ColourReport
-    from voxel.io.gcvf_writer import GcvfWriter
-    from voxel.io.png_slices import PngSliceWriter
-    from voxel.io.tiff_writer import TiffStackWriter
-    from voxel.io.vdb.writer import VdbStackWriter
+    from voxel.io._gcvf_writer import GcvfWriter
+    from voxel.io._png_slices import PngSliceWriter
+    from voxel.io._tiff_writer import TiffStackWriter
+    from voxel.io.vdb._writer import VdbStackWriter
     from voxel.sampler import LayerSampler
 
     totals: dict[str, list[float]] = collections.defaultdict(lambda: [0.0, 0.0, 0])

@@ -2,7 +2,7 @@
 
 Lengths are millimetres; points are ``(x, y, z)``; signed distance is negative inside.
 This package never imports :mod:`pipeline`; of :mod:`voxel` it uses only
-:mod:`voxel.geometry.nearest`, the one wrapper of libigl's point queries (exact nearest points and
+:mod:`voxel.geometry._nearest`, the one wrapper of libigl's point queries (exact nearest points and
 generalised winding numbers), which imports nothing of :mod:`offset`.
 """
 

@@ -7,7 +7,7 @@ coplanar, which a triangle test without a coplanarity tolerance (MeshLab's) read
 crossings at random. :func:`shell_for_file` cleans the shell
 (:func:`offset.clean.clean_offset_shell`) and moves the vertices of coplanar triangle pairs
 by a tiny random amount (:func:`offset.jitter.jitter_vertices`, 1e-8 of the extent, seed 0:
-reproducible). The voxels never use these shells; :mod:`pipeline.output.shells` writes them.
+reproducible). The voxels never use these shells; :mod:`pipeline.output._shells` writes them.
 """
 
 from __future__ import annotations

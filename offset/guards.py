@@ -16,7 +16,7 @@ import trimesh
 
 from offset._validate import FloatArray, IntArray
 from offset.intersections import intersecting_pairs
-from voxel.geometry.nearest import SurfaceIndex, nearest_faces
+from voxel.geometry._nearest import SurfaceIndex, nearest_faces
 
 #: A shell point deeper than ``(1 + DEEP_TOLERANCE) * D`` is a defect: the pieces reach
 #: at most ``5e-5 D`` deeper than asked.

@@ -12,7 +12,7 @@ import trimesh
 from offset._validate import FloatArray, IntArray
 from offset.adjacency import bend_angles, edge_adjacency, face_normals
 from offset.intersections import count_self_intersections, intersecting_pairs
-from voxel.geometry.nearest import SurfaceIndex, nearest_on_surface, winding_numbers
+from voxel.geometry._nearest import SurfaceIndex, nearest_on_surface, winding_numbers
 
 #: Barycentric coordinate below which a closest point counts as on an edge / vertex.
 FEATURE_BARY = 1e-6

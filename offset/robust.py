@@ -32,7 +32,7 @@ about 0.5 % D); face interiors and convex creases are exact.
 Depth steps: where neighbouring faces take different depths, each face's prism goes to
 its own depth, so the shell steps sharply at the shared edge (moved by the overlap
 ``GROW_FRACTION * D``), as the voxel layers do: they take the depth of the nearest face
-(:mod:`voxel.geometry.layer_kernel`). The core as defined above would instead round the deeper
+(:mod:`voxel.geometry._layer_kernel`). The core as defined above would instead round the deeper
 face's band under its shallower neighbour (a whole cylinder about the edge, a ball
 about each corner): on a flat top with a 1.0 / 0.3 mm step the two differ by up to
 0.7 mm next to the edge. Shells and voxels are kept to one rule, the voxels'; sectors

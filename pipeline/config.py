@@ -183,7 +183,7 @@ class BuildConfig:
         Write ``colour.tif`` as RGBA instead of RGB.
     compression_level : int, optional
         zlib level of the TIFFs (1 fast .. 9 small); None (default): the fast
-        setting of :mod:`voxel.io.compression` (zlib-ng's level 2).
+        setting of :mod:`voxel.io._compression` (zlib-ng's level 2).
     formats : tuple of {"tiff", "vdb", "gcvf", "png"}
         Files to write: ``tiff`` = ``layers.tif``, ``colour.tif`` and ``materials.tif``;
         ``vdb`` = ``volume.vdb``; ``gcvf`` = ``job.gcvf`` (GrabCAD Voxel Print);

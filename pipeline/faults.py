@@ -111,7 +111,7 @@ class DeferredSignals(contextlib.AbstractContextManager["DeferredSignals"]):
     The signals are also blocked in this thread: child processes and threads started
     meanwhile inherit the mask, so a terminal's Ctrl-C (sent to the whole process group)
     cannot hit a child before it has set up its own handling
-    (:func:`pipeline.run.children.init_child`). The mask alone would not hold them back from
+    (:func:`pipeline.run._children.init_child`). The mask alone would not hold them back from
     this process: any other thread that does not block them receives them, and Python
     runs the handler in the main thread all the same.
     """

@@ -146,8 +146,8 @@ def _broken_rule(name: str, target: str) -> str | None:
     if _within(name, "offset"):
         if _within(target, "pipeline"):
             return "offset never imports pipeline"
-        if _within(target, "voxel") and target != "voxel.geometry.nearest":
-            return "offset imports only voxel.geometry.nearest of voxel"
+        if _within(target, "voxel") and target != "voxel.geometry._nearest":
+            return "offset imports only voxel.geometry._nearest of voxel"
         return None
     if not _within(target, "pipeline"):
         return None
@@ -182,8 +182,8 @@ def _violations() -> list[str]:
 
 def test_the_walk_sees_the_modules() -> None:
     assert len(MODULES) > 100
-    assert "pipeline.run.task" in GRAPH["pipeline.run.runner"]
-    assert "voxel.geometry.nearest" in GRAPH["offset.guards"]
+    assert "pipeline.run._task" in GRAPH["pipeline.run._runner"]
+    assert "voxel.geometry._nearest" in GRAPH["offset.guards"]
 
 
 def test_no_import_circles() -> None:
@@ -195,14 +195,14 @@ def test_imports_follow_the_rules() -> None:
 
 
 def test_the_rules_catch_a_broken_import() -> None:
-    assert _broken_rule("pipeline.run.runner", "pipeline.build.plan") is not None
-    assert _broken_rule("voxel.slab", "voxel.io.tiff_pages") is not None
-    assert _broken_rule("voxel.geometry.nearest", "pipeline.errors") is not None
+    assert _broken_rule("pipeline.run._runner", "pipeline.build.plan") is not None
+    assert _broken_rule("voxel.slab", "voxel.io._tiff_pages") is not None
+    assert _broken_rule("voxel.geometry._nearest", "pipeline.errors") is not None
     assert _broken_rule("offset.robust", "voxel.grid") is not None
     assert _broken_rule("pipeline.config", "pipeline.printer.material_plan") is not None
-    assert _broken_rule("pipeline.viewer.depth", "pipeline.build.stack") is not None
-    assert _broken_rule("pipeline.build.stack", "pipeline.report.previews") is not None
-    assert _broken_rule("pipeline.cli.inspect", "pipeline.report.previews") is None
+    assert _broken_rule("pipeline.viewer._depth", "pipeline.build.stack") is not None
+    assert _broken_rule("pipeline.build.stack", "pipeline.report._previews") is not None
+    assert _broken_rule("pipeline.cli.inspect", "pipeline.report._previews") is None
 
 
 @pytest.mark.parametrize("package", sorted(MAX_TOP_MODULES))

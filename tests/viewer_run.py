@@ -7,8 +7,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from pipeline.viewer.folder import BuildFolder
-from pipeline.viewer.server import ViewerServer
+from pipeline.viewer._folder import BuildFolder
+from pipeline.viewer._server import ViewerServer
 
 
 @contextmanager

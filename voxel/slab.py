@@ -10,7 +10,7 @@ Two layer realisations:
   ``d`` its exact distance to the original surface and ``f`` the face of its nearest
   point; this is the ideal offset (rounded at reflex features, collapsing in thin walls)
   sampled exactly at the voxel centres. Every face is scan-converted into the voxels
-  within the deepest band limit (:mod:`voxel.geometry.distance_scan`, compiled), which gives each
+  within the deepest band limit (:mod:`voxel.geometry._distance_scan`, compiled), which gives each
   of them its exact nearest face; deeper inside voxels are core by the inside test alone.
 * **shells** (``layer_rule == "shells"``, no ``depth_mm``): a voxel's layer is how many
   of the nested closed surfaces ``surfaces`` contain its centre (exact winding numbers).
@@ -26,10 +26,10 @@ from numpy.typing import NDArray
 
 from voxel.colour.colour_at import ColourAt, nearest_colour
 from voxel.colour.surface_colour import SurfaceColour, voxel_colours
-from voxel.geometry.distance_scan import nearest_in_reach, nearest_within
-from voxel.geometry.layer_kernel import assign_layers, colour_voxels
-from voxel.geometry.nearest import SurfaceIndex, nearest_faces, on_faces
-from voxel.geometry.winding import inside_slab
+from voxel.geometry._distance_scan import nearest_in_reach, nearest_within
+from voxel.geometry._layer_kernel import LayerInputs, LayerOutputs, assign_layers, colour_voxels
+from voxel.geometry._nearest import SurfaceIndex, nearest_faces, on_faces
+from voxel.geometry._winding import inside_slab
 from voxel.grid import GridSpec
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
@@ -168,7 +168,7 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     """Return layers, colours and the signed-distance band of rows ``z_start..z_stop``.
 
     Needs no halo: inside tests run along x rows and every face within reach of the
-    slab is scan-converted into it (:mod:`voxel.geometry.distance_scan`), so a slab reads
+    slab is scan-converted into it (:mod:`voxel.geometry._distance_scan`), so a slab reads
     nothing beyond its own rows and any split into slabs gives the same arrays.
 
     Parameters
@@ -207,9 +207,16 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     reach = reach_mm(model)
     if reach > 0:
         near = nearest_in_reach(
-            model.surface.vertices, model.surface.faces, grid, z_start, z_stop, reach,
-            inside=inside, outside_reach_mm=half_width, regions=model.surface.regions,
-        )  # fmt: skip
+            model.surface.vertices,
+            model.surface.faces,
+            grid,
+            z_start,
+            z_stop,
+            reach,
+            inside=inside,
+            outside_reach_mm=half_width,
+            regions=model.surface.regions,
+        )
         squared, face, n_tests = near
     else:
         squared = np.zeros(shape)
@@ -221,9 +228,9 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     sdf_band = np.empty(shape, dtype=bool)
     layer_counts = np.zeros(256, dtype=np.int64)
     n_colour, n_unreached, n_reached = assign_layers(
-        inside, squared, face, depth, by_distance, half_width, is_colour, layers, sdf, sdf_band,
-        layer_counts,
-    )  # fmt: skip
+        LayerInputs(inside, squared, face, depth, by_distance, half_width, is_colour),
+        LayerOutputs(layers, sdf, sdf_band, layer_counts),
+    )
     del squared
     flat = colour_voxels(layers, is_colour, n_colour)
     face_ids = face.reshape(-1)[flat].astype(np.int64)
@@ -244,9 +251,18 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
         rgba.reshape(-1, 4)[flat] = nearest_colour(nearest, model.colour_at)
     del points
     return SlabResult(
-        z_start, z_stop, layers, rgba, sdf, sdf_band, unbalanced, violations,
-        n_reached + n_unreached, n_tests, layer_counts[: model.n_bands + 2],
-    )  # fmt: skip
+        z_start,
+        z_stop,
+        layers,
+        rgba,
+        sdf,
+        sdf_band,
+        unbalanced,
+        violations,
+        n_reached + n_unreached,
+        n_tests,
+        layer_counts[: model.n_bands + 2],
+    )
 
 
 def _beyond_reach(

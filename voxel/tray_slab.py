@@ -165,6 +165,15 @@ def compute_tray_slab(tray: TrayStack, grid: GridSpec, z_start: int, z_stop: int
         tests += part.n_distance_tests
     counts[0] += layers.size - tiled
     return SlabResult(
-        z_start, z_stop, layers, rgba, sdf, sdf_band, unbalanced, violations, queries, tests,
+        z_start,
+        z_stop,
+        layers,
+        rgba,
+        sdf,
+        sdf_band,
+        unbalanced,
+        violations,
+        queries,
+        tests,
         counts,
-    )  # fmt: skip
+    )

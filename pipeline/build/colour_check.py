@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from pipeline.build.plan import BuildPlan
 from pipeline.config import BuildConfig
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 from pipeline.printer.material_plan import layer_model
 from pipeline.printer.profile import PrinterProfile
 from voxel.colour.depth_effect import depth_effect
@@ -49,7 +49,7 @@ from voxel.colour.report import (
 )
 from voxel.colour.settling import LayerModel
 from voxel.colour.srgb import srgb8_to_lab
-from voxel.geometry.nearest import SurfaceIndex, nearest_on_surface
+from voxel.geometry._nearest import SurfaceIndex, nearest_on_surface
 
 #: CIEDE2000 from the gamut within which a target counts as in gamut.
 IN_GAMUT_DE = 1.0

@@ -18,15 +18,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pipeline.errors import ResourceError
-from pipeline.run.slots import EXTRA_SLOTS
+from pipeline.run._slots import EXTRA_SLOTS
 
 #: Working bytes per voxel of a slab in its worker: the inside test and its crossings (3),
 #: the scan's distance and face (12), layers, colour, signed distance, band and
 #: materials (11), the copy into the shared slot (11), VDB and TIFF encoding temporaries.
 BYTES_PER_VOXEL = 48
 
-#: Shared bytes per voxel of a slab slot (:mod:`pipeline.run.slots`; there are
-#: :data:`~pipeline.run.slots.EXTRA_SLOTS` beyond one per worker).
+#: Shared bytes per voxel of a slab slot (:mod:`pipeline.run._slots`; there are
+#: :data:`~pipeline.run._slots.EXTRA_SLOTS` beyond one per worker).
 SLOT_BYTES_PER_VOXEL = 11
 
 #: Largest grid side: OpenVDB and TIFF index voxels with signed 32-bit integers.

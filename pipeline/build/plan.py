@@ -18,9 +18,9 @@ from numpy.typing import NDArray
 from pipeline.build.estimate import BYTES_PER_VOXEL, BuildEstimate, check_resources, estimate_build
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError, ResourceError
-from pipeline.model.mesh import ColouredMesh
-from pipeline.model.topology import face_areas
-from pipeline.run.task import resolve_workers
+from pipeline.model._mesh import ColouredMesh
+from pipeline.model._topology import face_areas
+from pipeline.run._task import resolve_workers
 from voxel.grid import GridRangeError, GridSpec
 
 

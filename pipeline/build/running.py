@@ -1,7 +1,7 @@
 """Running a build's job: the checkpoint default, the output folder's lock and the resume.
 
 :func:`run_job` locks the output folder, opens the run folder of checkpoints
-(:mod:`pipeline.run.checkpoints`) and runs the job in it; ``--resume`` without
+(:mod:`pipeline.run._checkpoints`) and runs the job in it; ``--resume`` without
 checkpoints to resume says so in one line and builds from the start.
 """
 
@@ -15,9 +15,9 @@ from typing import Any, Protocol, cast
 
 from pipeline.build.plan import BuildPlan
 from pipeline.errors import ShellvoxWarning
-from pipeline.output.folder import BuildFolder
-from pipeline.output.outdir import OutputFolder
-from pipeline.run.checkpoints import (
+from pipeline.output._folder import BuildFolder
+from pipeline.output._outdir import OutputFolder
+from pipeline.run._checkpoints import (
     CHECKPOINT_AFTER_S,
     JOURNAL,
     RUN_FOLDER,
@@ -53,7 +53,7 @@ def settle_running(running: RunSettings | None, plan: BuildPlan) -> RunSettings:
 def run_job(job: Job, out_dir: Path, key: dict[str, str], started: float) -> dict[str, Any]:
     """Run `job` in `out_dir` (locked, checkpointed as ``job.running`` says); the manifest.
 
-    `key` names what the slabs depend on (:func:`pipeline.run.checkpoints.run_key`): a
+    `key` names what the slabs depend on (:func:`pipeline.run._checkpoints.run_key`): a
     ``--resume`` whose key differs from the unfinished run's is refused before the lock,
     so the folder is left as it is.
     """

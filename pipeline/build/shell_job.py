@@ -3,7 +3,7 @@
 With the ``"shells"`` layer rule the voxels are counted between the shells, so the shells
 come first, in this process. With the ``"distance"`` rule and ``shell_meshes`` they are a
 second realisation of the layers, computed beside the voxels in a spawned process
-(:class:`pipeline.run.children.ChildCall`: it dies with the build); the voxels do not depend
+(:class:`pipeline.run._children.ChildCall`: it dies with the build); the voxels do not depend
 on them, so a failure there is a warning, not an error. The shells for the files are
 cleaned and jittered here (:func:`offset.for_file.shell_for_file`; in the spawned process
 when there is one); the voxels of the ``"shells"`` rule use them as computed.
@@ -15,8 +15,8 @@ import contextlib
 import threading
 import time
 import warnings
-from collections.abc import Iterator
-from typing import Any
+from collections.abc import Iterator, Mapping
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,15 +27,26 @@ from offset.for_file import shell_for_file
 from offset.shells import Shell
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
-from pipeline.model.mesh import ColouredMesh
-from pipeline.run.children import ChildCall
+from pipeline.model._mesh import ColouredMesh
+from pipeline.run._children import ChildCall
 
 #: Seconds between updates of the shells' progress bar.
 TICK_S = 0.5
 
 
+class ShellsDone(NamedTuple):
+    """The shells for the files (None: none, or they failed) and the seconds of the wait."""
+
+    shells: list[Shell] | None
+    #: ``shells`` (computed beside the slabs) and ``shells_wait``; empty when computed first.
+    seconds: dict[str, float]
+
+
 class ShellJob:
     """Offset shells of a build and the seconds they took.
+
+    With the "shells" rule the shells are computed when the job is made
+    (:attr:`first_seconds`); otherwise :meth:`wait` returns them with its seconds.
 
     Parameters
     ----------
@@ -45,8 +56,6 @@ class ShellJob:
         Thickness of each layer per face.
     config : BuildConfig
         ``layer_rule``, ``shell_meshes`` and ``shell_method``.
-    seconds : dict
-        Receives ``shells`` (and ``shells_wait``): the build's timings.
     estimate_s : float
         Their estimated time (:attr:`pipeline.estimate.BuildEstimate.shell_seconds`),
         the length of their progress bar.
@@ -59,7 +68,6 @@ class ShellJob:
         mesh: ColouredMesh,
         thickness: NDArray[np.float64],
         config: BuildConfig,
-        seconds: dict[str, float],
         *,
         estimate_s: float = 0.0,
         progress: bool | None = None,
@@ -67,18 +75,18 @@ class ShellJob:
         self.mesh = mesh
         self.thickness = thickness
         self.config = config
-        self.seconds = seconds
         self.estimate_s = estimate_s
         self.progress = progress
         self._pending: ChildCall[tuple[list[Shell], float]] | None = None
         self._started = 0.0
         #: The shells, once computed (at once with the "shells" rule).
         self.shells: list[Shell] | None = None
+        #: ``shells``: the seconds of the shells computed at once (the "shells" rule).
+        self.first_seconds: Mapping[str, float] = {}
         if config.layer_rule == "shells":
             with self._bar(time.perf_counter()):
-                self.shells, seconds["shells"] = timed_shells(
-                    mesh.vertices, mesh.faces, thickness, config
-                )
+                self.shells, shell_s = timed_shells(mesh.vertices, mesh.faces, thickness, config)
+            self.first_seconds = {"shells": shell_s}
 
     @property
     def writes_meshes(self) -> bool:
@@ -103,21 +111,23 @@ class ShellJob:
             self._pending = stack.enter_context(call)
             self._started = time.perf_counter()
 
-    def wait(self) -> list[Shell] | None:
+    def wait(self) -> ShellsDone:
         """Return the shells ready for their files (waiting for the other process).
 
-        None when there are none or they failed. The files' shells are cleaned and
-        jittered (:func:`offset.for_file.shell_for_file`); with the "shells" rule
-        :attr:`shells` stays as computed (the voxels' shells).
+        Their ``shells`` are None when there are none or they failed; the seconds are
+        those of the shells computed beside the slabs and of the wait for them. The files'
+        shells are cleaned and jittered (:func:`offset.for_file.shell_for_file`); with the
+        "shells" rule :attr:`shells` stays as computed (the voxels' shells).
         """
         if self._pending is None:
             if self.shells is None:
-                return None
-            return [shell_for_file(shell).shell for shell in self.shells]
+                return ShellsDone(None, {})
+            return ShellsDone([shell_for_file(shell).shell for shell in self.shells], {})
         tick = time.perf_counter()
+        seconds = {}
         try:
             with self._bar(self._started):
-                self.shells, self.seconds["shells"] = self._pending.result()
+                self.shells, seconds["shells"] = self._pending.result()
         except Exception as error:  # the voxels do not depend on the shell meshes
             warnings.warn(
                 f"{self.mesh.source}: the shell meshes failed ({error}); the voxel stack "
@@ -125,9 +135,9 @@ class ShellJob:
                 ShellvoxWarning,
                 stacklevel=3,
             )
-        self.seconds["shells_wait"] = time.perf_counter() - tick
+        seconds["shells_wait"] = time.perf_counter() - tick
         self._pending = None
-        return self.shells
+        return ShellsDone(self.shells, seconds)
 
     @contextlib.contextmanager
     def _bar(self, started: float) -> Iterator[None]:

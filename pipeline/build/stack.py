@@ -6,14 +6,14 @@ serialise. The parts of a build:
 - :mod:`pipeline.build.plan` the grid, slabs and workers, and the cost estimate: a build
   that cannot fit is refused before anything is allocated;
 - :mod:`pipeline.build.shell_job` the offset shells, before the voxels or beside them;
-- :mod:`pipeline.run.runner` the slabs, here, in forked workers or on a Dask cluster,
-  and :mod:`pipeline.output.streams` the streaming writers they feed;
-- :mod:`pipeline.run.checkpoints` the checkpoints of finished slabs, so a killed build can
+- :mod:`pipeline.run._runner` the slabs, here, in forked workers or on a Dask cluster,
+  and :mod:`pipeline.output._streams` the streaming writers they feed;
+- :mod:`pipeline.run._checkpoints` the checkpoints of finished slabs, so a killed build can
   be resumed;
-- :mod:`pipeline.output.folder` the output folder: every file under a temporary name,
+- :mod:`pipeline.output._folder` the output folder: every file under a temporary name,
   renamed only when the whole build succeeded, ``manifest.json`` last (assembled by
-  :mod:`pipeline.output.manifest`, with every file's size and SHA-256), so a failed run
-  leaves nothing that looks complete (:mod:`pipeline.output.outdir`).
+  :mod:`pipeline.output._manifest`, with every file's size and SHA-256), so a failed run
+  leaves nothing that looks complete (:mod:`pipeline.output._outdir`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -37,25 +37,25 @@ from pipeline.build.shell_job import ShellJob
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
 from pipeline.faults import DeferredSignals
-from pipeline.model.mesh import ColouredMesh
-from pipeline.output.folder import BuildFolder
-from pipeline.output.manifest import Tally, stack_manifest, thickness_entry
-from pipeline.output.streams import StackOutputs, gcvf_slices
+from pipeline.model._mesh import ColouredMesh
+from pipeline.output._folder import BuildFolder
+from pipeline.output._manifest import Tally, stack_manifest
+from pipeline.output._streams import StackOutputs, gcvf_slices
 from pipeline.printer.material_plan import build_material_plan
 from pipeline.printer.profile import PrinterProfile
-from pipeline.run.checkpoints import (
+from pipeline.run._checkpoints import (
     RunFolder,
     RunSettings,
     run_key,
 )
-from pipeline.run.runner import SlabRunner
-from pipeline.run.task import SLAB_ARRAYS, material_tally
+from pipeline.run._runner import SlabRunner
+from pipeline.run._task import SLAB_ARRAYS, material_tally
 from pipeline.thickness.face_thickness import FaceThickness
 from voxel.agreement import shell_agreement
 from voxel.colour.materials import MaterialPlan, materials_for_slab
-from voxel.geometry.nearest import SurfaceIndex
-from voxel.io.tiff_pages import PageEncoder
-from voxel.io.vdb.encode import VdbEncoder
+from voxel.geometry._nearest import SurfaceIndex
+from voxel.io._tiff_pages import PageEncoder
+from voxel.io.vdb._encode import VdbEncoder
 from voxel.sampler import LayerSampler
 from voxel.slab import StackModel
 
@@ -100,7 +100,7 @@ def build_stack(
         Receives one line with the cost estimate before any work starts.
     running : RunSettings, optional
         Where the slabs run (``workers``, or a Dask scheduler), checkpoints and resume
-        (:mod:`pipeline.run.checkpoints`); default: this machine, with checkpoints.
+        (:mod:`pipeline.run._checkpoints`); default: this machine, with checkpoints.
 
     Returns
     -------
@@ -111,8 +111,7 @@ def build_stack(
     plan = plan_build(mesh, config, Path(out_dir), thickness=thickness, force=force)
     if say is not None:
         say(plan.estimate.line())
-    seconds: dict[str, float] = {}
-    materials = _material_plan(profile, config, len(plan.depth), seconds)
+    materials, seconds = _material_plan(profile, config, len(plan.depth))
     running = settle_running(running, plan)
     key = run_key(mesh, config, plan.grid, plan.rows, plan.thickness, (profile, materials))
     job = _Job(mesh, config, plan, faces, profile, materials, progress, seconds, running)
@@ -148,11 +147,11 @@ def stack_model(
 
 
 def _material_plan(
-    profile: PrinterProfile | None, config: BuildConfig, n_bands: int, seconds: dict[str, float]
-) -> MaterialPlan | None:
-    """Return the separation and halftone of the build (None: no materials)."""
+    profile: PrinterProfile | None, config: BuildConfig, n_bands: int
+) -> tuple[MaterialPlan | None, Mapping[str, float]]:
+    """Return the separation and halftone of the build (None: no materials), and its seconds."""
     if profile is None or config.material is None:
-        return None
+        return None, {}
     tick = time.perf_counter()
     plan = build_material_plan(
         profile, config.material, colour_layers=config.colour_layers, n_bands=n_bands
@@ -160,8 +159,7 @@ def _material_plan(
     # Compile (or load) the halftone kernel here, once, so the forked workers inherit it
     # instead of each loading it again.
     materials_for_slab(np.ones((1, 1, 1), np.uint8), np.zeros((1, 1, 1, 4), np.uint8), 0, plan)
-    seconds["material_plan"] = time.perf_counter() - tick
-    return plan
+    return plan, {"material_plan": time.perf_counter() - tick}
 
 
 @dataclass(frozen=True, eq=False)
@@ -175,7 +173,8 @@ class _Job:
     profile: PrinterProfile | None
     materials: MaterialPlan | None
     progress: bool | None
-    seconds: dict[str, float]
+    #: The seconds of what was done before the job (the material plan).
+    setup_seconds: Mapping[str, float]
     running: RunSettings
 
     def run(self, folder: BuildFolder, run: RunFolder | None) -> dict[str, Any]:
@@ -185,7 +184,6 @@ class _Job:
             mesh,
             plan.thickness,
             config,
-            self.seconds,
             estimate_s=plan.estimate.shell_seconds,
             progress=self.progress,
         )
@@ -216,44 +214,61 @@ class _Job:
         tally = Tally(model.n_bands)
         check = self._colour_check()
         setup.close()  # a signal that came during the set-up is raised here
-        self._stream(slabs, outputs, sampler, tally, check)
+        slabs_s = self._stream(slabs, outputs, sampler, tally, check)
         tick = time.perf_counter()
         summaries = outputs.finish()
-        self.seconds["writers_finish"] = time.perf_counter() - tick
-        shells = shell_job.wait()
+        finish_s = time.perf_counter() - tick
+        shells, shells_seconds = shell_job.wait()
         if self.faces is not None:
             folder.write_thickness(mesh, self.faces)
-        agreement = None
+        agreement, agreement_seconds = None, {}
         if shells is not None and config.shell_meshes:
             shells = folder.write_shells(shells)
             if sampler is not None:
-                agreement = self._agreement(model, sampler, shells)
+                agreement, agreement_s = self._agreement(model, sampler, shells)
+                agreement_seconds = {"agreement": agreement_s}
         self._warn_if_no_core(tally)
-        manifest = stack_manifest(
-            mesh, config, plan.grid, plan.thickness, shells, tally, self.seconds
-        )
-        manifest["shell_agreement"] = agreement
-        manifest.update(summaries)
-        manifest["slab_rows"] = plan.rows
-        manifest["thickness"] = thickness_entry(config, self.faces)
-        profile = self._profile()
-        if profile is not None:
-            manifest["printer"] = profile.name
-            manifest["optics"] = profile.optics.manifest()
-            manifest["materials"] = tally.materials(profile)
-            manifest["material_voxels_per_layer"] = tally.per_layer(profile)
+        report, report_seconds = None, {}
         if check is not None:
             tick = time.perf_counter()
-            manifest["colour_report"] = check.result()
-            self.seconds["colour_report"] = time.perf_counter() - tick
-        manifest["estimate"] = asdict(plan.estimate)
-        manifest["run"] = {
-            "scheduler": self.running.scheduler,
-            "checkpoint": run is not None,
-            "resumed_slabs": len(slabs.finished),
-            "slabs": len(slabs.ranges),
+            report = check.result()
+            report_seconds = {"colour_report": time.perf_counter() - tick}
+        seconds = {
+            **self.setup_seconds,
+            **shell_job.first_seconds,
+            "slabs": slabs_s,
+            "writers_finish": finish_s,
+            **shells_seconds,
+            **agreement_seconds,
+            **report_seconds,
         }
-        return manifest
+        return stack_manifest(
+            mesh,
+            config,
+            plan.grid,
+            plan.thickness,
+            shells,
+            tally,
+            seconds,
+            shell_agreement=agreement,
+            summaries=summaries,
+            slab_rows=plan.rows,
+            faces=self.faces,
+            profile=self._profile(),
+            colour_report=report,
+            estimate=asdict(plan.estimate),
+            run={
+                "scheduler": self.running.scheduler,
+                "checkpoint": run is not None,
+                "resumed_slabs": len(slabs.finished),
+                "slabs": len(slabs.ranges),
+            },
+            tray=self._tray_entry(),
+        )
+
+    def _tray_entry(self) -> dict[str, Any] | None:
+        """Return the manifest's ``tray`` section (None: one model, no tray)."""
+        return None
 
     def _profile(self) -> PrinterProfile | None:
         """Return the printer profile when the voxels get materials."""
@@ -315,8 +330,8 @@ class _Job:
         sampler: LayerSampler | None,
         tally: Tally,
         check: ColourCheck | None,
-    ) -> None:
-        """Write every slab, in z order, as it comes back from the workers."""
+    ) -> float:
+        """Write every slab, in z order, as it comes back from the workers; return the seconds."""
         n_bands = tally.n_layers - 2
         disable = None if self.progress is None else not self.progress
         tick = time.perf_counter()
@@ -337,12 +352,12 @@ class _Job:
                     check.add_slab(slab.z_start, materials)
                 outputs.write(slab, materials, encoded, pages, counts)
                 bar.update(slab.z_stop - slab.z_start)
-        self.seconds["slabs"] = time.perf_counter() - tick
+        return time.perf_counter() - tick
 
     def _agreement(
         self, model: StackModel, sampler: LayerSampler, shells: list[Shell]
-    ) -> dict[str, Any]:
-        """How well the distance layers agree with the shell meshes (sampled voxels)."""
+    ) -> tuple[dict[str, Any], float]:
+        """How well the distance layers agree with the shell meshes (sampled voxels); seconds."""
         tick = time.perf_counter()
         points, sampled = sampler.samples()
         agreement = shell_agreement(
@@ -353,8 +368,7 @@ class _Job:
             [(s.vertices, s.faces) for s in shells],
             clear_mm=float(np.linalg.norm(self.plan.grid.voxel_mm)),
         )
-        self.seconds["agreement"] = time.perf_counter() - tick
-        return agreement
+        return agreement, time.perf_counter() - tick
 
     def _warn_if_no_core(self, tally: Tally) -> None:
         if tally.counts[-1] == 0 and int(tally.counts[1:].sum()) > 0:

@@ -24,11 +24,11 @@ from pipeline.config import FORMATS, BuildConfig, MaterialSettings
 from pipeline.errors import InputError
 from pipeline.loading import load_model
 from pipeline.printer.profile import PrinterProfile, load_profile, shipped_profiles
-from pipeline.tray.build import build_tray
-from pipeline.tray.layout import LayoutMode
-from pipeline.tray.parts import ThicknessSource
-from pipeline.tray.plan import plan_tray
-from pipeline.tray.spec import load_tray, tray_from_inputs
+from pipeline.tray._build import build_tray
+from pipeline.tray._layout import LayoutMode
+from pipeline.tray._parts import ThicknessSource
+from pipeline.tray._plan import plan_tray
+from pipeline.tray._spec import load_tray, tray_from_inputs
 from voxel.colour.materials import HALFTONES
 from voxel.slab import LayerRule
 

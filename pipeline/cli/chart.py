@@ -11,13 +11,13 @@ import numpy as np
 from pipeline import __version__
 from pipeline.atomic import atomic_path, write_text_atomic
 from pipeline.errors import InputError
-from pipeline.output.outdir import OutputFolder
-from pipeline.output.streams import gcvf_writer
+from pipeline.output._outdir import OutputFolder
+from pipeline.output._streams import gcvf_writer
 from pipeline.printer.chart import ChartLayout, chart_json, chart_layout, chart_slab
 from pipeline.printer.chart_preview import chart_preview
 from pipeline.printer.profile import PrinterProfile, load_profile
 from pipeline.printer.profile_toml import profile_text
-from voxel.io.png_slices import PngSliceWriter
+from voxel.io._png_slices import PngSliceWriter
 
 #: What ``chart`` writes (``chart.json`` last: the folder's complete-run marker).
 CHART_OUTPUTS = ("chart.json", "job.gcvf", "preview/chart.png", "slices/*")

@@ -2,7 +2,7 @@
 
 Every file the manifest lists must be there, a regular file, of the recorded size and
 SHA-256; otherwise one line names the file and the fix (rebuild). Previews
-(:mod:`pipeline.report.previews`) in DIR/preview/: sections through the coloured surface with a
+(:mod:`pipeline.report._previews`) in DIR/preview/: sections through the coloured surface with a
 voxel-scale inset, the outer colour layer from six sides, the layer-depth histogram and
 the halftone.
 """
@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from pipeline.errors import InputError
-from pipeline.output.checks import read_manifest, verify_files
-from pipeline.output.outdir import OutputFolder
-from pipeline.report.previews import write_previews
+from pipeline.output._checks import read_manifest, verify_files
+from pipeline.output._outdir import OutputFolder
+from pipeline.report._previews import write_previews
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -23,9 +23,9 @@ from pipeline.cli.values import parse_lengths
 from pipeline.config import ShellConfig, as_json
 from pipeline.errors import InputError
 from pipeline.loading import load_model
-from pipeline.output.outdir import SHELL_OUTPUTS, OutputFolder, sha256
-from pipeline.output.ply import write_thickness_ply
-from pipeline.output.shells import save_shells
+from pipeline.output._outdir import SHELL_OUTPUTS, OutputFolder, sha256
+from pipeline.output._ply import write_thickness_ply
+from pipeline.output._shells import save_shells
 from pipeline.printer.profile import load_profile
 from pipeline.thickness.face_thickness import thickness_summary
 

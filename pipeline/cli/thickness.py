@@ -12,9 +12,9 @@ from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness
 from pipeline.errors import InputError
 from pipeline.loading import load_model
-from pipeline.output.ply import write_thickness_ply
+from pipeline.output._ply import write_thickness_ply
 from pipeline.printer.profile import load_profile
-from pipeline.report.thickness_picture import thickness_image
+from pipeline.report._thickness_picture import thickness_image
 from pipeline.thickness.face_thickness import thickness_summary
 
 

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from pipeline.cli.values import parse_lengths
 from pipeline.config import MaterialSettings
 from pipeline.errors import InputError
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 from pipeline.printer.material_plan import build_material_plan, layer_model
 from pipeline.printer.profile import PrinterProfile, shipped_profiles
 from pipeline.thickness.face_colour import face_colour

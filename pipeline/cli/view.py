@@ -15,8 +15,8 @@ from pathlib import Path
 
 from pipeline.errors import InputError
 from pipeline.faults import Interrupted
-from pipeline.viewer.folder import BuildFolder
-from pipeline.viewer.server import ViewerServer
+from pipeline.viewer._folder import BuildFolder
+from pipeline.viewer._server import ViewerServer
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

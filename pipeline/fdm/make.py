@@ -23,7 +23,7 @@ from pipeline.fdm.project import (
     skin_depth,
 )
 from pipeline.fdm.prusa import write_prusa_3mf
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 from pipeline.thickness.face_colour import face_colour
 
 Slicer = Literal["prusa", "bambu"]

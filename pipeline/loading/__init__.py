@@ -1,17 +1,17 @@
-"""Load any coloured model users bring into a :class:`~pipeline.model.mesh.ColouredMesh` in mm.
+"""Load any coloured model users bring into a :class:`~pipeline.model._mesh.ColouredMesh` in mm.
 
 Formats: OBJ (+MTL, textures), PLY, glTF/GLB, 3MF, STL, OFF, VRML 2.0, each a reader
 registered by suffix (:func:`register_format`; :data:`FORMATS`). Every reader returns the
 raw mesh in file units (and the file's own unit where it declares one, as 3MF does); this
 module converts units, applies ``--colour``, checks for NaN/inf and absurd sizes, then
-:func:`pipeline.model.topology.prepare` merges and checks it.
+:func:`pipeline.model._topology.prepare` merges and checks it.
 
 Every problem ends in a correct load, an :class:`~pipeline.errors.InputError` (one line:
 file, problem, fix), or a :class:`~pipeline.errors.ShellvoxWarning` saying what was
 changed. In particular:
 
 - Referenced files (MTL, textures, glTF buffers and images, PLY ``TextureFile``) must lie
-  in the model's folder or below it (:mod:`pipeline.loading.references`); a reference
+  in the model's folder or below it (:mod:`pipeline.loading._references`); a reference
   outside is refused unless ``--force`` (then read with a warning).
 - A declared colour that cannot be used is refused or, with ``--colour``, replaced by that
   colour with a warning; one the format allows but shellvox does not read is named in a
@@ -38,14 +38,14 @@ from numpy.typing import NDArray
 
 from pipeline.config import UNIT_MM, LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading.gltf.reader import read_gltf
-from pipeline.loading.images import MAX_TEXTURE_PIXELS
-from pipeline.loading.obj.reader import read_obj
-from pipeline.loading.threemf.reader import read_3mf
-from pipeline.loading.trimesh_formats import read_with_trimesh
-from pipeline.loading.vrml.reader import read_vrml
-from pipeline.model.mesh import ColouredMesh
-from pipeline.model.topology import prepare
+from pipeline.loading._images import MAX_TEXTURE_PIXELS
+from pipeline.loading._trimesh_formats import read_with_trimesh
+from pipeline.loading.gltf._reader import read_gltf
+from pipeline.loading.obj._reader import read_obj
+from pipeline.loading.threemf._reader import read_3mf
+from pipeline.loading.vrml._reader import read_vrml
+from pipeline.model._mesh import ColouredMesh
+from pipeline.model._topology import prepare
 
 __all__ = [
     "FORMATS",

@@ -1,10 +1,43 @@
 """An output folder and what is written into it.
 
-- :mod:`~pipeline.output.outdir` one complete run or none (claiming, replacing, refusing);
-- :mod:`~pipeline.output.folder` a build's folder: temporary names, shells, thickness, manifest;
-- :mod:`~pipeline.output.streams` the streaming writers fed one slab at a time;
-- :mod:`~pipeline.output.manifest` what ``manifest.json`` says; :mod:`~pipeline.output.checks`
+- :mod:`~pipeline.output._outdir` one complete run or none (claiming, replacing, refusing);
+- :mod:`~pipeline.output._folder` a build's folder: temporary names, shells, thickness, manifest;
+- :mod:`~pipeline.output._streams` the streaming writers fed one slab at a time;
+- :mod:`~pipeline.output._manifest` what ``manifest.json`` says; :mod:`~pipeline.output._checks`
   reading it back and checking the files it lists;
-- :mod:`~pipeline.output.shells` shell meshes as files; :mod:`~pipeline.output.ply` the
+- :mod:`~pipeline.output._shells` shell meshes as files; :mod:`~pipeline.output._ply` the
   float64 PLY with per-face values.
 """
+
+from __future__ import annotations
+
+from pipeline.output._checks import check_files, read_manifest, verify_files
+from pipeline.output._folder import BuildFolder
+from pipeline.output._manifest import Tally, stack_manifest
+from pipeline.output._outdir import LOCK_NAME, SHELL_OUTPUTS, OutputFolder, remove_leftovers, sha256
+from pipeline.output._ply import read_face_ply, write_ply, write_thickness_ply
+from pipeline.output._shells import read_ply, save_shells, write_shell
+from pipeline.output._streams import StackOutputs, gcvf_slices, gcvf_writer
+
+__all__ = [
+    "LOCK_NAME",
+    "SHELL_OUTPUTS",
+    "BuildFolder",
+    "OutputFolder",
+    "StackOutputs",
+    "Tally",
+    "check_files",
+    "gcvf_slices",
+    "gcvf_writer",
+    "read_face_ply",
+    "read_manifest",
+    "read_ply",
+    "remove_leftovers",
+    "save_shells",
+    "sha256",
+    "stack_manifest",
+    "verify_files",
+    "write_ply",
+    "write_shell",
+    "write_thickness_ply",
+]

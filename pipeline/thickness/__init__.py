@@ -6,5 +6,5 @@
 - :mod:`~pipeline.thickness.face_thickness` the rule applied: thickness per face and layer;
 - :mod:`~pipeline.thickness.face_split` faces split so the thickness can follow a texture.
 
-Nothing here writes files (the thickness PLY is :func:`pipeline.output.ply.write_thickness_ply`).
+Nothing here writes files (the thickness PLY is :func:`pipeline.output._ply.write_thickness_ply`).
 """

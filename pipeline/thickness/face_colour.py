@@ -38,7 +38,7 @@ import colour
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 from voxel.colour.srgb import srgb8_to_lab
 
 #: Samples per chunk of faces (bounds the working memory to a few hundred MB).

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 from pipeline.thickness.face_colour import FaceColour, face_colour
 from pipeline.thickness.rule import ThicknessRule
 from voxel.colour.srgb import decode_uint8, encode_uint8

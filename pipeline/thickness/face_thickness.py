@@ -24,7 +24,7 @@ from scipy.sparse import linalg as sparse_linalg
 
 from offset.adjacency import bend_angles, edge_adjacency, face_normals
 from pipeline.config import as_json
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 from pipeline.thickness.face_colour import FaceColour, face_colour, face_samples
 from pipeline.thickness.lightness_rule import lightness_thickness
 from pipeline.thickness.optical_rule import OpticalFaces, optical_thickness

@@ -22,7 +22,7 @@ from PIL import Image
 from pipeline.build.stack import build_stack
 from pipeline.cli import main
 from pipeline.config import BuildConfig, MaterialSettings
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 from pipeline.printer.material_plan import build_material_plan
 from pipeline.printer.profile import load_profile
 from pipeline.thickness.face_thickness import face_thickness

@@ -13,7 +13,7 @@ from vdb_checks import describe_grids
 from pipeline.build.stack import build_stack
 from pipeline.config import BuildConfig
 from pipeline.errors import SlabWorkerDied
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 
 
 def _ball(radius: float = 3.0) -> ColouredMesh:
@@ -124,7 +124,7 @@ def test_vdb_matches_manifest(built):
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch, workers):
-    import pipeline.run.task as slab_task
+    import pipeline.run._task as slab_task
 
     def boom(*args, **kwargs):
         raise RuntimeError("slab failed")
@@ -142,7 +142,7 @@ def test_failed_build_leaves_nothing_complete(tmp_path, monkeypatch, workers):
 def test_a_dead_worker_fails_the_build_instead_of_hanging(tmp_path, monkeypatch):
     import os
 
-    import pipeline.run.task as slab_task
+    import pipeline.run._task as slab_task
 
     def die(*args, **kwargs):
         os._exit(9)  # as when the kernel kills a worker for lack of memory

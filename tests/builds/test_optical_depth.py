@@ -16,7 +16,7 @@ from builders import j750_layer_model
 
 from pipeline.build.stack import build_stack
 from pipeline.config import BuildConfig
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 from pipeline.thickness.face_thickness import face_thickness
 from pipeline.thickness.rule import DEFAULT_RULE
 

@@ -15,7 +15,7 @@ from PIL import Image
 
 from pipeline.cli import main
 from pipeline.loading import load_model
-from pipeline.report.thickness_picture import COLOUR_MAP
+from pipeline.report._thickness_picture import COLOUR_MAP
 from pipeline.thickness.face_thickness import face_thickness
 from pipeline.thickness.rule import DEFAULT_RULE
 

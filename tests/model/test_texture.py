@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.model.texture import Material
+from pipeline.model._texture import Material
 from voxel.colour.srgb import decode_uint8, encode_uint8
 
 

@@ -74,7 +74,7 @@ def _dask_worker(process: psutil.Process) -> bool:
 
 
 def test_an_unreachable_scheduler_is_one_line_and_status_2(tmp_path, monkeypatch, capsys):
-    import pipeline.run.cluster as slab_dask
+    import pipeline.run._cluster as slab_dask
 
     monkeypatch.setattr(slab_dask, "CONNECT_S", 2.0)
     argv = ["build", str(MODEL), "-o", str(tmp_path / "out"), *OPTIONS,
@@ -91,10 +91,10 @@ def _slab_job():
 
     from pipeline.config import LoadOptions
     from pipeline.loading import load_model
-    from pipeline.run.runner import SlabJob
-    from voxel.geometry.nearest import SurfaceIndex
+    from pipeline.run._task import SlabJob
+    from voxel.geometry._nearest import SurfaceIndex
     from voxel.grid import GridSpec
-    from voxel.io.vdb.encode import VdbEncoder
+    from voxel.io.vdb._encode import VdbEncoder
     from voxel.slab import StackModel
 
     mesh = load_model(MODEL, LoadOptions())

@@ -8,9 +8,9 @@ import pytest
 import trimesh
 
 from pipeline.errors import InputError
-from pipeline.model.mesh import ColouredMesh
-from pipeline.model.texture import Material
-from pipeline.model.topology import edge_report, face_areas, signed_volume
+from pipeline.model._mesh import ColouredMesh
+from pipeline.model._texture import Material
+from pipeline.model._topology import edge_report, face_areas, signed_volume
 from pipeline.thickness.face_colour import face_colour
 from pipeline.thickness.face_split import split_faces, split_for_thickness
 from pipeline.thickness.rule import DEFAULT_RULE, SplitRule, ThicknessRule

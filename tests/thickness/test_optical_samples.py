@@ -7,7 +7,7 @@ import pytest
 import trimesh
 from builders import j750_layer_model
 
-from pipeline.model.mesh import ColouredMesh
+from pipeline.model._mesh import ColouredMesh
 from pipeline.thickness.face_colour import face_colour, face_samples
 from pipeline.thickness.optical_rule import optical_thickness
 from pipeline.thickness.rule import DEFAULT_RULE

@@ -15,9 +15,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pipeline.errors import InputError
-from pipeline.model.mesh import ColouredMesh
-from pipeline.model.texture import Material
-from pipeline.model.topology import face_areas
+from pipeline.model._mesh import ColouredMesh
+from pipeline.model._texture import Material
+from pipeline.model._topology import face_areas
 from pipeline.thickness.face_colour import face_colour
 from pipeline.thickness.face_split import split_faces
 from pipeline.thickness.face_thickness import (

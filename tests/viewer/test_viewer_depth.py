@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from pipeline.viewer.depth import Surface
-from voxel.geometry.nearest import SurfaceIndex
+from pipeline.viewer._depth import Surface
+from voxel.geometry._nearest import SurfaceIndex
 
 
 def _surface(box: trimesh.Trimesh) -> Surface:

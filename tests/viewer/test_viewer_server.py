@@ -27,8 +27,8 @@ from viewer_run import serving
 
 from pipeline.cli import main
 from pipeline.errors import InputError
-from pipeline.viewer.folder import BuildFolder
-from pipeline.viewer.server import STATIC
+from pipeline.viewer._folder import BuildFolder
+from pipeline.viewer._server import STATIC
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -82,7 +82,7 @@ def test_a_sample_is_inside_its_colour_region_unless_near_an_edge():
     # grey ramp along z: samples within the ring's reach of the red-blue edge are near an
     # edge; those farther away, and those on the ramp (it averages to its centre), inside.
     from pipeline.build.colour_check import uniform_surroundings
-    from pipeline.model.mesh import ColouredMesh
+    from pipeline.model._mesh import ColouredMesh
 
     box = trimesh.creation.box((10.0, 10.0, 10.0)).subdivide().subdivide().subdivide()
     centre = box.triangles_center
@@ -122,7 +122,7 @@ def test_rays_follow_a_curved_surface():
     # A cylinder (radius 2.5 mm, axis x) with 0.3 mm of magenta over white: with the
     # surface given, the columns of 1 mm discs on its side read the stack; in the tangent
     # plane alone they start in the air and cut the layer obliquely.
-    from voxel.geometry.nearest import SurfaceIndex
+    from voxel.geometry._nearest import SurfaceIndex
 
     radius, depth = 2.5, 0.3
     cylinder = trimesh.creation.cylinder(radius=radius, height=6.0, sections=256)

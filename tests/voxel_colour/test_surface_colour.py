@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.model.mesh import ColouredMesh
-from pipeline.model.texture import Material
+from pipeline.model._mesh import ColouredMesh
+from pipeline.model._texture import Material
 from voxel.colour.surface_colour import voxel_colours
-from voxel.geometry.nearest import SurfaceIndex, on_faces
+from voxel.geometry._nearest import SurfaceIndex, on_faces
 
 
 def _mesh(kind: str, wrap: str = "repeat", filter_mode: str = "linear") -> ColouredMesh:

@@ -9,7 +9,7 @@ import zlib
 import numpy as np
 import pytest
 
-from voxel.io.compression import check_level, compress, compressobj
+from voxel.io._compression import check_level, compress, compressobj
 
 
 def _inputs() -> list[bytes]:
@@ -45,7 +45,7 @@ def test_equal_input_gives_equal_bytes_however_it_is_fed(level):
 _OTHER_PROCESS = """
 import hashlib, sys
 import numpy as np
-from voxel.io.compression import compress
+from voxel.io._compression import compress
 junk = np.random.default_rng(int(sys.argv[1])).integers(0, 256, 3_000_000, np.uint8)
 compress(junk.tobytes())
 rng = np.random.default_rng(3)

@@ -9,8 +9,8 @@ import pytest
 import tifffile
 
 from voxel.grid import GridSpec
-from voxel.io.deflate import pixel_bytes, zlib_compress
-from voxel.io.tiff_writer import TiffStackWriter
+from voxel.io._deflate import pixel_bytes, zlib_compress
+from voxel.io._tiff_writer import TiffStackWriter
 
 
 @pytest.mark.parametrize("period", [1, 2, 3, 4])

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-import voxel.io.png_encode as png_encode
-from voxel.io.png_encode import encode_png
+import voxel.io._png_encode as png_encode
+from voxel.io._png_encode import encode_png
 
 
 @pytest.mark.parametrize(

@@ -10,7 +10,7 @@ from PIL import Image
 
 from pipeline.printer.profile import load_profile
 from voxel.grid import GridSpec
-from voxel.io.png_slices import SIDECAR_NAME, PngSliceWriter
+from voxel.io._png_slices import SIDECAR_NAME, PngSliceWriter
 
 GRID = GridSpec((1.0, -2.0, 0.25), load_profile("j750").voxel_mm, (23, 17, 31))
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from voxel.io.vdb.encode import _block_stats, _Blocks
+from voxel.io.vdb._encode import _block_stats, _Blocks
 
 LEAF = 8
 

@@ -9,8 +9,8 @@ from vdb_checks import describe_grids
 
 from pipeline.atomic import atomic_path, write_text_atomic
 from voxel.grid import GridSpec
-from voxel.io.tiff_writer import TiffStackWriter
-from voxel.io.vdb.writer import VdbStackWriter
+from voxel.io._tiff_writer import TiffStackWriter
+from voxel.io.vdb._writer import VdbStackWriter
 
 GRID = GridSpec((1.0, 2.0, 3.0), (0.0423, 0.0846, 0.027), (10, 20, 30))
 
@@ -96,7 +96,7 @@ def test_atomic_leaves_nothing_on_failure(tmp_path):
 
 
 def test_bigtiff_past_the_classic_limit(tmp_path, monkeypatch):
-    import voxel.io.tiff_writer as tiff_writer
+    import voxel.io._tiff_writer as tiff_writer
 
     monkeypatch.setattr(tiff_writer, "CLASSIC_TIFF_LIMIT", 1000)
     data = np.arange(np.prod(GRID.shape_zyx)).reshape(GRID.shape_zyx).astype(np.uint8)

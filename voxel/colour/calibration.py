@@ -96,9 +96,11 @@ def fit_optics(
     reading = np.asarray(measured, np.float64)
     m, b = start.k_per_mm.shape
     x0 = np.concatenate(
-        [np.log(np.clip(start.k_per_mm, 1e-5, None)).ravel(),
-         np.log(np.clip(start.s_per_mm, 1e-5, None)).ravel()]
-    )  # fmt: skip
+        [
+            np.log(np.clip(start.k_per_mm, 1e-5, None)).ravel(),
+            np.log(np.clip(start.s_per_mm, 1e-5, None)).ravel(),
+        ]
+    )
     x0 = np.clip(x0, *LOG_BOUNDS)
 
     def unpack(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -7,7 +7,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.geometry.nearest import Nearest
+from voxel.geometry._nearest import Nearest
 
 
 class ColourAt(Protocol):

@@ -13,10 +13,11 @@ Callers: :mod:`voxel.colour.separation` (``Separation.proportions``) and
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 
 #: Lou and Stucki's 3D error filter: ``(dz, dy, dx, weight * 21)`` of the 12 forward
 #: neighbours of a voxel in raster order (z, then y, then x), weights 4/21 and 1/21.
@@ -32,20 +33,68 @@ DIFFUSION_NEIGHBOURS = np.array(
 )  # fmt: skip
 
 
+class BlueNoisePlan(NamedTuple):
+    """What :data:`threshold_slab_kernel` needs besides the slab's voxels.
+
+    Attributes
+    ----------
+    layer_material : (256,) uint8
+        The material of every non-colour layer.
+    is_colour : (256,) bool
+        Layers whose voxels take a colour.
+    cell, weight : (256,) int64, (256,) float32
+        The separation's lattice cell and weight of every sRGB code.
+    table : (G, G, G, P) float32
+        The opaque proportions at the lattice nodes.
+    has_clear : bool
+        The last column is clear (its share is ``1 - alpha``).
+    tile : (S0, S1, S2) float32
+        The blue-noise thresholds.
+    column_material : (M,) uint8
+        The material of every column (separation order, clear last).
+    """
+
+    layer_material: NDArray[np.uint8]
+    is_colour: NDArray[np.bool_]
+    cell: NDArray[np.int64]
+    weight: NDArray[np.float32]
+    table: NDArray[np.float32]
+    has_clear: bool
+    tile: NDArray[np.float32]
+    column_material: NDArray[np.uint8]
+
+
+class _Lattice(NamedTuple):
+    """The separation's table as :func:`_opaque_mix_py` reads it."""
+
+    cell: NDArray[np.int64]
+    weight: NDArray[np.float32]
+    flat_table: NDArray[np.float32]  # the (G, G, G, P) table raveled
+    n_nodes: int  # G
+
+
+class _Scratch(NamedTuple):
+    """Arrays :func:`_opaque_mix_py` fills: corner weights and offsets, and the mix."""
+
+    corner_weight: NDArray[np.float32]  # (8,)
+    corner_offset: NDArray[np.int64]  # (8,)
+    mix: NDArray[np.float32]  # (P,)
+
+
 def _jit(function: Callable[..., Any]) -> Callable[..., Any]:
     """Compile ``function`` with numba (cached on disk next to this module)."""
     return cast(Callable[..., Any], numba.njit(cache=True, nogil=True)(function))
 
 
-def _opaque_mix_py(  # type: ignore[no-untyped-def]
-    r, g, b, cell, weight, flat_table, n_nodes, corner_weight, corner_offset, out
-):
+def _opaque_mix_py(r, g, b, lattice, scratch):  # type: ignore[no-untyped-def]
     """Trilinear interpolation of the opaque proportions of sRGB codes ``r, g, b``.
 
-    ``flat_table`` is the ``(G, G, G, P)`` table raveled; ``corner_weight`` (8,) float32
-    and ``corner_offset`` (8,) int64 are scratch. Corners go in ``(dr, dg, db)`` order and
-    each proportion is summed in a register (no store per term).
+    Into ``scratch.mix``; ``scratch.corner_weight`` and ``scratch.corner_offset`` are
+    scratch. Corners go in ``(dr, dg, db)`` order and each proportion is summed in a
+    register (no store per term).
     """
+    cell, weight, flat_table, n_nodes = lattice
+    corner_weight, corner_offset, out = scratch
     n_opaque = out.shape[0]
     one = np.float32(1.0)
     wr = weight[r]
@@ -74,15 +123,12 @@ _opaque_mix = _jit(_opaque_mix_py)
 
 def _proportions_py(rgba, cell, weight, table, has_clear, out):  # type: ignore[no-untyped-def]
     """Fill ``out`` (N, M) float32 with the proportions of ``rgba`` (N, 4) uint8."""
-    n_nodes = table.shape[0]
     n_opaque = table.shape[3]
-    flat_table = table.reshape(-1)
-    corner_weight = np.empty(8, dtype=np.float32)
-    corner_offset = np.empty(8, dtype=np.int64)
+    lattice = _Lattice(cell, weight, table.reshape(-1), table.shape[0])
     mix = np.empty(n_opaque, dtype=np.float32)
+    scratch = _Scratch(np.empty(8, dtype=np.float32), np.empty(8, dtype=np.int64), mix)
     for i in range(rgba.shape[0]):
-        _opaque_mix(rgba[i, 0], rgba[i, 1], rgba[i, 2], cell, weight, flat_table, n_nodes,
-                    corner_weight, corner_offset, mix)  # fmt: skip
+        _opaque_mix(rgba[i, 0], rgba[i, 1], rgba[i, 2], lattice, scratch)
         if has_clear:
             alpha = np.float32(rgba[i, 3]) / np.float32(255.0)
             for k in range(n_opaque):
@@ -96,23 +142,21 @@ def _proportions_py(rgba, cell, weight, table, has_clear, out):  # type: ignore[
 proportions_kernel = _jit(_proportions_py)
 
 
-def _threshold_slab_py(  # type: ignore[no-untyped-def]
-    layers, rgba, z_start, layer_material, is_colour, cell, weight, table, has_clear,
-    tile, column_material, out,
-):  # fmt: skip
+def _threshold_slab_py(layers, rgba, z_start, plan, out):  # type: ignore[no-untyped-def]
     """Fill ``out`` (Zs, Y, X) uint8 with one material per voxel (blue-noise threshold).
 
-    Non-colour layers take ``layer_material[layer]``. A colour voxel's threshold is
+    ``plan`` is a :class:`BlueNoisePlan`. Non-colour layers take
+    ``layer_material[layer]``. A colour voxel's threshold is
     ``tile[(z_start + z) % s, y % s, x % s]``; its material is the column whose
     cumulative-proportion interval holds it (columns in separation order, clear last).
     """
-    n_nodes = table.shape[0]
+    layer_material, is_colour, has_clear = plan.layer_material, plan.is_colour, plan.has_clear
+    tile, column_material, table = plan.tile, plan.column_material, plan.table
     n_opaque = table.shape[3]
-    flat_table = table.reshape(-1)
-    corner_weight = np.empty(8, dtype=np.float32)
-    corner_offset = np.empty(8, dtype=np.int64)
+    lattice = _Lattice(plan.cell, plan.weight, table.reshape(-1), table.shape[0])
     s0, s1, s2 = tile.shape
     mix = np.empty(n_opaque, dtype=np.float32)
+    scratch = _Scratch(np.empty(8, dtype=np.float32), np.empty(8, dtype=np.int64), mix)
     for z in range(layers.shape[0]):
         tz = (z_start + z) % s0
         for y in range(layers.shape[1]):
@@ -122,8 +166,7 @@ def _threshold_slab_py(  # type: ignore[no-untyped-def]
                 if not is_colour[layer]:
                     out[z, y, x] = layer_material[layer]
                     continue
-                _opaque_mix(rgba[z, y, x, 0], rgba[z, y, x, 1], rgba[z, y, x, 2], cell, weight,
-                            flat_table, n_nodes, corner_weight, corner_offset, mix)  # fmt: skip
+                _opaque_mix(rgba[z, y, x, 0], rgba[z, y, x, 1], rgba[z, y, x, 2], lattice, scratch)
                 alpha = np.float32(1.0)
                 if has_clear:
                     alpha = np.float32(rgba[z, y, x, 3]) / np.float32(255.0)

@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 from voxel.colour.blue_noise import DEFAULT_TILE, blue_noise_tile
 from voxel.colour.material_kernels import (
     DIFFUSION_NEIGHBOURS,
+    BlueNoisePlan,
     diffuse_kernel,
     threshold_slab_kernel,
 )
@@ -182,11 +183,17 @@ def materials_for_slab(
             raise ValueError("carry is for the error-diffusion halftone only, got an array")
         out = np.empty(layers.shape, dtype=np.uint8)
         sep = plan.separation
-        threshold_slab_kernel(
-            layers, rgba, z_start, plan.layer_material, plan.is_colour, sep.cell_index,
-            sep.cell_weight, sep.table, sep.has_clear, plan.thresholds,
-            np.asarray(plan.column_materials, dtype=np.uint8), out,
-        )  # fmt: skip
+        blue_noise = BlueNoisePlan(
+            plan.layer_material,
+            plan.is_colour,
+            sep.cell_index,
+            sep.cell_weight,
+            sep.table,
+            sep.has_clear,
+            plan.thresholds,
+            np.asarray(plan.column_materials, dtype=np.uint8),
+        )
+        threshold_slab_kernel(layers, rgba, z_start, blue_noise, out)
         return MaterialSlab(out, None)
     return _diffused(layers, rgba, plan, carry)
 

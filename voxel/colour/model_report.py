@@ -50,7 +50,7 @@ from voxel.colour.kubelka_munk import (
 )
 from voxel.colour.optics import Optics
 from voxel.colour.report import statistics, tangent_basis
-from voxel.geometry.nearest import SurfaceIndex, nearest_on_surface
+from voxel.geometry._nearest import SurfaceIndex, nearest_on_surface
 from voxel.grid import GridSpec
 
 #: A disc whose rim lies within this of the surface (mm) is flat enough for its rays to

@@ -178,7 +178,13 @@ class LayerModel:
         k, s = self.absorption_scattering(distinct)
         seen = observer(self.optics.wavelengths_nm)
         found = settling_depth(
-            k, s, self.background, seen, k1=self.optics.k1, k2=self.optics.k2,
-            delta_e=delta_e, max_mm=max_mm,
-        )  # fmt: skip
+            k,
+            s,
+            self.background,
+            seen,
+            k1=self.optics.k1,
+            k2=self.optics.k2,
+            delta_e=delta_e,
+            max_mm=max_mm,
+        )
         return Settling(found.depth_mm[inverse], found.settled[inverse], found.deep_lab[inverse])

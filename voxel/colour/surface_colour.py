@@ -4,9 +4,9 @@ The colour layer of a printer-resolution build has 1e7 to 1e8 voxels, each needi
 barycentric coordinates of its nearest point and a colour lookup (face, vertex or
 bilinear texture colour, in linear light). :class:`SurfaceColour` holds a mesh's colour
 source as plain arrays and :func:`voxel_colours` does both steps in one compiled loop
-over the voxels, with the arithmetic of :func:`voxel.geometry.nearest.closest_barycentric`, of
-:mod:`voxel.colour.srgb` and of ``pipeline.model.texture`` /
-``pipeline.model.mesh.ColouredMesh.colour_at``
+over the voxels, with the arithmetic of :func:`voxel.geometry._nearest.closest_barycentric`, of
+:mod:`voxel.colour.srgb` and of ``pipeline.model._texture`` /
+``pipeline.model._mesh.ColouredMesh.colour_at``
 term for term, so the colours are those of the numpy path (tests compare them).
 """
 
@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from voxel.colour.srgb import DECODE_LUT
-from voxel.geometry.closest_point import barycentric
+from voxel.geometry._closest_point import barycentric
 
 #: ``kind`` codes.
 CONSTANT, FACE, VERTEX, TEXTURE = 0, 1, 2, 3
@@ -92,19 +93,57 @@ def voxel_colours(
         The colour source.
     """
     out = np.empty((len(face_ids), 4), dtype=np.uint8)
+    textures = _Textures(
+        colour.pixels, colour.image, colour.wrap, colour.filter, colour.factor, DECODE_LUT
+    )
+    source = _Source(colour.kind, colour.rgba, colour.corner_uv, colour.face_material, textures)
     _colour_kernel(
         np.ascontiguousarray(points_mm, dtype=np.float64),
         np.ascontiguousarray(face_ids, dtype=np.int64),
-        vertices, faces, colour.kind, colour.rgba, colour.corner_uv, colour.face_material,
-        colour.pixels, colour.image, colour.wrap, colour.filter, colour.factor, DECODE_LUT,
-        _THRESHOLD, _BIN_START, out,
-    )  # fmt: skip
+        _Mesh(vertices, faces),
+        source,
+        _Encoding(_THRESHOLD, _BIN_START),
+        out,
+    )
     return out
+
+
+class _Mesh(NamedTuple):
+    vertices: NDArray[np.float64]  # (V, 3) mm
+    faces: NDArray[np.int64]  # (F, 3)
+
+
+class _Textures(NamedTuple):
+    """The materials' images as :func:`_sample` reads them (see :class:`SurfaceColour`)."""
+
+    pixels: NDArray[np.uint8]
+    image: NDArray[np.int64]
+    wrap: NDArray[np.int64]
+    filter_mode: NDArray[np.int64]
+    factor: NDArray[np.float64]
+    decode: NDArray[np.float64]  # (256,) sRGB code to linear
+
+
+class _Source(NamedTuple):
+    """The colour source as the compiled kernel reads it (see :class:`SurfaceColour`)."""
+
+    kind: int
+    rgba: NDArray[np.uint8]
+    corner_uv: NDArray[np.float64]
+    face_material: NDArray[np.int64]
+    textures: _Textures
+
+
+class _Encoding(NamedTuple):
+    """Linear to 8-bit sRGB, the tables of :func:`_encode_tables`."""
+
+    threshold: NDArray[np.float64]
+    start: NDArray[np.int64]
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _wrap(index: int, size: int, mode: int) -> int:
-    """Map a texel index into ``[0, size)`` (``pipeline.model.texture._wrap``)."""
+    """Map a texel index into ``[0, size)`` (``pipeline.model._texture._wrap``)."""
     if 0 <= index < size:
         return index
     if mode == REPEAT:
@@ -179,23 +218,16 @@ def _encode(linear: float, threshold: NDArray[np.float64], start: NDArray[np.int
 def _colour_kernel(
     points: NDArray[np.float64],
     face_ids: NDArray[np.int64],
-    vertices: NDArray[np.float64],
-    faces: NDArray[np.int64],
-    kind: int,
-    rgba: NDArray[np.uint8],
-    corner_uv: NDArray[np.float64],
-    face_material: NDArray[np.int64],
-    pixels: NDArray[np.uint8],
-    image: NDArray[np.int64],
-    wrap: NDArray[np.int64],
-    filter_mode: NDArray[np.int64],
-    factor: NDArray[np.float64],
-    decode: NDArray[np.float64],
-    threshold: NDArray[np.float64],
-    start: NDArray[np.int64],
+    mesh: _Mesh,
+    source: _Source,
+    encoding: _Encoding,
     out: NDArray[np.uint8],
 ) -> None:
     """Fill ``out (N, 4)`` with the colour of each point's nearest point on its face."""
+    vertices, faces = mesh.vertices, mesh.faces
+    kind, rgba, corner_uv = source.kind, source.rgba, source.corner_uv
+    face_material, textures, decode = source.face_material, source.textures, source.textures.decode
+    threshold, start = encoding.threshold, encoding.start
     linear = np.empty(4)
     weights = np.empty(3)
     for n in range(len(face_ids)):
@@ -230,23 +262,20 @@ def _colour_kernel(
             t = weights[0] * corner_uv[f, 0, 1] + weights[1] * corner_uv[f, 1, 1]
             t += weights[2] * corner_uv[f, 2, 1]
             m = face_material[f]
-            _sample(u, t, m, pixels, image, wrap, filter_mode, factor, decode, linear)
+            _sample(u, t, m, textures, linear)
         for ch in range(3):
             out[n, ch] = _encode(linear[ch], threshold, start)
         out[n, 3] = int(np.rint(min(max(linear[3], 0.0), 1.0) * 255.0))
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _sample(
-    u: float, t: float, m: int,
-    pixels: NDArray[np.uint8], image: NDArray[np.int64], wrap: NDArray[np.int64],
-    filter_mode: NDArray[np.int64], factor: NDArray[np.float64], decode: NDArray[np.float64],
-    linear: NDArray[np.float64],
-) -> None:  # fmt: skip
+def _sample(u: float, t: float, m: int, textures: _Textures, linear: NDArray[np.float64]) -> None:
     """Linear RGBA of material ``m`` at ``(u, v = t)``.
 
-    See ``pipeline.model.texture.Material.sample``.
+    See ``pipeline.model._texture.Material.sample``.
     """
+    pixels, image, wrap = textures.pixels, textures.image, textures.wrap
+    filter_mode, factor, decode = textures.filter_mode, textures.factor, textures.decode
     offset, height, width = image[m, 0], image[m, 1], image[m, 2]
     if height == 0:
         for ch in range(4):

@@ -1,10 +1,56 @@
 """Geometry kernels on the voxel grid (they import only :mod:`voxel.grid`).
 
-- :mod:`~voxel.geometry.winding` exact inside tests (row-crossing winding numbers);
-- :mod:`~voxel.geometry.voronoi` the Voronoi regions of faces, edges and vertices, scanned by
-  :mod:`~voxel.geometry.distance_scan` into the exact nearest faces within reach;
-  :mod:`~voxel.geometry.closest_point` the compiled point-triangle test;
-- :mod:`~voxel.geometry.nearest` exact nearest points and generalised winding numbers of
+- :mod:`~voxel.geometry._winding` exact inside tests (row-crossing winding numbers);
+- :mod:`~voxel.geometry._voronoi` the Voronoi regions of faces, edges and vertices, scanned by
+  :mod:`~voxel.geometry._distance_scan` into the exact nearest faces within reach;
+  :mod:`~voxel.geometry._closest_point` the compiled point-triangle test;
+- :mod:`~voxel.geometry._nearest` exact nearest points and generalised winding numbers of
   points (libigl), the one module of :mod:`voxel` that :mod:`offset` uses;
-- :mod:`~voxel.geometry.layer_kernel` the per-voxel pass: layers, SDF band, colour voxels.
+- :mod:`~voxel.geometry._layer_kernel` the per-voxel pass: layers, SDF band, colour voxels.
 """
+
+from __future__ import annotations
+
+from voxel.geometry._closest_point import barycentric
+from voxel.geometry._distance_scan import nearest_in_reach, nearest_within
+from voxel.geometry._layer_kernel import (
+    LayerInputs,
+    LayerOutputs,
+    assign_layers,
+    colour_voxels,
+    layer_material_counts,
+)
+from voxel.geometry._nearest import (
+    Nearest,
+    SurfaceIndex,
+    closest_barycentric,
+    distance_to_surface,
+    nearest_faces,
+    nearest_on_surface,
+    on_faces,
+    winding_numbers,
+)
+from voxel.geometry._voronoi import voronoi_regions
+from voxel.geometry._winding import inside_slab, winding_slab
+
+__all__ = [
+    "LayerInputs",
+    "LayerOutputs",
+    "Nearest",
+    "SurfaceIndex",
+    "assign_layers",
+    "barycentric",
+    "closest_barycentric",
+    "colour_voxels",
+    "distance_to_surface",
+    "inside_slab",
+    "layer_material_counts",
+    "nearest_faces",
+    "nearest_in_reach",
+    "nearest_on_surface",
+    "nearest_within",
+    "on_faces",
+    "voronoi_regions",
+    "winding_numbers",
+    "winding_slab",
+]

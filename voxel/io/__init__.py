@@ -2,13 +2,63 @@
 
 These modules import only :mod:`voxel.grid`, :mod:`voxel.colour.srgb` and each other.
 
-- :mod:`~voxel.io.compression` every deflate stream's setting; :mod:`~voxel.io.deflate` a
+- :mod:`~voxel.io._compression` every deflate stream's setting; :mod:`~voxel.io._deflate` a
   compiled run-length encoder (the VDB leaves) and a page's bytes;
-- :mod:`~voxel.io.tiff_pages` pages encoded where a slab is computed;
-  :mod:`~voxel.io.tiff_writer` the TIFF stacks; :mod:`~voxel.io.png_encode`,
-  :mod:`~voxel.io.png_slices` PNG slices; :mod:`~voxel.io.gcvf_job`,
-  :mod:`~voxel.io.gcvf_writer` GrabCAD Voxel Print jobs; :mod:`~voxel.io.slab_thread` the
+- :mod:`~voxel.io._tiff_pages` pages encoded where a slab is computed;
+  :mod:`~voxel.io._tiff_writer` the TIFF stacks; :mod:`~voxel.io._png_encode`,
+  :mod:`~voxel.io._png_slices` PNG slices; :mod:`~voxel.io._gcvf_job`,
+  :mod:`~voxel.io._gcvf_writer` GrabCAD Voxel Print jobs; :mod:`~voxel.io._slab_thread` the
   writer thread they share;
-- :mod:`voxel.io.vdb` ``volume.vdb`` without OpenVDB; :mod:`~voxel.io.preview` section
+- :mod:`voxel.io.vdb` ``volume.vdb`` without OpenVDB; :mod:`~voxel.io._preview` section
   pictures and the depth histogram.
 """
+
+from __future__ import annotations
+
+from voxel.io._compression import check_level, compress, compressobj
+from voxel.io._deflate import pixel_bytes, zlib_compress
+from voxel.io._gcvf_job import RGBA, GcvfJobError, key_rgba, material_table
+from voxel.io._gcvf_writer import GcvfWriter, KeySlices
+from voxel.io._png_encode import encode_png
+from voxel.io._png_slices import SIDECAR_NAME, PngSliceWriter
+from voxel.io._preview import (
+    BAND_RGB,
+    CORE_RGB,
+    FADE,
+    OUTSIDE_RGB,
+    boundary_depths,
+    halftone_image,
+    histogram_image,
+    outer_views_image,
+    section_pair_image,
+)
+from voxel.io._tiff_pages import PageEncoder
+from voxel.io._tiff_writer import TiffStackWriter
+
+__all__ = [
+    "BAND_RGB",
+    "CORE_RGB",
+    "FADE",
+    "OUTSIDE_RGB",
+    "RGBA",
+    "SIDECAR_NAME",
+    "GcvfJobError",
+    "GcvfWriter",
+    "KeySlices",
+    "PageEncoder",
+    "PngSliceWriter",
+    "TiffStackWriter",
+    "boundary_depths",
+    "check_level",
+    "compress",
+    "compressobj",
+    "encode_png",
+    "halftone_image",
+    "histogram_image",
+    "key_rgba",
+    "material_table",
+    "outer_views_image",
+    "pixel_bytes",
+    "section_pair_image",
+    "zlib_compress",
+]

@@ -1,0 +1,104 @@
+"""A build folder's manifest: read it, and check the files it lists (sizes, checksums).
+
+``manifest.json`` is written last by ``shellvox build`` and lists every file with its
+size and SHA-256 (:mod:`pipeline.output._outdir`). A folder without a valid manifest, or whose
+listed files are missing, of another size or outside the folder, is not a complete
+build; each check raises :class:`~pipeline.errors.InputError` naming the file.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import stat
+from pathlib import Path
+from typing import Any
+
+from pipeline.errors import InputError
+from pipeline.output._outdir import sha256
+
+#: The stacks every build writes: a manifest must list (and so verify) them.
+STACK_FILES = ("layers.tif", "colour.tif")
+
+
+def read_manifest(folder: Path) -> dict[str, Any]:
+    """Return the build's manifest, or raise InputError when it is missing or malformed."""
+    path = folder / "manifest.json"
+    fix = "rebuild with shellvox build -o " + str(folder)
+    if not path.is_file():
+        raise InputError(folder, "has no manifest.json (not a finished build)", fix)
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        raise InputError(path, f"is not valid JSON ({error})", fix) from None
+    required = {"grid": dict, "layers": list, "files": dict, "seconds": dict, "input": dict}
+    if not isinstance(manifest, dict) or not all(
+        isinstance(manifest.get(key), kind) for key, kind in required.items()
+    ):
+        raise InputError(
+            path,
+            "is not a shellvox build manifest (or one written before files were listed)",
+            fix,
+        )
+    grid = manifest["grid"]
+    valid = {
+        "shape_zyx": _numbers(grid.get("shape_zyx"), integer=True, low=1),
+        "voxel_size_mm": _numbers(grid.get("voxel_size_mm"), low=1e-300),
+        "origin_mm": _numbers(grid.get("origin_mm")),
+    }
+    problems = [f"grid {key} is {grid.get(key)!r}" for key, ok in valid.items() if not ok]
+    missing = [name for name in STACK_FILES if name not in manifest["files"]]
+    if missing:
+        problems.append(f"it does not list {' and '.join(missing)}")
+    if problems:
+        raise InputError(path, f"is not a valid build manifest: {'; '.join(problems)}", fix)
+    return manifest
+
+
+def _numbers(value: Any, *, integer: bool = False, low: float = -math.inf) -> bool:
+    """Return whether `value` is a list of 3 finite numbers (integers) >= `low`."""
+    kinds = (int,) if integer else (int, float)
+    return (
+        isinstance(value, list)
+        and len(value) == 3
+        and all(
+            isinstance(v, kinds) and not isinstance(v, bool) and low <= v < math.inf for v in value
+        )
+    )
+
+
+def check_files(folder: Path, manifest: dict[str, Any]) -> None:
+    """Check that every file the manifest lists is there: inside, regular, of its size.
+
+    The quick half of :func:`verify_files` (no checksums): a ``stat`` per file.
+    """
+    fix = "rebuild with shellvox build -o " + str(folder)
+    root = folder.resolve()
+    for name, record in manifest["files"].items():
+        path = (folder / name).resolve()
+        if root not in path.parents:
+            raise InputError(folder / "manifest.json", f"lists {name!r} outside the folder", fix)
+        try:
+            info = path.stat()
+        except OSError:
+            raise InputError(folder / name, "is missing (the manifest lists it)", fix) from None
+        if not stat.S_ISREG(info.st_mode):
+            raise InputError(folder / name, "is not a regular file", fix)
+        expected = record.get("bytes") if isinstance(record, dict) else None
+        if info.st_size != expected:
+            raise InputError(
+                folder / name,
+                f"has {info.st_size:,} bytes but the build wrote {expected} (truncated or changed)",
+                fix,
+            )
+
+
+def verify_files(folder: Path, manifest: dict[str, Any]) -> None:
+    """Check that every file the manifest lists is there, whole and unchanged (SHA-256)."""
+    check_files(folder, manifest)
+    fix = "rebuild with shellvox build -o " + str(folder)
+    for name, record in manifest["files"].items():
+        if sha256((folder / name).resolve()) != record.get("sha256"):
+            raise InputError(
+                folder / name, "differs from what the build wrote (SHA-256 mismatch)", fix
+            )

@@ -1,0 +1,265 @@
+"""Preview pictures of a build (``shellvox inspect``): sections, outer views, depths, halftone.
+
+- ``section_xy.png``, ``section_xz.png``, ``section_yz.png``: on each axis the section
+  with the most vivid colour-layer voxels among the planes that cross the part (its
+  middle 60 %, so the plane crosses the surface instead of running inside the coloured
+  skin), drawn as its colour beside its layers, and below both a square of voxels at
+  voxel scale where the colour is densest. (Mid planes are no good default: on the
+  default model they fall on the grey gaps between the colour patches.)
+- ``outer_views.png``: the outer colour layer seen from the six sides, orthographic,
+  at one scale: for each line of sight, the colour of the first colour-layer voxel.
+- ``layer_depth_histogram.png``: the depth of each band's inner boundary in the mid
+  sections against the configured depths.
+- ``halftone_z*.png``: with materials, the slice with the most colour voxels, target
+  colour beside the halftoned materials.
+
+One pass reads the stacks page by page (memory: a page and the view images), then the
+chosen sections are read lazily (:class:`~pipeline.viewer._stacks.TiffStack`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tifffile
+from numpy.typing import NDArray
+from PIL import Image
+
+from pipeline.atomic import atomic_path
+from pipeline.viewer._stacks import Axis, TiffStack
+from voxel.io._preview import (
+    boundary_depths,
+    halftone_image,
+    histogram_image,
+    outer_views_image,
+    section_pair_image,
+)
+
+#: A colour-layer voxel is vivid when its sRGB channels span more than this.
+VIVID_SPAN = 24
+#: Sections are chosen among the planes in this middle fraction of the part.
+MIDDLE = 0.6
+
+
+def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
+    """Write the preview pictures of the build in ``folder`` to ``folder/preview/``.
+
+    Returns
+    -------
+    list of Path
+        The pictures written.
+
+    Raises
+    ------
+    ValueError
+        A stack does not hold the manifest's grid (or cannot be read).
+    """
+    n_z, n_y, n_x = manifest["grid"]["shape_zyx"]
+    vx, vy, vz = manifest["grid"]["voxel_size_mm"]
+    n_bands = len(manifest["layers"]) - 2
+    colour_layers = tuple(layer["index"] for layer in manifest["layers"] if layer["colour"])
+    stats = _scan(folder, (n_z, n_y, n_x), colour_layers)
+    preview = folder / "preview"
+    preview.mkdir(exist_ok=True)
+    written = []
+    chosen = {axis: _choose(stats.vivid[axis], stats.inside[axis]) for axis in "zyx"}
+    samples = 4 if manifest.get("tiff", {}).get("colour.tif", {}).get("samples") == 4 else 3
+    with (
+        TiffStack(folder / "layers.tif", (n_z, n_y, n_x), samples=0) as layers_stack,
+        TiffStack(folder / "colour.tif", (n_z, n_y, n_x), samples=samples) as colour_stack,
+    ):
+        sections: tuple[tuple[Axis, tuple[str, str], tuple[float, float]], ...] = (
+            ("z", ("y", "x"), (vx, vy)),
+            ("y", ("z", "x"), (vx, vz)),
+            ("x", ("z", "y"), (vy, vz)),
+        )
+        for axis, (row_axis, col_axis), pixel_mm in sections:
+            index = chosen[axis]
+            rows = range({"z": n_z, "y": n_y, "x": n_x}[row_axis])
+            cols = range({"z": n_z, "y": n_y, "x": n_x}[col_axis])
+            layers = layers_stack.region(axis, index, rows, cols)[::-1]
+            rgb = colour_stack.region(axis, index, rows, cols)[::-1, :, :3]
+            origin = manifest["grid"]["origin_mm"]["xyz".index(axis)]
+            size = manifest["grid"]["voxel_size_mm"]["xyz".index(axis)]
+            title = (
+                f"{col_axis}{row_axis} section at {axis} = {index} ({origin + index * size:.3f} "
+                f"mm): the most vivid colour-layer voxels ({int(stats.vivid[axis][index]):,})"
+            )
+            image = section_pair_image(
+                np.ascontiguousarray(layers),
+                np.ascontiguousarray(rgb),
+                colour_layers=colour_layers,
+                n_bands=n_bands,
+                pixel_mm=pixel_mm,
+                title=title,
+            )
+            written.append(_save(image, preview / f"section_{col_axis}{row_axis}.png"))
+    written.append(_save(_outer_views(stats, (vx, vy, vz)), preview / "outer_views.png"))
+    depths: list[list[NDArray[np.float64]]] = [[] for _ in range(n_bands)]
+    for layers, pixel_mm in stats.mid_sections(vx, vy, vz):
+        for band, values in enumerate(boundary_depths(layers, pixel_mm, n_bands)):
+            depths[band].append(values)
+    expected = list(np.cumsum([float(layer["thickness_mm"]) for layer in manifest["layers"][1:-1]]))
+    image = histogram_image([np.concatenate(d) for d in depths], expected)
+    written.append(_save(image, preview / "layer_depth_histogram.png"))
+    if "materials.tif" in manifest["files"] and manifest.get("materials"):
+        z = int(np.argmax(stats.colour_voxels))
+        written.append(_halftone_preview(folder, manifest, z))
+    return written
+
+
+class _Scan:
+    """What one pass over the pages gathers (see :func:`_scan`)."""
+
+    def __init__(self, shape: tuple[int, int, int]) -> None:
+        n_z, n_y, n_x = shape
+        self.vivid = {
+            "z": np.zeros(n_z, np.int64),
+            "y": np.zeros(n_y, np.int64),
+            "x": np.zeros(n_x, np.int64),
+        }
+        self.inside = {"z": np.zeros(n_z, bool), "y": np.zeros(n_y, bool), "x": np.zeros(n_x, bool)}
+        self.colour_voxels = np.zeros(n_z, np.int64)
+        # the outer colour layer seen along each axis: colour, and where it was seen
+        self.top = np.zeros((n_y, n_x, 3), np.uint8)
+        self.bottom = np.zeros((n_y, n_x, 3), np.uint8)
+        self.top_hit = np.zeros((n_y, n_x), bool)
+        self.bottom_hit = np.zeros((n_y, n_x), bool)
+        self.front = np.zeros((n_z, n_x, 3), np.uint8)  # from -y
+        self.back = np.zeros((n_z, n_x, 3), np.uint8)  # from +y
+        self.left = np.zeros((n_z, n_y, 3), np.uint8)  # from -x
+        self.right = np.zeros((n_z, n_y, 3), np.uint8)  # from +x
+        self.y_hit = np.zeros((n_z, n_x), bool)
+        self.x_hit = np.zeros((n_z, n_y), bool)
+        self.xy_mid = np.zeros((n_y, n_x), np.uint8)
+        self.xz_mid = np.zeros((n_z, n_x), np.uint8)
+        self.yz_mid = np.zeros((n_z, n_y), np.uint8)
+
+    def mid_sections(
+        self, vx: float, vy: float, vz: float
+    ) -> list[tuple[NDArray[np.uint8], tuple[float, float]]]:
+        """Return the mid-plane layer sections (for depths across bands) and their voxels."""
+        return [(self.xy_mid, (vx, vy)), (self.xz_mid, (vx, vz)), (self.yz_mid, (vy, vz))]
+
+
+def _scan(folder: Path, shape: tuple[int, int, int], colour_layers: tuple[int, ...]) -> _Scan:
+    """Read layers.tif and colour.tif page by page; gather counts, views, mid sections."""
+    n_z, n_y, n_x = shape
+    is_colour = np.zeros(256, dtype=bool)
+    is_colour[list(colour_layers)] = True
+    columns = np.arange(n_x)
+    rows = np.arange(n_y)
+    with (
+        tifffile.TiffFile(folder / "layers.tif") as lt,
+        tifffile.TiffFile(folder / "colour.tif") as ct,
+    ):
+        for name, tif in (("layers.tif", lt), ("colour.tif", ct)):  # before allocating
+            found = (len(tif.pages), *tif.pages[0].shape[:2]) if len(tif.pages) else (0,)
+            if found != shape:
+                raise ValueError(
+                    f"{name} holds {found} (z, y, x) voxels but the manifest's grid is {shape}"
+                )
+        stats = _Scan(shape)
+        for z in range(n_z):  # one page at a time: memory stays one page
+            layers = lt.pages[z].asarray()
+            rgb = ct.pages[z].asarray()[..., :3]
+            coloured = is_colour[layers]
+            vivid = coloured & (np.ptp(rgb.astype(np.int16), axis=-1) > VIVID_SPAN)
+            stats.colour_voxels[z] = np.count_nonzero(coloured)
+            stats.vivid["z"][z] = np.count_nonzero(vivid)
+            stats.vivid["y"] += np.count_nonzero(vivid, axis=1)
+            stats.vivid["x"] += np.count_nonzero(vivid, axis=0)
+            inside = layers > 0
+            stats.inside["z"][z] = inside.any()
+            stats.inside["y"] |= inside.any(axis=1)
+            stats.inside["x"] |= inside.any(axis=0)
+            # the outer colour layer: from +z the last seen wins, from -z the first
+            stats.top[coloured] = rgb[coloured]
+            stats.top_hit |= coloured
+            first = coloured & ~stats.bottom_hit
+            stats.bottom[first] = rgb[first]
+            stats.bottom_hit |= coloured
+            along_y = coloured.any(axis=0)
+            stats.y_hit[z] = along_y
+            low, high = np.argmax(coloured, axis=0), n_y - 1 - np.argmax(coloured[::-1], axis=0)
+            stats.front[z] = rgb[low, columns]
+            stats.back[z] = rgb[high, columns]
+            stats.x_hit[z] = coloured.any(axis=1)
+            low, high = np.argmax(coloured, axis=1), n_x - 1 - np.argmax(coloured[:, ::-1], axis=1)
+            stats.left[z] = rgb[rows, low]
+            stats.right[z] = rgb[rows, high]
+            stats.xz_mid[z] = layers[n_y // 2]
+            stats.yz_mid[z] = layers[:, n_x // 2]
+            if z == n_z // 2:
+                stats.xy_mid = layers
+    return stats
+
+
+def _choose(vivid: NDArray[np.int64], inside: NDArray[np.bool_]) -> int:
+    """Return the plane with the most vivid voxels mid-part (ties: the most central)."""
+    where = np.nonzero(inside)[0]
+    if not len(where):
+        return len(vivid) // 2
+    low, high = int(where[0]), int(where[-1])
+    margin = (1 - MIDDLE) / 2 * (high - low)
+    first, last = int(np.ceil(low + margin)), int(np.floor(high - margin))
+    if last < first:
+        first = last = (low + high) // 2
+    candidates = np.arange(first, last + 1)
+    centre = (low + high) / 2
+    best = vivid[candidates].max()
+    ties = candidates[vivid[candidates] == best]
+    return int(ties[np.argmin(np.abs(ties - centre))])
+
+
+def _outer_views(stats: _Scan, voxel_mm: tuple[float, float, float]) -> Image.Image:
+    """Draw the six views, turned as a viewer outside the part sees them (up is up)."""
+    vx, vy, vz = voxel_mm
+    up = np.s_[::-1]  # image rows run downwards
+    views = [
+        ("top (from +z; x right, y up)", stats.top[up], stats.top_hit[up], (vx, vy)),
+        ("front (from -y; x right, z up)", stats.front[up], stats.y_hit[up], (vx, vz)),
+        ("right (from +x; y right, z up)", stats.right[up], stats.x_hit[up], (vy, vz)),
+        (
+            "bottom (from -z; x left, y up)",
+            stats.bottom[::-1, ::-1],
+            stats.bottom_hit[::-1, ::-1],
+            (vx, vy),
+        ),
+        ("back (from +y; x left, z up)", stats.back[::-1, ::-1], stats.y_hit[::-1, ::-1], (vx, vz)),
+        ("left (from -x; y left, z up)", stats.left[::-1, ::-1], stats.x_hit[::-1, ::-1], (vy, vz)),
+    ]
+    n_z, n_y = stats.x_hit.shape
+    n_x = stats.y_hit.shape[1]
+    largest_mm = max(n_x * vx, n_y * vy, n_z * vz)
+    return outer_views_image(views, pixels_per_mm=420 / largest_mm)
+
+
+def _save(image: Image.Image, path: Path) -> Path:
+    with atomic_path(path) as temporary:
+        image.save(temporary, format="PNG")
+    return path
+
+
+def _halftone_preview(folder: Path, manifest: dict[str, Any], z: int) -> Path:
+    """Draw slice `z` (the one with the most colour-layer voxels): target vs halftone."""
+    vx, vy, _ = manifest["grid"]["voxel_size_mm"]
+    display = np.zeros((256, 3), dtype=np.uint8)
+    for material in manifest["materials"]:
+        display[int(material["index"])] = material["display_srgb"]
+    with (
+        tifffile.TiffFile(folder / "layers.tif") as lt,
+        tifffile.TiffFile(folder / "colour.tif") as ct,
+        tifffile.TiffFile(folder / "materials.tif") as mt,
+    ):
+        layers = lt.pages[z].asarray()
+        colour = ct.pages[z].asarray()[..., :3]
+        materials = mt.pages[z].asarray()
+    colour_layers = [layer["index"] for layer in manifest["layers"] if layer["colour"]]
+    target = np.where(np.isin(layers, colour_layers)[..., None], colour, display[materials])
+    image = halftone_image(
+        target[::-1].astype(np.uint8), materials[::-1], display, pixel_mm=(vx, vy)
+    )
+    return _save(image, folder / "preview" / f"halftone_z{z:05d}.png")
