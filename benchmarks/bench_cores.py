@@ -84,10 +84,10 @@ def main() -> None:
     b = np.empty_like(a)
     record["memory"] = _probe(lambda: _memory(a, b, 6))
     if SPOT.is_file():
-        from pipeline.build.plan import grid_for
+        from pipeline.build._plan import grid_for
         from pipeline.config import BuildConfig, LoadOptions
         from pipeline.loading import load_model
-        from pipeline.printer.profile import load_profile
+        from pipeline.printer._profile import load_profile
         from voxel.geometry._nearest import SurfaceIndex
         from voxel.slab import StackModel, compute_slab
 

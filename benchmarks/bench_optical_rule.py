@@ -6,7 +6,7 @@ Usage: .venv/bin/python benchmarks/bench_optical_rule.py
 For the default model, spot (30 mm) and the duck (30 mm) on the J750, with the profile's
 optics and with every material's scattering scaled by 0.5 and by 2 (the rule and the
 separation recomputed for each): the thickness of the optical rule, then at 20,000
-surface samples (:func:`voxel.colour.depth_effect.depth_effect`): the share of the
+surface samples (:func:`voxel.colour._depth_effect.depth_effect`): the share of the
 surface within delta_e of its settled colour with the rule's depths and with one
 constant depth of the same mean, and the mean depth each needs for 95 % of the surface.
 The model only, no voxels: what the rule is meant to do. A benchmark, not a test.
@@ -27,12 +27,12 @@ from report_models import ROOT
 from pipeline.config import MaterialSettings
 from pipeline.loading import load_model
 from pipeline.model._mesh import ColouredMesh
-from pipeline.printer.material_plan import build_material_plan, layer_model
-from pipeline.printer.profile import PrinterProfile, load_profile
-from pipeline.thickness.face_thickness import face_thickness
-from pipeline.thickness.rule import DEFAULT_RULE
-from voxel.colour.depth_effect import depth_effect
-from voxel.colour.report import sample_surface
+from pipeline.printer._material_plan import build_material_plan, layer_model
+from pipeline.printer._profile import PrinterProfile, load_profile
+from pipeline.thickness._face_thickness import face_thickness
+from pipeline.thickness._rule import DEFAULT_RULE
+from voxel.colour._depth_effect import depth_effect
+from voxel.colour._report import sample_surface
 
 MODELS = {name: ALL_MODELS[name] for name in ("default", "spot_30mm", "duck_30mm")}
 

@@ -33,7 +33,7 @@ from PIL import Image
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from pipeline.printer.profile import load_profile  # noqa: E402
+from pipeline.printer._profile import load_profile  # noqa: E402
 from voxel.grid import GridSpec  # noqa: E402
 from voxel.io._gcvf_writer import GcvfWriter  # noqa: E402
 from voxel.io._png_encode import encode_png  # noqa: E402

@@ -19,13 +19,13 @@ from typing import Any
 
 from bench_build import MODELS, ROOT, _TreeRss, scaled_model
 
-from pipeline.build.stack import build_stack
+from pipeline.build._stack import build_stack
 from pipeline.cli.build import add_arguments, config_from_args
 from pipeline.cli.thicknessargs import choose_thickness
 from pipeline.cli.values import parse_lengths
 from pipeline.config import LoadOptions
 from pipeline.loading import load_model
-from pipeline.printer.profile import load_profile
+from pipeline.printer._profile import load_profile
 
 ALL_MODELS = {**MODELS, "colour_target": ROOT / "data" / "colour_target" / "colour_target.obj"}
 
@@ -47,13 +47,13 @@ def instrument() -> dict[str, list[float]]:
     jobs on the machine. With ``--workers 1`` every part runs in this process.
     Returns ``{part: [cpu_s, wall_s, calls]}``, filled as the build runs.
     """
-    import pipeline.build.stack as build_module
+    import pipeline.build._stack as build_module
     import pipeline.run._task as runner
-    from pipeline.build.colour_check import ColourCheck
+    from pipeline.build._colour_check import ColourCheck
     from pipeline.output._manifest import Tally
     from pipeline.output._outdir import OutputFolder
     from pipeline.output._streams import StackOutputs
-    from voxel.colour.report import ColourReport
+    from voxel.colour._report import ColourReport
     from voxel.io._gcvf_writer import GcvfWriter
     from voxel.io._png_slices import PngSliceWriter
     from voxel.io._tiff_writer import TiffStackWriter

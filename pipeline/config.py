@@ -14,11 +14,11 @@ from pathlib import Path
 from typing import Any, Literal, get_args
 
 from pipeline.errors import InputError
-from voxel.colour.blue_noise import DEFAULT_TILE
-from voxel.colour.materials import HALFTONES, Halftone
+from voxel.colour._blue_noise import DEFAULT_TILE
+from voxel.colour._materials import HALFTONES, Halftone
 from voxel.slab import LayerRule
 
-#: Material roles of a printer profile (:mod:`pipeline.printer.profile`).
+#: Material roles of a printer profile (:mod:`pipeline.printer._profile`).
 Role = Literal["cyan", "magenta", "yellow", "black", "white", "clear", "support", "void"]
 
 Unit = Literal["micron", "mm", "cm", "m", "inch", "foot"]
@@ -115,7 +115,7 @@ class MaterialSettings:
     Parameters
     ----------
     halftone : {"blue-noise", "error-diffusion"}
-        See :mod:`voxel.colour.materials`.
+        See :mod:`voxel.colour._materials`.
     seed : int
         Seed of the blue-noise tile (the halftone is deterministic per seed).
     icc : Path or None
@@ -194,7 +194,7 @@ class BuildConfig:
     report_samples : int
         Surface samples of the colour report (0: none).
     optical_depth_mm : float, mm
-        Optical depth ``L`` of the colour report's model (:mod:`voxel.colour.report`).
+        Optical depth ``L`` of the colour report's model (:mod:`voxel.colour._report`).
     """
 
     voxel_mm: tuple[float, float, float]

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from voxel.colour.calibration import Patch, predict
-from voxel.colour.optics import Optics
+from voxel.colour._calibration import Patch, predict
+from voxel.colour._optics import Optics
 
 NOISE = 0.002  # reflectance, one sigma
 

@@ -133,7 +133,7 @@ def _broken_rule(name: str, target: str) -> str | None:
         if not _within(target, "voxel"):
             return "voxel imports neither offset nor pipeline"
         if _within(name, "voxel.io") and not (
-            _within(target, "voxel.io") or target in ("voxel.grid", "voxel.colour.srgb")
+            _within(target, "voxel.io") or target in ("voxel.grid", "voxel.colour._srgb")
         ):
             return "voxel.io imports only voxel.grid and the sRGB helpers"
         if _within(name, "voxel.geometry") and not (
@@ -195,13 +195,13 @@ def test_imports_follow_the_rules() -> None:
 
 
 def test_the_rules_catch_a_broken_import() -> None:
-    assert _broken_rule("pipeline.run._runner", "pipeline.build.plan") is not None
+    assert _broken_rule("pipeline.run._runner", "pipeline.build._plan") is not None
     assert _broken_rule("voxel.slab", "voxel.io._tiff_pages") is not None
     assert _broken_rule("voxel.geometry._nearest", "pipeline.errors") is not None
     assert _broken_rule("offset.robust", "voxel.grid") is not None
-    assert _broken_rule("pipeline.config", "pipeline.printer.material_plan") is not None
-    assert _broken_rule("pipeline.viewer._depth", "pipeline.build.stack") is not None
-    assert _broken_rule("pipeline.build.stack", "pipeline.report._previews") is not None
+    assert _broken_rule("pipeline.config", "pipeline.printer._material_plan") is not None
+    assert _broken_rule("pipeline.viewer._depth", "pipeline.build._stack") is not None
+    assert _broken_rule("pipeline.build._stack", "pipeline.report._previews") is not None
     assert _broken_rule("pipeline.cli.inspect", "pipeline.report._previews") is None
 
 

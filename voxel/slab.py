@@ -24,8 +24,8 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour.colour_at import ColourAt, nearest_colour
-from voxel.colour.surface_colour import SurfaceColour, voxel_colours
+from voxel.colour._colour_at import ColourAt, nearest_colour
+from voxel.colour._surface_colour import SurfaceColour, voxel_colours
 from voxel.geometry._distance_scan import nearest_in_reach, nearest_within
 from voxel.geometry._layer_kernel import LayerInputs, LayerOutputs, assign_layers, colour_voxels
 from voxel.geometry._nearest import SurfaceIndex, nearest_faces, on_faces
@@ -62,7 +62,7 @@ class StackModel:
         original), refused by ``"shells"``.
     surface_colour : SurfaceColour, optional
         The colour source as arrays: colours by the compiled kernel
-        (:mod:`voxel.colour.surface_colour`), which gives what `colour_at` gives.
+        (:mod:`voxel.colour._surface_colour`), which gives what `colour_at` gives.
     layer_rule : {"shells", "distance"}
         How voxels get their layer (see the module).
     """

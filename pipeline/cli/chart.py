@@ -13,10 +13,10 @@ from pipeline.atomic import atomic_path, write_text_atomic
 from pipeline.errors import InputError
 from pipeline.output._outdir import OutputFolder
 from pipeline.output._streams import gcvf_writer
-from pipeline.printer.chart import ChartLayout, chart_json, chart_layout, chart_slab
-from pipeline.printer.chart_preview import chart_preview
-from pipeline.printer.profile import PrinterProfile, load_profile
-from pipeline.printer.profile_toml import profile_text
+from pipeline.printer._chart import ChartLayout, chart_json, chart_layout, chart_slab
+from pipeline.printer._chart_preview import chart_preview
+from pipeline.printer._profile import PrinterProfile, load_profile
+from pipeline.printer._profile_toml import profile_text
 from voxel.io._png_slices import PngSliceWriter
 
 #: What ``chart`` writes (``chart.json`` last: the folder's complete-run marker).

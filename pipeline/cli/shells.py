@@ -26,8 +26,8 @@ from pipeline.loading import load_model
 from pipeline.output._outdir import SHELL_OUTPUTS, OutputFolder, sha256
 from pipeline.output._ply import write_thickness_ply
 from pipeline.output._shells import save_shells
-from pipeline.printer.profile import load_profile
-from pipeline.thickness.face_thickness import thickness_summary
+from pipeline.printer._profile import load_profile
+from pipeline.thickness._face_thickness import thickness_summary
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -13,9 +13,9 @@ from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness
 from pipeline.errors import InputError
 from pipeline.loading import load_model
 from pipeline.output._ply import write_thickness_ply
-from pipeline.printer.profile import load_profile
+from pipeline.printer._profile import load_profile
 from pipeline.report._thickness_picture import thickness_image
-from pipeline.thickness.face_thickness import thickness_summary
+from pipeline.thickness._face_thickness import thickness_summary
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def table_lines(summary: dict[str, Any]) -> list[str]:
-    """Format :func:`pipeline.thickness.face_thickness.thickness_summary` as a text table."""
+    """Format :func:`pipeline.thickness._face_thickness.thickness_summary` as a text table."""
     colour = summary["colour_layer"]
     colour_layers = [str(layer["layer"]) for layer in summary["layers"] if layer["colour"]]
     lines = [

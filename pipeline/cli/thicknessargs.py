@@ -1,8 +1,8 @@
 """The thickness options shared by ``thickness``, ``shells`` (and ``build``).
 
-``--thickness-rule FILE`` loads a rule (:mod:`pipeline.thickness.rule`); without it the
+``--thickness-rule FILE`` loads a rule (:mod:`pipeline.thickness._rule`); without it the
 default rule applies. ``--max-edge MM`` splits faces of mixed colour first
-(:mod:`pipeline.thickness.face_split`). A command that also takes a constant ``--thickness`` passes
+(:mod:`pipeline.thickness._face_split`). A command that also takes a constant ``--thickness`` passes
 it to :func:`choose_thickness`, which refuses it together with a rule or ``--max-edge``.
 """
 
@@ -19,13 +19,13 @@ from pipeline.cli.values import parse_lengths
 from pipeline.config import MaterialSettings
 from pipeline.errors import InputError
 from pipeline.model._mesh import ColouredMesh
-from pipeline.printer.material_plan import build_material_plan, layer_model
-from pipeline.printer.profile import PrinterProfile, shipped_profiles
-from pipeline.thickness.face_colour import face_colour
-from pipeline.thickness.face_split import split_for_thickness
-from pipeline.thickness.face_thickness import FaceThickness, face_thickness
-from pipeline.thickness.rule import DEFAULT_RULE, ThicknessRule
-from pipeline.thickness.rule_file import load_rule
+from pipeline.printer._material_plan import build_material_plan, layer_model
+from pipeline.printer._profile import PrinterProfile, shipped_profiles
+from pipeline.thickness._face_colour import face_colour
+from pipeline.thickness._face_split import split_for_thickness
+from pipeline.thickness._face_thickness import FaceThickness, face_thickness
+from pipeline.thickness._rule import DEFAULT_RULE, ThicknessRule
+from pipeline.thickness._rule_file import load_rule
 
 
 def add_rule_arguments(parser: argparse.ArgumentParser, *, printer: bool = False) -> None:

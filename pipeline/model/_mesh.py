@@ -9,8 +9,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.model._texture import Material
-from voxel.colour.srgb import decode_uint8, encode_uint8
-from voxel.colour.surface_colour import (
+from voxel.colour._srgb import decode_uint8, encode_uint8
+from voxel.colour._surface_colour import (
     CONSTANT,
     FACE,
     FILTER_CODES,
@@ -166,7 +166,7 @@ class ColouredMesh:
     def surface_colour(self) -> SurfaceColour:
         """Return the colour source as arrays, for the compiled voxel colour kernel.
 
-        :func:`voxel.colour.surface_colour.voxel_colours` gives the same colours as
+        :func:`voxel.colour._surface_colour.voxel_colours` gives the same colours as
         :meth:`colour_at` at the exact nearest points.
         """
         n_faces = self.n_faces

@@ -23,7 +23,7 @@ from pipeline.model._mesh import ColouredMesh
 from pipeline.output._outdir import OutputFolder
 from pipeline.output._ply import write_thickness_ply
 from pipeline.output._shells import save_shells
-from pipeline.thickness.face_thickness import FaceThickness
+from pipeline.thickness._face_thickness import FaceThickness
 
 
 class BuildFolder:

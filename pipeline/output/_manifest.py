@@ -20,8 +20,8 @@ from pipeline import __version__
 from pipeline.config import BuildConfig, as_json
 from pipeline.model._mesh import ColouredMesh
 from pipeline.output._outdir import sha256
-from pipeline.printer.profile import PrinterProfile
-from pipeline.thickness.face_thickness import FaceThickness, thickness_summary
+from pipeline.printer._profile import PrinterProfile
+from pipeline.thickness._face_thickness import FaceThickness, thickness_summary
 from voxel.grid import GridSpec
 from voxel.slab import SlabResult
 

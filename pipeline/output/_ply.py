@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from pipeline.atomic import atomic_path
 from pipeline.model._mesh import ColouredMesh
-from pipeline.thickness.face_thickness import FaceThickness
+from pipeline.thickness._face_thickness import FaceThickness
 
 
 def write_ply(

@@ -20,8 +20,8 @@ from pipeline import __version__
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.output._folder import BuildFolder
-from pipeline.printer.profile import PrinterProfile
-from voxel.colour.materials import MaterialPlan
+from pipeline.printer._profile import PrinterProfile
+from voxel.colour._materials import MaterialPlan
 from voxel.grid import GridSpec
 from voxel.io._gcvf_job import RGBA, GcvfJobError, key_rgba, material_table
 from voxel.io._gcvf_writer import GcvfWriter, KeySlices

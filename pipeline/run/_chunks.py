@@ -1,6 +1,6 @@
 """A finished slab as bytes: the checkpoint of a resumable build and the Dask wire format.
 
-:func:`encode_chunk` packs everything :meth:`pipeline.build.stack._Job._stream` consumes of a
+:func:`encode_chunk` packs everything :meth:`pipeline.build._stack._Job._stream` consumes of a
 :class:`~pipeline.run._task.StackSlab` (the slab's arrays and counters, its materials
 and tally, its encoded VDB leaves and pages) into a zip of ``.npy`` members (the arrays
 deflated at zlib level 1, the leaves and pages stored as they are, being compressed

@@ -7,7 +7,7 @@ wherever it runs (:class:`SlabJob` carries what it needs). An executor
 :class:`pipeline.run._runner.SlabRunner` picks one.
 
 With a material plan, each slab's voxels also get their materials
-(:func:`voxel.colour.materials.materials_for_slab`) in the same worker, when the halftone is
+(:func:`voxel.colour._materials.materials_for_slab`) in the same worker, when the halftone is
 order-independent (blue noise); error diffusion runs in z order in the caller.
 """
 
@@ -20,7 +20,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour.materials import MaterialPlan, materials_for_slab
+from voxel.colour._materials import MaterialPlan, materials_for_slab
 from voxel.geometry._layer_kernel import layer_material_counts
 from voxel.grid import GridSpec
 from voxel.io._tiff_pages import PageEncoder

@@ -4,7 +4,7 @@ Each model of a :class:`pipeline.tray._plan.TrayPlan` keeps its own mesh, colour
 thickness and grid; the slabs are composed from the models' tiles
 (:mod:`voxel.tray_slab`), so everything after the slabs (materials and halftone in tray
 coordinates, the writers, the job, the colour report) is the single-model build's
-(:mod:`pipeline.build.stack`). The tray's mesh (:class:`pipeline.tray._mesh.TrayMesh`) stands for
+(:mod:`pipeline.build._stack`). The tray's mesh (:class:`pipeline.tray._mesh.TrayMesh`) stands for
 the models in the manifest, ``thickness.ply`` (when every model has a thickness rule)
 and the colour report; the manifest gets a ``tray`` section.
 """
@@ -24,15 +24,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from offset.shells import Shell
-from pipeline.build.plan import BuildPlan, check_depth
-from pipeline.build.running import run_job, settle_running
-from pipeline.build.stack import _Job, _material_plan, stack_model
+from pipeline.build._plan import BuildPlan, check_depth
+from pipeline.build._running import run_job, settle_running
+from pipeline.build._stack import _Job, _material_plan, stack_model
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.model._mesh import ColouredMesh
-from pipeline.printer.profile import PrinterProfile
+from pipeline.printer._profile import PrinterProfile
 from pipeline.run._checkpoints import RunSettings, model_key, run_key
-from pipeline.thickness.face_thickness import FaceThickness
+from pipeline.thickness._face_thickness import FaceThickness
 from pipeline.tray._mesh import TrayMesh, concatenate_thickness
 from pipeline.tray._plan import TrayPlan
 from voxel.slab import StackModel
@@ -63,7 +63,7 @@ def build_tray(
         Grid, layers and output options; the distance layer rule, no shell meshes.
         Its ``thickness_mm`` and ``thickness_source`` are set here.
     out_dir : Path
-        Output folder, as :func:`pipeline.build.stack.build_stack`.
+        Output folder, as :func:`pipeline.build._stack.build_stack`.
     meshes : sequence of ColouredMesh
         Each part of the plan (:attr:`TrayPlan.parts`) as its thickness applies to it
         (split by ``--max-edge``, or the part's own mesh).
@@ -72,7 +72,7 @@ def build_tray(
     faces : sequence of FaceThickness or None
         Each part's rule result (None: a constant thickness).
     profile, progress, force, say, running
-        As :func:`pipeline.build.stack.build_stack`.
+        As :func:`pipeline.build._stack.build_stack`.
 
     Returns
     -------

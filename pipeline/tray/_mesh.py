@@ -16,10 +16,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.model._mesh import ColouredMesh
-from pipeline.thickness.face_colour import FaceColour
-from pipeline.thickness.face_thickness import FaceThickness
-from pipeline.thickness.optical_rule import OpticalFaces
-from voxel.colour.surface_colour import SurfaceColour
+from pipeline.thickness._face_colour import FaceColour
+from pipeline.thickness._face_thickness import FaceThickness
+from pipeline.thickness._optical_rule import OpticalFaces
+from voxel.colour._surface_colour import SurfaceColour
 
 
 @dataclass(frozen=True, eq=False)

@@ -4,10 +4,10 @@
 its layer count and an upper bound of its deepest layer without computing any thickness
 rule (a rule's colour layers are at most its clamp, its backing layers constant), lays
 the models out (:mod:`pipeline.tray._layout`), gives each model its own grid (the grid a
-build of it alone has, :func:`pipeline.build.plan.grid_for`) and snaps each to the
+build of it alone has, :func:`pipeline.build._plan.grid_for`) and snaps each to the
 printer's voxel lattice of the tray, so that every model grid sits in the tray grid at a
 whole voxel offset. The estimate covers the tray grid and every model's band; a tray that
-cannot fit is refused here (:func:`pipeline.build.estimate.check_resources`). ``--dry-run``
+cannot fit is refused here (:func:`pipeline.build._estimate.check_resources`). ``--dry-run``
 stops here.
 """
 
@@ -20,15 +20,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.build.estimate import BuildEstimate, check_resources, estimate_build
-from pipeline.build.plan import slab_rows_for
+from pipeline.build._estimate import BuildEstimate, check_resources, estimate_build
+from pipeline.build._plan import slab_rows_for
 from pipeline.config import BuildConfig, LoadOptions
 from pipeline.errors import ResourceError
 from pipeline.loading import load_model
 from pipeline.model._mesh import ColouredMesh
 from pipeline.output._outdir import sha256
 from pipeline.run._task import resolve_workers
-from pipeline.thickness.rule import DEFAULT_RULE, ThicknessRule
+from pipeline.thickness._rule import DEFAULT_RULE, ThicknessRule
 from pipeline.tray._layout import Layout, LayoutMode, lay_out
 from pipeline.tray._parts import ThicknessSource, TrayPart, check_same_layers, extent, prepare_part
 from pipeline.tray._spec import TraySpec

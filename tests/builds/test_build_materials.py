@@ -19,14 +19,14 @@ import tifffile
 import trimesh
 from PIL import Image
 
-from pipeline.build.stack import build_stack
+from pipeline.build._stack import build_stack
 from pipeline.cli import main
 from pipeline.config import BuildConfig, MaterialSettings
 from pipeline.model._mesh import ColouredMesh
-from pipeline.printer.material_plan import build_material_plan
-from pipeline.printer.profile import load_profile
-from pipeline.thickness.face_thickness import face_thickness
-from pipeline.thickness.rule import LIGHTNESS_RULE
+from pipeline.printer._material_plan import build_material_plan
+from pipeline.printer._profile import load_profile
+from pipeline.thickness._face_thickness import face_thickness
+from pipeline.thickness._rule import LIGHTNESS_RULE
 
 J750 = load_profile("j750")
 DEFAULT_MODEL = "data/colour_target/colour_target.obj"

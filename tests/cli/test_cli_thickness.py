@@ -16,8 +16,8 @@ from PIL import Image
 from pipeline.cli import main
 from pipeline.loading import load_model
 from pipeline.report._thickness_picture import COLOUR_MAP
-from pipeline.thickness.face_thickness import face_thickness
-from pipeline.thickness.rule import DEFAULT_RULE
+from pipeline.thickness._face_thickness import face_thickness
+from pipeline.thickness._rule import DEFAULT_RULE
 
 #: A yellow of transparent colourant settles deep (about 2.2 mm) under the J750's optics;
 #: black settles at once (the 0.3 mm minimum).

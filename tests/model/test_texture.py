@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pipeline.model._texture import Material
-from voxel.colour.srgb import decode_uint8, encode_uint8
+from voxel.colour._srgb import decode_uint8, encode_uint8
 
 
 def _material(wrap=("repeat", "repeat"), filt="linear"):

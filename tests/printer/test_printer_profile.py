@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from pipeline.errors import InputError
-from pipeline.printer.profile import (
+from pipeline.printer._profile import (
     BACKGROUND_KEY,
     load_profile,
     parse_profile,

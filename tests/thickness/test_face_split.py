@@ -11,9 +11,9 @@ from pipeline.errors import InputError
 from pipeline.model._mesh import ColouredMesh
 from pipeline.model._texture import Material
 from pipeline.model._topology import edge_report, face_areas, signed_volume
-from pipeline.thickness.face_colour import face_colour
-from pipeline.thickness.face_split import split_faces, split_for_thickness
-from pipeline.thickness.rule import DEFAULT_RULE, SplitRule, ThicknessRule
+from pipeline.thickness._face_colour import face_colour
+from pipeline.thickness._face_split import split_faces, split_for_thickness
+from pipeline.thickness._rule import DEFAULT_RULE, SplitRule, ThicknessRule
 
 
 def _edge_lengths(mesh: ColouredMesh) -> np.ndarray:

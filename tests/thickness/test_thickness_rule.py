@@ -18,14 +18,14 @@ from pipeline.errors import InputError
 from pipeline.model._mesh import ColouredMesh
 from pipeline.model._texture import Material
 from pipeline.model._topology import face_areas
-from pipeline.thickness.face_colour import face_colour
-from pipeline.thickness.face_split import split_faces
-from pipeline.thickness.face_thickness import (
+from pipeline.thickness._face_colour import face_colour
+from pipeline.thickness._face_split import split_faces
+from pipeline.thickness._face_thickness import (
     face_thickness,
     mean_curvature,
     thickness_summary,
 )
-from pipeline.thickness.rule import (
+from pipeline.thickness._rule import (
     DEFAULT_RULE,
     LIGHTNESS_RULE,
     ColourLayerRule,
@@ -33,8 +33,8 @@ from pipeline.thickness.rule import (
     LayersRule,
     SmoothingRule,
 )
-from pipeline.thickness.rule_file import load_rule
-from pipeline.thickness.surface_smoothing import smooth_over_distance
+from pipeline.thickness._rule_file import load_rule
+from pipeline.thickness._surface_smoothing import smooth_over_distance
 
 #: The lightness rule, whose formula the tests below write out independently.
 NO_SMOOTHING_NO_CAP = dataclasses.replace(

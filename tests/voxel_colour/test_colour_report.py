@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.printer.profile import load_profile
-from voxel.colour.kubelka_munk import observer, r_infinity, reflectance_to_lab, saunderson, stack
-from voxel.colour.model_report import REACH_LIMITS_MM, ModelReport, lateral_reach, summary
-from voxel.colour.report import colour_regions, sample_surface
+from pipeline.printer._profile import load_profile
+from voxel.colour._kubelka_munk import observer, r_infinity, reflectance_to_lab, saunderson, stack
+from voxel.colour._model_report import REACH_LIMITS_MM, ModelReport, lateral_reach, summary
+from voxel.colour._report import colour_regions, sample_surface
 from voxel.grid import GridSpec
 
 OPTICS = load_profile("j750").optics
@@ -81,7 +81,7 @@ def test_a_sample_is_inside_its_colour_region_unless_near_an_edge():
     # A cube whose +x face is half red (y < 0) and half blue, its other faces a smooth
     # grey ramp along z: samples within the ring's reach of the red-blue edge are near an
     # edge; those farther away, and those on the ramp (it averages to its centre), inside.
-    from pipeline.build.colour_check import uniform_surroundings
+    from pipeline.build._colour_check import uniform_surroundings
     from pipeline.model._mesh import ColouredMesh
 
     box = trimesh.creation.box((10.0, 10.0, 10.0)).subdivide().subdivide().subdivide()

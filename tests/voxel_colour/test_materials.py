@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from pipeline.config import MaterialSettings
-from pipeline.printer.material_plan import build_material_plan
-from pipeline.printer.profile import load_profile
-from voxel.colour.blue_noise import blue_noise_tile
-from voxel.colour.inversion import DeepColour
-from voxel.colour.materials import MaterialPlan, materials_for_slab
+from pipeline.printer._material_plan import build_material_plan
+from pipeline.printer._profile import load_profile
+from voxel.colour._blue_noise import blue_noise_tile
+from voxel.colour._inversion import DeepColour
+from voxel.colour._materials import MaterialPlan, materials_for_slab
 
 SRGB = colour.RGB_COLOURSPACES["sRGB"]
 WINDOW = 16

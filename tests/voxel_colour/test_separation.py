@@ -10,11 +10,11 @@ from scipy import ndimage, optimize
 
 from pipeline.config import MaterialSettings
 from pipeline.errors import InputError
-from pipeline.printer.material_plan import build_material_plan
-from pipeline.printer.profile import load_profile
-from pipeline.printer.table_cache import DiskTables
-from voxel.colour.mixing import mix_proportions
-from voxel.colour.separation import (
+from pipeline.printer._material_plan import build_material_plan
+from pipeline.printer._profile import load_profile
+from pipeline.printer._table_cache import DiskTables
+from voxel.colour._mixing import mix_proportions
+from voxel.colour._separation import (
     SeparationError,
     cmyk_to_proportions,
     icc_separation,
@@ -191,7 +191,7 @@ def test_icc_must_be_a_readable_cmyk_profile(tmp_path):
 
 
 def test_mixing_table_disk_cache_round_trip(tmp_path, monkeypatch):
-    from voxel.colour import separation
+    from voxel.colour import _separation as separation
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     store = DiskTables.default()

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.thickness.surface_smoothing import smooth_over_distance
-from voxel.colour.kubelka_munk import (
+from pipeline.thickness._surface_smoothing import smooth_over_distance
+from voxel.colour._kubelka_munk import (
     layer,
     mix,
     observer,
@@ -19,9 +19,9 @@ from voxel.colour.kubelka_munk import (
     saunderson,
     stack,
 )
-from voxel.colour.model_report import ModelReport
-from voxel.colour.optics import assumed_optics
-from voxel.colour.settling import settling_depth
+from voxel.colour._model_report import ModelReport
+from voxel.colour._optics import assumed_optics
+from voxel.colour._settling import settling_depth
 from voxel.grid import GridSpec
 
 NAMES = ("VeroCyan", "VeroMagenta", "VeroYellow", "VeroBlack", "VeroWhite", "VeroClear")

@@ -1,4 +1,4 @@
-"""sRGB transfer and CIELAB of voxel.colour.srgb against colour-science (independent reference)."""
+"""sRGB transfer and CIELAB of voxel.colour._srgb against colour-science (independent reference)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import colour
 import numpy as np
 import pytest
 
-from voxel.colour.srgb import (
+from voxel.colour._srgb import (
     DECODE_LUT,
     codes_to_linear,
     decode_uint8,

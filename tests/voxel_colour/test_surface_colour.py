@@ -8,7 +8,7 @@ import trimesh
 
 from pipeline.model._mesh import ColouredMesh
 from pipeline.model._texture import Material
-from voxel.colour.surface_colour import voxel_colours
+from voxel.colour._surface_colour import voxel_colours
 from voxel.geometry._nearest import SurfaceIndex, on_faces
 
 

@@ -20,7 +20,7 @@ from PIL import Image
 
 import voxel.io._gcvf_writer as gcvf_writer
 from pipeline.atomic import atomic_path
-from pipeline.printer.profile import load_profile
+from pipeline.printer._profile import load_profile
 from voxel.grid import GridSpec
 from voxel.io._gcvf_job import GcvfJobError
 from voxel.io._gcvf_writer import GcvfWriter

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pipeline.printer.profile import load_profile
+from pipeline.printer._profile import load_profile
 from voxel.grid import GridSpec
 from voxel.io._png_slices import SIDECAR_NAME, PngSliceWriter
 

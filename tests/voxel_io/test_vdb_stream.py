@@ -12,7 +12,7 @@ import pytest
 from openvdb_module import load_openvdb
 from vdb_checks import describe_grids
 
-from voxel.colour.srgb import codes_to_linear
+from voxel.colour._srgb import codes_to_linear
 from voxel.grid import GridSpec
 from voxel.io.vdb._encode import GRID_NAMES, MATERIAL_GRID
 from voxel.io.vdb._writer import VdbStackWriter

@@ -1,6 +1,6 @@
 """Serialisation of the stack: TIFF, PNG, GrabCAD jobs, OpenVDB, previews, deflate.
 
-These modules import only :mod:`voxel.grid`, :mod:`voxel.colour.srgb` and each other.
+These modules import only :mod:`voxel.grid`, :mod:`voxel.colour._srgb` and each other.
 
 - :mod:`~voxel.io._compression` every deflate stream's setting; :mod:`~voxel.io._deflate` a
   compiled run-length encoder (the VDB leaves) and a page's bytes;

@@ -54,7 +54,7 @@ from pipeline.loading.gltf._document import (
 from pipeline.loading.gltf._texcoord import primitive_uv, texture_transform
 from pipeline.model._mesh import ColouredMesh
 from pipeline.model._texture import FilterMode, Material, WrapMode
-from voxel.colour.srgb import encode_uint8
+from voxel.colour._srgb import encode_uint8
 
 GL_WRAP: dict[int, WrapMode] = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
 GL_NEAREST = (9728, 9984, 9986)

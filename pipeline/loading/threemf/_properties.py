@@ -30,7 +30,7 @@ from pipeline.loading._images import TextureRef, read_textures
 from pipeline.loading.threemf._multi import Layered, blend_methods, colour_table
 from pipeline.loading.threemf._package import read_entry
 from pipeline.model._texture import FilterMode, Material, WrapMode
-from voxel.colour.srgb import decode_uint8, encode_uint8
+from voxel.colour._srgb import decode_uint8, encode_uint8
 
 CORE = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
 MATERIAL = "{http://schemas.microsoft.com/3dmanufacturing/material/2015/02}"

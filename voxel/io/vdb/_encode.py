@@ -14,7 +14,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour.srgb import codes_to_linear
+from voxel.colour._srgb import codes_to_linear
 from voxel.grid import GridSpec
 from voxel.io.vdb._leaves import LEAF, GridSpool
 

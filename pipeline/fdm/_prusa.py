@@ -1,0 +1,120 @@
+"""PrusaSlicer's 3MF project (read by ``_3MF_Importer`` in ``src/libslic3r/Format/3mf.cpp``).
+
+- ``3D/3dmodel.model``: one ``<object>`` whose single ``<mesh>`` holds every volume's
+  triangles, one after the other, each volume's vertices a contiguous range (the importer
+  takes the vertices between a volume's smallest and largest index); the build item's
+  ``transform`` places it on the bed; ``slic3rpe:Version3mf`` = 1 (without it the importer
+  bakes the transform into the mesh, as for a foreign 3MF).
+- ``Metadata/Slic3r_PE_model.config``: one ``<volume firstid lastid>`` per volume with
+  ``name``, ``volume_type`` (``ModelPart`` / ``ParameterModifier``), ``matrix`` (identity)
+  and ``extruder`` (1-based), which the importer sets on the volume's config.
+- ``Metadata/Slic3r_PE.config``: ``; key = value`` lines read bottom up until the first line
+  that is not one (``load_from_gcode_string_legacy``): the header line goes first, and every
+  line is at least 10 characters.
+
+Only serialisation: the parts and settings come ready (:mod:`pipeline.fdm._project`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pipeline import __version__
+from pipeline.fdm._package import CORE_NS, attr, mesh_xml, transform_attr, write_package
+from pipeline.fdm._project import FdmProject
+
+SLIC3RPE_NS = "http://schemas.slic3r.org/3mf/2017/06"
+VOLUME_TYPES = {"part": "ModelPart", "modifier": "ParameterModifier"}
+IDENTITY = "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1"
+
+
+def write_prusa_3mf(target: str | Path, project: FdmProject) -> Path:
+    """Write `project` as a PrusaSlicer 3MF project to `target` (atomically)."""
+    return write_package(
+        target,
+        {
+            "3D/3dmodel.model": _model(project),
+            "Metadata/Slic3r_PE_model.config": _model_config(project),
+            "Metadata/Slic3r_PE.config": _print_config(project),
+        },
+    )
+
+
+def _model(project: FdmProject) -> str:
+    offsets = np.cumsum([0] + [len(p.vertices) for p in project.parts])
+    vertices = np.concatenate([p.vertices for p in project.parts])
+    faces = np.concatenate([p.faces + offsets[i] for i, p in enumerate(project.parts)])
+    return (
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        f'<model unit="millimeter" xml:lang="en-US" xmlns="{CORE_NS}" '
+        f'xmlns:slic3rpe="{SLIC3RPE_NS}">\n'
+        ' <metadata name="slic3rpe:Version3mf">1</metadata>\n'
+        f' <metadata name="Application">shellvox {__version__}</metadata>\n'
+        " <resources>\n"
+        f'  <object id="1" name={attr(project.name)} type="model">\n'
+        + mesh_xml(vertices, faces, indent="   ")
+        + "  </object>\n </resources>\n <build>\n"
+        f'  <item objectid="1" transform="{transform_attr(project.placement_mm)}" '
+        'printable="1"/>\n </build>\n</model>\n'
+    )
+
+
+def _model_config(project: FdmProject) -> str:
+    rows = [
+        '<?xml version="1.0" encoding="UTF-8"?>\n<config>\n',
+        f' <object id="1" instances_count="1">\n'
+        f'  <metadata type="object" key="name" value={attr(project.name)}/>\n',
+    ]
+    first = 0
+    for part in project.parts:
+        last = first + len(part.faces) - 1
+        rows.append(f'  <volume firstid="{first}" lastid="{last}">\n')
+        for key, value in (
+            ("name", part.name),
+            ("volume_type", VOLUME_TYPES[part.kind]),
+            ("matrix", IDENTITY),
+            ("extruder", part.filament + 1),
+        ):
+            rows.append(f'   <metadata type="volume" key="{key}" value={attr(value)}/>\n')
+        rows.append("  </volume>\n")
+        first = last + 1
+    rows.append(" </object>\n</config>\n")
+    return "".join(rows)
+
+
+def _print_config(project: FdmProject) -> str:
+    s = project.settings
+    n = len(project.filaments)
+    colours = ";".join(project.filaments.hex)
+
+    def each(value: object) -> str:
+        return ",".join([str(value)] * n)
+
+    settings = {
+        "bed_shape": "0x0,{0}x0,{0}x{1},0x{1}".format(*s.bed_mm),
+        "nozzle_diameter": each(s.nozzle_mm),
+        "extruder_colour": colours,
+        "filament_colour": colours,
+        "layer_height": s.layer_height_mm,
+        "first_layer_height": s.layer_height_mm,
+        "clip_multipart_objects": 1,
+        "single_extruder_multi_material": 1,
+        "wipe_tower": 1,
+        "wipe_tower_x": s.wipe_tower_mm[0],
+        "wipe_tower_y": s.wipe_tower_mm[1],
+        "mmu_segmented_region_max_width": 0,
+        # one purge volume per pair of filaments: the defaults hold 5 x 5, and more
+        # filaments than that run PrusaSlicer 2.5 out of memory (std::bad_alloc)
+        "wiping_volumes_matrix": ",".join(
+            "0" if i == j else "140" for i in range(n) for j in range(n)
+        ),
+        "wiping_volumes_extruders": each("70,70"),
+        "gcode_flavor": "marlin2",
+        "use_relative_e_distances": 1,
+        "layer_gcode": "G92 E0",
+    }
+    lines = [f"; generated by shellvox {__version__} (a PrusaSlicer project config)"]
+    lines += [f"; {key} = {value}" for key, value in settings.items()]
+    return "\n".join(lines) + "\n"
