@@ -53,7 +53,7 @@ def instrument() -> dict[str, list[float]]:
     from pipeline.output._manifest import Tally
     from pipeline.output._outdir import OutputFolder
     from pipeline.output._streams import StackOutputs
-    from voxel.colour._report import ColourReport
+    from voxel.colour._model_report import ModelReport
     from voxel.io._gcvf_writer import GcvfWriter
     from voxel.io._png_slices import PngSliceWriter
     from voxel.io._tiff_writer import TiffStackWriter
@@ -91,7 +91,7 @@ def instrument() -> dict[str, list[float]]:
         (build_module, "build_material_plan", "material plan build (separation table, tile)"),
         (ColourCheck, "__init__", "colour report: sample_surface + rays"),
         (ColourCheck, "result", "colour report: result + thickness_effect"),
-        (ColourReport, "add_slab", "colour report: add_slab"),
+        (ModelReport, "add_slab", "colour report: add_slab"),
         (Tally, "add", "tally (Tally.add, + materials bincount in B)"),
         (LayerSampler, "add", "layer sampler"),
         (TiffStackWriter, "write_slab", "tiff write_slab (queue)"),

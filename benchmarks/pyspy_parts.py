@@ -18,7 +18,7 @@ CATEGORIES = (
     ("gcvf: other", ("gcvf_writer.py", "gcvf_job.py")),
     ("png slices: colour_slices", ("StackOutputs.colour_slices (",)),
     ("png slices: writer", ("png_slices.py", "slab_thread.py")),
-    ("colour report: add_slab", ("ColourReport.add_slab (",)),
+    ("colour report: add_slab", ("ModelReport.add_slab (",)),
     ("colour report: result + thickness_effect", ("ColourCheck.result (",)),
     ("colour report: sample_surface + init", ("ColourCheck.__init__ (",)),
     ("material tally (Tally.add)", ("Tally.add (",)),

@@ -8,3 +8,51 @@
 
 Nothing here writes files (the thickness PLY is :func:`pipeline.output._ply.write_thickness_ply`).
 """
+
+from __future__ import annotations
+
+from pipeline.thickness._face_colour import FaceColour, face_colour, face_samples
+from pipeline.thickness._face_split import split_faces, split_for_thickness
+from pipeline.thickness._face_thickness import (
+    FaceThickness,
+    face_thickness,
+    mean_curvature,
+    thickness_summary,
+)
+from pipeline.thickness._optical_rule import OpticalFaces, optical_thickness
+from pipeline.thickness._rule import (
+    DEFAULT_RULE,
+    LIGHTNESS_RULE,
+    ColourLayerRule,
+    CurvatureRule,
+    LayersRule,
+    SmoothingRule,
+    SplitRule,
+    ThicknessRule,
+)
+from pipeline.thickness._rule_file import load_rule
+from pipeline.thickness._surface_smoothing import smooth_over_distance
+
+__all__ = [
+    "DEFAULT_RULE",
+    "LIGHTNESS_RULE",
+    "ColourLayerRule",
+    "CurvatureRule",
+    "FaceColour",
+    "FaceThickness",
+    "LayersRule",
+    "OpticalFaces",
+    "SmoothingRule",
+    "SplitRule",
+    "ThicknessRule",
+    "face_colour",
+    "face_samples",
+    "face_thickness",
+    "load_rule",
+    "mean_curvature",
+    "optical_thickness",
+    "smooth_over_distance",
+    "split_faces",
+    "split_for_thickness",
+    "thickness_summary",
+]

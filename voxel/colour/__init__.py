@@ -10,3 +10,148 @@
   :mod:`~voxel.colour._material_kernels`;
 - :mod:`~voxel.colour._report` predicted printed colour at surface samples.
 """
+
+from __future__ import annotations
+
+from voxel.colour._blue_noise import DEFAULT_TILE, blue_noise_tile
+from voxel.colour._calibration import (
+    Patch,
+    chart_patches,
+    cross_validate,
+    delta_e_of_readings,
+    fit_optics,
+    predict,
+)
+from voxel.colour._colour_at import ColourAt, nearest_colour
+from voxel.colour._depth_effect import depth_effect
+from voxel.colour._inversion import DeepColour, invert, project_to_simplex
+from voxel.colour._kubelka_munk import (
+    K1_DEFAULT,
+    K2_DEFAULT,
+    WAVELENGTHS_NM,
+    layer,
+    mix,
+    observer,
+    over,
+    r_infinity,
+    reflectance_to_lab,
+    saunderson,
+    srgb_to_lab_d50,
+    stack,
+)
+from voxel.colour._materials import HALFTONES, Halftone, MaterialPlan, materials_for_slab
+from voxel.colour._mixing import mix_proportions
+from voxel.colour._model_report import REACH_LIMITS_MM, ModelReport, lateral_reach, summary
+from voxel.colour._model_separation import model_separation
+from voxel.colour._optics import Optics, assumed_optics, body_reflectance, display_reflectance
+from voxel.colour._report import (
+    SurfaceSamples,
+    colour_regions,
+    sample_surface,
+    statistics,
+    tangent_basis,
+)
+from voxel.colour._separation import (
+    Separation,
+    SeparationError,
+    cmyk_to_proportions,
+    icc_separation,
+    mixing_separation,
+)
+from voxel.colour._settling import LayerModel, Settling, settling_depth
+from voxel.colour._srgb import (
+    DECODE_LUT,
+    codes_to_linear,
+    decode_uint8,
+    encode_uint8,
+    lab_to_srgb8,
+    linear_to_lab,
+    linear_to_srgb,
+    srgb8_to_lab,
+    srgb_to_lab,
+    srgb_to_linear,
+)
+from voxel.colour._surface_colour import (
+    CONSTANT,
+    FACE,
+    FILTER_CODES,
+    TEXTURE,
+    VERTEX,
+    WRAP_CODES,
+    SurfaceColour,
+    voxel_colours,
+)
+
+__all__ = [
+    "CONSTANT",
+    "DECODE_LUT",
+    "DEFAULT_TILE",
+    "FACE",
+    "FILTER_CODES",
+    "HALFTONES",
+    "K1_DEFAULT",
+    "K2_DEFAULT",
+    "REACH_LIMITS_MM",
+    "TEXTURE",
+    "VERTEX",
+    "WAVELENGTHS_NM",
+    "WRAP_CODES",
+    "ColourAt",
+    "DeepColour",
+    "Halftone",
+    "LayerModel",
+    "MaterialPlan",
+    "ModelReport",
+    "Optics",
+    "Patch",
+    "Separation",
+    "SeparationError",
+    "Settling",
+    "SurfaceColour",
+    "SurfaceSamples",
+    "assumed_optics",
+    "blue_noise_tile",
+    "body_reflectance",
+    "chart_patches",
+    "cmyk_to_proportions",
+    "codes_to_linear",
+    "colour_regions",
+    "cross_validate",
+    "decode_uint8",
+    "delta_e_of_readings",
+    "depth_effect",
+    "display_reflectance",
+    "encode_uint8",
+    "fit_optics",
+    "icc_separation",
+    "invert",
+    "lab_to_srgb8",
+    "lateral_reach",
+    "layer",
+    "linear_to_lab",
+    "linear_to_srgb",
+    "materials_for_slab",
+    "mix",
+    "mix_proportions",
+    "mixing_separation",
+    "model_separation",
+    "nearest_colour",
+    "observer",
+    "over",
+    "predict",
+    "project_to_simplex",
+    "r_infinity",
+    "reflectance_to_lab",
+    "sample_surface",
+    "saunderson",
+    "settling_depth",
+    "srgb8_to_lab",
+    "srgb_to_lab",
+    "srgb_to_lab_d50",
+    "srgb_to_linear",
+    "stack",
+    "statistics",
+    "summary",
+    "tangent_basis",
+    "voxel_colours",
+]
