@@ -39,13 +39,13 @@ sys.path.insert(0, str(ROOT / "tests"))  # vdb_checks, openvdb_module
 
 from openvdb_module import load_openvdb  # noqa: E402
 
-from pipeline.build._stack import build_stack  # noqa: E402
+from pipeline.build import build_stack  # noqa: E402
 from pipeline.config import BuildConfig, LoadOptions  # noqa: E402
 from pipeline.loading import load_model  # noqa: E402
-from pipeline.model._mesh import ColouredMesh  # noqa: E402
-from pipeline.printer._profile import load_profile  # noqa: E402
-from pipeline.run._task import resolve_workers  # noqa: E402
-from voxel.geometry._nearest import winding_numbers  # noqa: E402
+from pipeline.model import ColouredMesh  # noqa: E402
+from pipeline.printer import load_profile  # noqa: E402
+from pipeline.run import resolve_workers  # noqa: E402
+from voxel.geometry import winding_numbers  # noqa: E402
 
 MESHES = ROOT.parent / "shared" / "meshes"
 MODELS = {

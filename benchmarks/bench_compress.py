@@ -34,9 +34,8 @@ try:  # not a dependency (see voxel/io/_compression.py): measured where installe
 except ImportError:
     isal_zlib = None
 
-from pipeline.viewer._inflate import decode
-from voxel.io._compression import compress
-from voxel.io._deflate import zlib_compress
+from pipeline.viewer import decode
+from voxel.io import compress, zlib_compress
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results" / "bench_compress.json"

@@ -84,11 +84,11 @@ def main() -> None:
     b = np.empty_like(a)
     record["memory"] = _probe(lambda: _memory(a, b, 6))
     if SPOT.is_file():
-        from pipeline.build._plan import grid_for
+        from pipeline.build import grid_for
         from pipeline.config import BuildConfig, LoadOptions
         from pipeline.loading import load_model
-        from pipeline.printer._profile import load_profile
-        from voxel.geometry._nearest import SurfaceIndex
+        from pipeline.printer import load_profile
+        from voxel.geometry import SurfaceIndex
         from voxel.slab import StackModel, compute_slab
 
         mesh = load_model(SPOT, LoadOptions(scale=args.size_mm / 1.75))

@@ -31,9 +31,8 @@ from typing import Any
 import numpy as np
 
 from pipeline.config import MaterialSettings
-from pipeline.printer._material_plan import build_material_plan
-from pipeline.printer._profile import load_profile
-from voxel.colour._materials import materials_for_slab
+from pipeline.printer import build_material_plan, load_profile
+from voxel.colour import materials_for_slab
 
 ROOT = Path(__file__).resolve().parents[1]
 SHAPE = (64, 512, 512)

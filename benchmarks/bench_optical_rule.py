@@ -26,13 +26,10 @@ from report_models import ROOT
 
 from pipeline.config import MaterialSettings
 from pipeline.loading import load_model
-from pipeline.model._mesh import ColouredMesh
-from pipeline.printer._material_plan import build_material_plan, layer_model
-from pipeline.printer._profile import PrinterProfile, load_profile
-from pipeline.thickness._face_thickness import face_thickness
-from pipeline.thickness._rule import DEFAULT_RULE
-from voxel.colour._depth_effect import depth_effect
-from voxel.colour._report import sample_surface
+from pipeline.model import ColouredMesh
+from pipeline.printer import PrinterProfile, build_material_plan, layer_model, load_profile
+from pipeline.thickness import DEFAULT_RULE, face_thickness
+from voxel.colour import depth_effect, sample_surface
 
 MODELS = {name: ALL_MODELS[name] for name in ("default", "spot_30mm", "duck_30mm")}
 

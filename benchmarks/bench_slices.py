@@ -33,12 +33,10 @@ from PIL import Image
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from pipeline.printer._profile import load_profile  # noqa: E402
+from pipeline.printer import load_profile  # noqa: E402
 from voxel.grid import GridSpec  # noqa: E402
-from voxel.io._gcvf_writer import GcvfWriter  # noqa: E402
-from voxel.io._png_encode import encode_png  # noqa: E402
-from voxel.io._png_slices import PngSliceWriter  # noqa: E402
-from voxel.io.vdb._writer import VdbStackWriter  # noqa: E402
+from voxel.io import GcvfWriter, PngSliceWriter, encode_png  # noqa: E402
+from voxel.io.vdb import VdbStackWriter  # noqa: E402
 
 N_Y, N_X = 1176, 1322
 TABLE = [

@@ -38,8 +38,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from pipeline.viewer._folder import BuildFolder  # noqa: E402
-from pipeline.viewer._server import ViewerServer  # noqa: E402
+from pipeline.viewer import BuildFolder, ViewerServer  # noqa: E402
 
 MODES = {
     "colour": ("layers", "colour"),

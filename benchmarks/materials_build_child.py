@@ -19,13 +19,13 @@ from typing import Any
 
 from bench_build import MODELS, ROOT, _TreeRss, scaled_model
 
-from pipeline.build._stack import build_stack
+from pipeline.build import build_stack
 from pipeline.cli.build import add_arguments, config_from_args
 from pipeline.cli.thicknessargs import choose_thickness
 from pipeline.cli.values import parse_lengths
 from pipeline.config import LoadOptions
 from pipeline.loading import load_model
-from pipeline.printer._profile import load_profile
+from pipeline.printer import load_profile
 
 ALL_MODELS = {**MODELS, "colour_target": ROOT / "data" / "colour_target" / "colour_target.obj"}
 
@@ -49,15 +49,11 @@ def instrument() -> dict[str, list[float]]:
     """
     import pipeline.build._stack as build_module
     import pipeline.run._task as runner
-    from pipeline.build._colour_check import ColourCheck
-    from pipeline.output._manifest import Tally
-    from pipeline.output._outdir import OutputFolder
-    from pipeline.output._streams import StackOutputs
-    from voxel.colour._model_report import ModelReport
-    from voxel.io._gcvf_writer import GcvfWriter
-    from voxel.io._png_slices import PngSliceWriter
-    from voxel.io._tiff_writer import TiffStackWriter
-    from voxel.io.vdb._writer import VdbStackWriter
+    from pipeline.build import ColourCheck
+    from pipeline.output import OutputFolder, StackOutputs, Tally
+    from voxel.colour import ModelReport
+    from voxel.io import GcvfWriter, PngSliceWriter, TiffStackWriter
+    from voxel.io.vdb import VdbStackWriter
     from voxel.sampler import LayerSampler
 
     totals: dict[str, list[float]] = collections.defaultdict(lambda: [0.0, 0.0, 0])

@@ -14,8 +14,7 @@ from pathlib import Path
 from typing import Any, Literal, get_args
 
 from pipeline.errors import InputError
-from voxel.colour._blue_noise import DEFAULT_TILE
-from voxel.colour._materials import HALFTONES, Halftone
+from voxel.colour import DEFAULT_TILE, HALFTONES, Halftone
 from voxel.slab import LayerRule
 
 #: Material roles of a printer profile (:mod:`pipeline.printer._profile`).

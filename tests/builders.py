@@ -265,9 +265,8 @@ def locate(mesh, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def j750_layer_model(rule=None):
     """The optical rule's model of the J750 (its optics, separation and backing)."""
     from pipeline.config import MaterialSettings
-    from pipeline.printer._material_plan import build_material_plan, layer_model
-    from pipeline.printer._profile import load_profile
-    from pipeline.thickness._rule import DEFAULT_RULE
+    from pipeline.printer import build_material_plan, layer_model, load_profile
+    from pipeline.thickness import DEFAULT_RULE
 
     layers = (rule or DEFAULT_RULE).layers
     profile = load_profile("j750")

@@ -7,8 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from voxel.colour._calibration import Patch, predict
-from voxel.colour._optics import Optics
+from voxel.colour import Optics, Patch, predict
 
 NOISE = 0.002  # reflectance, one sigma
 

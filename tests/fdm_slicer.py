@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.model._mesh import ColouredMesh
+from pipeline.model import ColouredMesh
 
 PRUSA = shutil.which("prusa-slicer")
 #: Side colours of the box (+x, -x, +y, -y) and its core (first) and top/bottom (white).

@@ -19,8 +19,8 @@ from pipeline.faults import (
     raise_if_interrupted,
     signals_raise,
 )
-from pipeline.output._outdir import LOCK_NAME, OutputFolder, remove_leftovers
-from pipeline.run._children import ChildCall, ChildDied
+from pipeline.output import LOCK_NAME, OutputFolder, remove_leftovers
+from pipeline.run import ChildCall, ChildDied
 
 
 def _os_error(code, name="out/layers.tif"):

@@ -14,7 +14,7 @@ from builders import glb_bytes, glb_chunks, gltf_parts
 from corpus_files import RELS, model_xml, obj_text, ply_text, threemf, write_gltf
 
 from pipeline.cli import main
-from pipeline.loading.vrml._parse import parse_vrml
+from pipeline.loading.vrml import parse_vrml
 
 
 def _refused(path, capsys, *needles):

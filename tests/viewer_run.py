@@ -7,8 +7,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from pipeline.viewer._folder import BuildFolder
-from pipeline.viewer._server import ViewerServer
+from pipeline.viewer import BuildFolder, ViewerServer
 
 
 @contextmanager

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.geometry._nearest import SurfaceIndex, nearest_faces, winding_numbers
+from voxel.geometry import SurfaceIndex, nearest_faces, winding_numbers
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
 

@@ -24,12 +24,19 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._colour_at import ColourAt, nearest_colour
-from voxel.colour._surface_colour import SurfaceColour, voxel_colours
-from voxel.geometry._distance_scan import nearest_in_reach, nearest_within
-from voxel.geometry._layer_kernel import LayerInputs, LayerOutputs, assign_layers, colour_voxels
-from voxel.geometry._nearest import SurfaceIndex, nearest_faces, on_faces
-from voxel.geometry._winding import inside_slab
+from voxel.colour import ColourAt, SurfaceColour, nearest_colour, voxel_colours
+from voxel.geometry import (
+    LayerInputs,
+    LayerOutputs,
+    SurfaceIndex,
+    assign_layers,
+    colour_voxels,
+    inside_slab,
+    nearest_faces,
+    nearest_in_reach,
+    nearest_within,
+    on_faces,
+)
 from voxel.grid import GridSpec
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]

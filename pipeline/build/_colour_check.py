@@ -33,23 +33,25 @@ from numpy.typing import NDArray
 
 from pipeline.build._plan import BuildPlan
 from pipeline.config import BuildConfig
-from pipeline.model._mesh import ColouredMesh
-from pipeline.printer._material_plan import layer_model
-from pipeline.printer._profile import PrinterProfile
-from voxel.colour._depth_effect import depth_effect
-from voxel.colour._kubelka_munk import observer, srgb_to_lab_d50
-from voxel.colour._materials import MaterialPlan
-from voxel.colour._model_report import ModelReport, lateral_reach, summary
-from voxel.colour._report import (
+from pipeline.model import ColouredMesh
+from pipeline.printer import PrinterProfile, layer_model
+from voxel.colour import (
+    LayerModel,
+    MaterialPlan,
+    ModelReport,
     SurfaceSamples,
     colour_regions,
+    depth_effect,
+    lateral_reach,
+    observer,
     sample_surface,
+    srgb8_to_lab,
+    srgb_to_lab_d50,
     statistics,
+    summary,
     tangent_basis,
 )
-from voxel.colour._settling import LayerModel
-from voxel.colour._srgb import srgb8_to_lab
-from voxel.geometry._nearest import SurfaceIndex, nearest_on_surface
+from voxel.geometry import SurfaceIndex, nearest_on_surface
 
 #: CIEDE2000 from the gamut within which a target counts as in gamut.
 IN_GAMUT_DE = 1.0

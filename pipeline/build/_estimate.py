@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pipeline.errors import ResourceError
-from pipeline.run._slots import EXTRA_SLOTS
+from pipeline.run import EXTRA_SLOTS
 
 #: Working bytes per voxel of a slab in its worker: the inside test and its crossings (3),
 #: the scan's distance and face (12), layers, colour, signed distance, band and

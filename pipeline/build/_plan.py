@@ -18,9 +18,8 @@ from numpy.typing import NDArray
 from pipeline.build._estimate import BYTES_PER_VOXEL, BuildEstimate, check_resources, estimate_build
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError, ResourceError
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._topology import face_areas
-from pipeline.run._task import resolve_workers
+from pipeline.model import ColouredMesh, face_areas
+from pipeline.run import resolve_workers
 from voxel.grid import GridRangeError, GridSpec
 
 

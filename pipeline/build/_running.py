@@ -15,9 +15,8 @@ from typing import Any, Protocol, cast
 
 from pipeline.build._plan import BuildPlan
 from pipeline.errors import ShellvoxWarning
-from pipeline.output._folder import BuildFolder
-from pipeline.output._outdir import OutputFolder
-from pipeline.run._checkpoints import (
+from pipeline.output import BuildFolder, OutputFolder
+from pipeline.run import (
     CHECKPOINT_AFTER_S,
     JOURNAL,
     RUN_FOLDER,

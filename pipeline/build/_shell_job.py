@@ -27,8 +27,8 @@ from offset.for_file import shell_for_file
 from offset.shells import Shell
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
-from pipeline.model._mesh import ColouredMesh
-from pipeline.run._children import ChildCall
+from pipeline.model import ColouredMesh
+from pipeline.run import ChildCall
 
 #: Seconds between updates of the shells' progress bar.
 TICK_S = 0.5

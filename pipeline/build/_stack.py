@@ -37,25 +37,16 @@ from pipeline.build._shell_job import ShellJob
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
 from pipeline.faults import DeferredSignals
-from pipeline.model._mesh import ColouredMesh
-from pipeline.output._folder import BuildFolder
-from pipeline.output._manifest import Tally, stack_manifest
-from pipeline.output._streams import StackOutputs, gcvf_slices
-from pipeline.printer._material_plan import build_material_plan
-from pipeline.printer._profile import PrinterProfile
-from pipeline.run._checkpoints import (
-    RunFolder,
-    RunSettings,
-    run_key,
-)
-from pipeline.run._runner import SlabRunner
-from pipeline.run._task import SLAB_ARRAYS, material_tally
-from pipeline.thickness._face_thickness import FaceThickness
+from pipeline.model import ColouredMesh
+from pipeline.output import BuildFolder, StackOutputs, Tally, gcvf_slices, stack_manifest
+from pipeline.printer import PrinterProfile, build_material_plan
+from pipeline.run import SLAB_ARRAYS, RunFolder, RunSettings, SlabRunner, material_tally, run_key
+from pipeline.thickness import FaceThickness
 from voxel.agreement import shell_agreement
-from voxel.colour._materials import MaterialPlan, materials_for_slab
-from voxel.geometry._nearest import SurfaceIndex
-from voxel.io._tiff_pages import PageEncoder
-from voxel.io.vdb._encode import VdbEncoder
+from voxel.colour import MaterialPlan, materials_for_slab
+from voxel.geometry import SurfaceIndex
+from voxel.io import PageEncoder
+from voxel.io.vdb import VdbEncoder
 from voxel.sampler import LayerSampler
 from voxel.slab import StackModel
 

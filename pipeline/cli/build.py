@@ -14,8 +14,7 @@ from typing import Any, get_args
 import numpy as np
 
 from offset import METHODS
-from pipeline.build._colour_check import report_line
-from pipeline.build._stack import build_stack
+from pipeline.build import build_stack, report_line
 from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.runargs import add_running_arguments, running_from_args
 from pipeline.cli.thicknessargs import ThicknessChoice, add_rule_arguments, choose_thickness
@@ -23,13 +22,16 @@ from pipeline.cli.values import parse_lengths, parse_voxel_size
 from pipeline.config import FORMATS, BuildConfig, MaterialSettings
 from pipeline.errors import InputError
 from pipeline.loading import load_model
-from pipeline.printer._profile import PrinterProfile, load_profile, shipped_profiles
-from pipeline.tray._build import build_tray
-from pipeline.tray._layout import LayoutMode
-from pipeline.tray._parts import ThicknessSource
-from pipeline.tray._plan import plan_tray
-from pipeline.tray._spec import load_tray, tray_from_inputs
-from voxel.colour._materials import HALFTONES
+from pipeline.printer import PrinterProfile, load_profile, shipped_profiles
+from pipeline.tray import (
+    LayoutMode,
+    ThicknessSource,
+    build_tray,
+    load_tray,
+    plan_tray,
+    tray_from_inputs,
+)
+from voxel.colour import HALFTONES
 from voxel.slab import LayerRule
 
 

@@ -10,10 +10,8 @@ import numpy as np
 
 from pipeline.atomic import write_text_atomic
 from pipeline.errors import InputError
-from pipeline.printer._chart_file import chart_readings, read_chart
-from pipeline.printer._profile import parse_profile
-from pipeline.printer._profile_toml import profile_with_optics
-from voxel.colour._calibration import cross_validate, delta_e_of_readings, fit_optics
+from pipeline.printer import chart_readings, parse_profile, profile_with_optics, read_chart
+from voxel.colour import cross_validate, delta_e_of_readings, fit_optics
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

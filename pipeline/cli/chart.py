@@ -11,13 +11,18 @@ import numpy as np
 from pipeline import __version__
 from pipeline.atomic import atomic_path, write_text_atomic
 from pipeline.errors import InputError
-from pipeline.output._outdir import OutputFolder
-from pipeline.output._streams import gcvf_writer
-from pipeline.printer._chart import ChartLayout, chart_json, chart_layout, chart_slab
-from pipeline.printer._chart_preview import chart_preview
-from pipeline.printer._profile import PrinterProfile, load_profile
-from pipeline.printer._profile_toml import profile_text
-from voxel.io._png_slices import PngSliceWriter
+from pipeline.output import OutputFolder, gcvf_writer
+from pipeline.printer import (
+    ChartLayout,
+    PrinterProfile,
+    chart_json,
+    chart_layout,
+    chart_preview,
+    chart_slab,
+    load_profile,
+    profile_text,
+)
+from voxel.io import PngSliceWriter
 
 #: What ``chart`` writes (``chart.json`` last: the folder's complete-run marker).
 CHART_OUTPUTS = ("chart.json", "job.gcvf", "preview/chart.png", "slices/*")

@@ -13,11 +13,17 @@ from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness
 from pipeline.cli.values import parse_lengths
 from pipeline.errors import InputError
-from pipeline.fdm import SLICERS, FdmSettings, make_project, parse_filaments, write_projects
-from pipeline.fdm._make import check_slicers
+from pipeline.fdm import (
+    SLICERS,
+    FdmSettings,
+    check_slicers,
+    make_project,
+    parse_filaments,
+    write_projects,
+)
 from pipeline.fdm._project import check_filament_count
 from pipeline.loading import load_model
-from pipeline.printer._profile import load_profile
+from pipeline.printer import load_profile
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

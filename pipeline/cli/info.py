@@ -7,7 +7,7 @@ import json
 
 from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.loading import load_model
-from pipeline.model._summary import summarise
+from pipeline.model import summarise
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

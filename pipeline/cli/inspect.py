@@ -14,9 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from pipeline.errors import InputError
-from pipeline.output._checks import read_manifest, verify_files
-from pipeline.output._outdir import OutputFolder
-from pipeline.report._previews import write_previews
+from pipeline.output import OutputFolder, read_manifest, verify_files
+from pipeline.report import write_previews
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from pipeline.errors import InputError
-from pipeline.run._checkpoints import RunSettings
+from pipeline.run import RunSettings
 
 
 def add_running_arguments(parser: argparse.ArgumentParser) -> None:

@@ -23,11 +23,9 @@ from pipeline.cli.values import parse_lengths
 from pipeline.config import ShellConfig, as_json
 from pipeline.errors import InputError
 from pipeline.loading import load_model
-from pipeline.output._outdir import SHELL_OUTPUTS, OutputFolder, sha256
-from pipeline.output._ply import write_thickness_ply
-from pipeline.output._shells import save_shells
-from pipeline.printer._profile import load_profile
-from pipeline.thickness._face_thickness import thickness_summary
+from pipeline.output import SHELL_OUTPUTS, OutputFolder, save_shells, sha256, write_thickness_ply
+from pipeline.printer import load_profile
+from pipeline.thickness import thickness_summary
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -12,10 +12,10 @@ from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness
 from pipeline.errors import InputError
 from pipeline.loading import load_model
-from pipeline.output._ply import write_thickness_ply
-from pipeline.printer._profile import load_profile
-from pipeline.report._thickness_picture import thickness_image
-from pipeline.thickness._face_thickness import thickness_summary
+from pipeline.output import write_thickness_ply
+from pipeline.printer import load_profile
+from pipeline.report import thickness_image
+from pipeline.thickness import thickness_summary
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -18,14 +18,17 @@ from numpy.typing import NDArray
 from pipeline.cli.values import parse_lengths
 from pipeline.config import MaterialSettings
 from pipeline.errors import InputError
-from pipeline.model._mesh import ColouredMesh
-from pipeline.printer._material_plan import build_material_plan, layer_model
-from pipeline.printer._profile import PrinterProfile, shipped_profiles
-from pipeline.thickness._face_colour import face_colour
-from pipeline.thickness._face_split import split_for_thickness
-from pipeline.thickness._face_thickness import FaceThickness, face_thickness
-from pipeline.thickness._rule import DEFAULT_RULE, ThicknessRule
-from pipeline.thickness._rule_file import load_rule
+from pipeline.model import ColouredMesh
+from pipeline.printer import PrinterProfile, build_material_plan, layer_model, shipped_profiles
+from pipeline.thickness import (
+    DEFAULT_RULE,
+    FaceThickness,
+    ThicknessRule,
+    face_colour,
+    face_thickness,
+    load_rule,
+    split_for_thickness,
+)
 
 
 def add_rule_arguments(parser: argparse.ArgumentParser, *, printer: bool = False) -> None:

@@ -15,8 +15,7 @@ from pathlib import Path
 
 from pipeline.errors import InputError
 from pipeline.faults import Interrupted
-from pipeline.viewer._folder import BuildFolder
-from pipeline.viewer._server import ViewerServer
+from pipeline.viewer import BuildFolder, ViewerServer
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

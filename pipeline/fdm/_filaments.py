@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import FdmError
-from voxel.colour._srgb import srgb8_to_lab
+from voxel.colour import srgb8_to_lab
 
 _HEX = re.compile(r"#?([0-9A-Fa-f]{6})")
 

@@ -23,8 +23,8 @@ from pipeline.fdm._project import (
     skin_depth,
 )
 from pipeline.fdm._prusa import write_prusa_3mf
-from pipeline.model._mesh import ColouredMesh
-from pipeline.thickness._face_colour import face_colour
+from pipeline.model import ColouredMesh
+from pipeline.thickness import face_colour
 
 Slicer = Literal["prusa", "bambu"]
 SLICERS: tuple[str, ...] = tuple(MAX_FILAMENTS)

@@ -40,12 +40,11 @@ from pipeline.config import UNIT_MM, LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading._images import MAX_TEXTURE_PIXELS
 from pipeline.loading._trimesh_formats import read_with_trimesh
-from pipeline.loading.gltf._reader import read_gltf
-from pipeline.loading.obj._reader import read_obj
-from pipeline.loading.threemf._reader import read_3mf
-from pipeline.loading.vrml._reader import read_vrml
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._topology import prepare
+from pipeline.loading.gltf import read_gltf
+from pipeline.loading.obj import read_obj
+from pipeline.loading.threemf import read_3mf
+from pipeline.loading.vrml import read_vrml
+from pipeline.model import ColouredMesh, prepare
 
 __all__ = [
     "FORMATS",

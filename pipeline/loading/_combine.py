@@ -19,9 +19,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._texture import Material
-from voxel.colour._srgb import decode_uint8
+from pipeline.model import ColouredMesh, Material
+from voxel.colour import decode_uint8
 
 
 def checked_faces(path: Path, n_vertices: int, faces: NDArray[np.int64]) -> NDArray[np.int64]:

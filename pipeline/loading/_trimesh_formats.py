@@ -25,8 +25,7 @@ from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading._combine import checked_faces, combine_parts
 from pipeline.loading._images import TextureRef, read_textures
 from pipeline.loading._references import check_inside, is_file
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._texture import Material
+from pipeline.model import ColouredMesh, Material
 
 #: PLY properties that look like colour but are not the ``red green blue`` trimesh reads.
 PLY_COLOURISH = {

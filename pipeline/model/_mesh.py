@@ -9,8 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.model._texture import Material
-from voxel.colour._srgb import decode_uint8, encode_uint8
-from voxel.colour._surface_colour import (
+from voxel.colour import (
     CONSTANT,
     FACE,
     FILTER_CODES,
@@ -18,6 +17,8 @@ from voxel.colour._surface_colour import (
     VERTEX,
     WRAP_CODES,
     SurfaceColour,
+    decode_uint8,
+    encode_uint8,
 )
 
 ColourKind = Literal["texture", "vertex", "face", "none"]

@@ -19,7 +19,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._srgb import decode_uint8
+from voxel.colour import decode_uint8
 
 WrapMode = Literal["repeat", "clamp", "mirror"]
 FilterMode = Literal["linear", "nearest"]

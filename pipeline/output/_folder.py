@@ -19,11 +19,11 @@ from typing import Any
 
 from offset.shells import Shell
 from pipeline.atomic import atomic_path, write_text_atomic
-from pipeline.model._mesh import ColouredMesh
+from pipeline.model import ColouredMesh
 from pipeline.output._outdir import OutputFolder
 from pipeline.output._ply import write_thickness_ply
 from pipeline.output._shells import save_shells
-from pipeline.thickness._face_thickness import FaceThickness
+from pipeline.thickness import FaceThickness
 
 
 class BuildFolder:

@@ -18,10 +18,10 @@ from numpy.typing import NDArray
 from offset.shells import Shell
 from pipeline import __version__
 from pipeline.config import BuildConfig, as_json
-from pipeline.model._mesh import ColouredMesh
+from pipeline.model import ColouredMesh
 from pipeline.output._outdir import sha256
-from pipeline.printer._profile import PrinterProfile
-from pipeline.thickness._face_thickness import FaceThickness, thickness_summary
+from pipeline.printer import PrinterProfile
+from pipeline.thickness import FaceThickness, thickness_summary
 from voxel.grid import GridSpec
 from voxel.slab import SlabResult
 

@@ -21,8 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.atomic import atomic_path
-from pipeline.model._mesh import ColouredMesh
-from pipeline.thickness._face_thickness import FaceThickness
+from pipeline.model import ColouredMesh
+from pipeline.thickness import FaceThickness
 
 
 def write_ply(

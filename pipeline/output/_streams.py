@@ -20,15 +20,20 @@ from pipeline import __version__
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.output._folder import BuildFolder
-from pipeline.printer._profile import PrinterProfile
-from voxel.colour._materials import MaterialPlan
+from pipeline.printer import PrinterProfile
+from voxel.colour import MaterialPlan
 from voxel.grid import GridSpec
-from voxel.io._gcvf_job import RGBA, GcvfJobError, key_rgba, material_table
-from voxel.io._gcvf_writer import GcvfWriter, KeySlices
-from voxel.io._png_slices import PngSliceWriter
-from voxel.io._tiff_writer import TiffStackWriter
-from voxel.io.vdb._leaves import GridSpool
-from voxel.io.vdb._writer import VdbStackWriter
+from voxel.io import (
+    RGBA,
+    GcvfJobError,
+    GcvfWriter,
+    KeySlices,
+    PngSliceWriter,
+    TiffStackWriter,
+    key_rgba,
+    material_table,
+)
+from voxel.io.vdb import GridSpool, VdbStackWriter
 from voxel.slab import SlabResult
 
 

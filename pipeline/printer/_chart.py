@@ -32,8 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.printer._profile import PrinterProfile
-from voxel.colour._blue_noise import DEFAULT_TILE, blue_noise_tile
-from voxel.colour._calibration import Patch, chart_patches
+from voxel.colour import DEFAULT_TILE, Patch, blue_noise_tile, chart_patches
 from voxel.grid import GridSpec
 
 PATCH_MM = 8.0

@@ -21,8 +21,7 @@ from numpy.typing import NDArray
 
 from pipeline.errors import InputError
 from pipeline.printer._cgats import CgatsError, read_cgats
-from voxel.colour._calibration import Patch
-from voxel.colour._optics import Optics
+from voxel.colour import Optics, Patch
 
 #: How far a layer's fractions may sum from 1.
 FRACTION_TOLERANCE = 1e-4

@@ -9,8 +9,7 @@ import numpy as np
 
 from pipeline.printer._chart import ChartLayout
 from pipeline.printer._profile import PrinterProfile
-from voxel.colour._calibration import predict
-from voxel.colour._kubelka_munk import observer
+from voxel.colour import observer, predict
 
 #: Preview pixels per mm.
 PIXELS_PER_MM = 8

@@ -20,11 +20,17 @@ from pipeline.config import MaterialSettings, Role
 from pipeline.errors import InputError
 from pipeline.printer._profile import PrinterProfile
 from pipeline.printer._table_cache import DiskTables
-from voxel.colour._kubelka_munk import layer, over, r_infinity
-from voxel.colour._materials import MaterialPlan
-from voxel.colour._model_separation import model_separation
-from voxel.colour._separation import Separation, SeparationError, icc_separation
-from voxel.colour._settling import LayerModel
+from voxel.colour import (
+    LayerModel,
+    MaterialPlan,
+    Separation,
+    SeparationError,
+    icc_separation,
+    layer,
+    model_separation,
+    over,
+    r_infinity,
+)
 
 #: Opaque colour roles in the order the halftone stacks them (see the module).
 OPAQUE_ORDER: tuple[Role, ...] = ("black", "cyan", "magenta", "yellow", "white")

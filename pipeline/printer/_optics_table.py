@@ -24,8 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from voxel.colour._kubelka_munk import K1_DEFAULT, K2_DEFAULT, WAVELENGTHS_NM
-from voxel.colour._optics import Optics, assumed_optics
+from voxel.colour import K1_DEFAULT, K2_DEFAULT, WAVELENGTHS_NM, Optics, assumed_optics
 
 #: Keys of the ``[optics]`` table.
 OPTICS_KEYS = {"model", "wavelengths_nm", "k1", "k2"}

@@ -27,7 +27,7 @@ from typing import Any, Literal, NoReturn, cast, get_args
 from pipeline.config import Role
 from pipeline.errors import InputError
 from pipeline.printer._optics_table import MATERIAL_KEYS, OpticsReader, profile_optics
-from voxel.colour._optics import Optics, assumed_optics
+from voxel.colour import Optics, assumed_optics
 
 MM_PER_INCH = 25.4
 

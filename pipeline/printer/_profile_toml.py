@@ -17,7 +17,7 @@ from typing import Any
 
 from pipeline.errors import InputError
 from pipeline.printer._optics_table import MATERIAL_KEYS, optics_toml
-from voxel.colour._optics import Optics
+from voxel.colour import Optics
 
 
 def profile_text(name_or_path: str | Path) -> str:

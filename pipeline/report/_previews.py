@@ -28,8 +28,8 @@ from numpy.typing import NDArray
 from PIL import Image
 
 from pipeline.atomic import atomic_path
-from pipeline.viewer._stacks import Axis, TiffStack
-from voxel.io._preview import (
+from pipeline.viewer import Axis, TiffStack
+from voxel.io import (
     boundary_depths,
     halftone_image,
     histogram_image,

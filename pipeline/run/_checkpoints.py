@@ -42,8 +42,8 @@ from pipeline.atomic import write_text_atomic
 from pipeline.config import BuildConfig, as_json
 from pipeline.errors import ClusterError, InputError, SlabWorkerDied
 from pipeline.faults import Interrupted, os_error
-from pipeline.model._mesh import ColouredMesh
-from pipeline.output._outdir import sha256
+from pipeline.model import ColouredMesh
+from pipeline.output import sha256
 from pipeline.run._chunks import decode_chunk, encode_chunk, save_chunk
 from pipeline.run._task import Rows, StackSlab
 from voxel.grid import GridSpec

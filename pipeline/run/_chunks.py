@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.run._task import SLAB_ARRAYS, StackSlab
-from voxel.io.vdb._leaves import GridSpool
+from voxel.io.vdb import GridSpool
 from voxel.slab import SlabResult
 
 #: zlib level of the chunks: slabs are mostly runs, which level 1 packs nearly as well.

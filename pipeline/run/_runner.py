@@ -25,10 +25,10 @@ from typing import Any
 from pipeline.faults import raise_if_interrupted
 from pipeline.run._checkpoints import RunFolder
 from pipeline.run._task import SLAB_ARRAYS, Rows, SlabExecutor, SlabJob, SlabModel, StackSlab
-from voxel.colour._materials import MaterialPlan
+from voxel.colour import MaterialPlan
 from voxel.grid import GridSpec
-from voxel.io._tiff_pages import PageEncoder
-from voxel.io.vdb._encode import VdbEncoder
+from voxel.io import PageEncoder
+from voxel.io.vdb import VdbEncoder
 
 
 class InProcess:

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.run._task import SLAB_ARRAYS
-from voxel.io.vdb._leaves import GridSpool
+from voxel.io.vdb import GridSpool
 from voxel.slab import SlabResult
 
 #: Byte alignment of each array in a slot.

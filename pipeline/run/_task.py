@@ -20,12 +20,11 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._materials import MaterialPlan, materials_for_slab
-from voxel.geometry._layer_kernel import layer_material_counts
+from voxel.colour import MaterialPlan, materials_for_slab
+from voxel.geometry import layer_material_counts
 from voxel.grid import GridSpec
-from voxel.io._tiff_pages import PageEncoder
-from voxel.io.vdb._encode import VdbEncoder
-from voxel.io.vdb._leaves import GridSpool
+from voxel.io import PageEncoder
+from voxel.io.vdb import GridSpool, VdbEncoder
 from voxel.slab import SlabResult, StackModel, compute_slab
 from voxel.tray_slab import TrayStack, compute_tray_slab
 

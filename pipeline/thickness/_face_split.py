@@ -26,10 +26,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError
-from pipeline.model._mesh import ColouredMesh
+from pipeline.model import ColouredMesh
 from pipeline.thickness._face_colour import FaceColour, face_colour
 from pipeline.thickness._rule import ThicknessRule
-from voxel.colour._srgb import decode_uint8, encode_uint8
+from voxel.colour import decode_uint8, encode_uint8
 
 #: Barycentric coordinates of a face's corners and edge midpoints (local points 0..5;
 #: midpoint 3 on edge 0-1, 4 on edge 1-2, 5 on edge 2-0).

@@ -24,7 +24,7 @@ from scipy.sparse import linalg as sparse_linalg
 
 from offset.adjacency import bend_angles, edge_adjacency, face_normals
 from pipeline.config import as_json
-from pipeline.model._mesh import ColouredMesh
+from pipeline.model import ColouredMesh
 from pipeline.thickness._face_colour import FaceColour, face_colour, face_samples
 from pipeline.thickness._lightness_rule import lightness_thickness
 from pipeline.thickness._optical_rule import OpticalFaces, optical_thickness
@@ -36,7 +36,7 @@ from pipeline.thickness._rule import (
     orientation_class,
 )
 from pipeline.thickness._surface_smoothing import smooth_over_distance
-from voxel.colour._settling import LayerModel
+from voxel.colour import LayerModel
 
 #: Lightness bins of the summary, ``L*`` edges.
 LIGHTNESS_EDGES = (0.0, 20.0, 40.0, 60.0, 80.0, 100.0)

@@ -29,8 +29,7 @@ from numpy.typing import NDArray
 
 from pipeline.thickness._face_colour import FaceColour
 from pipeline.thickness._rule import ThicknessRule
-from voxel.colour._settling import LayerModel, Settling
-from voxel.colour._srgb import lab_to_srgb8
+from voxel.colour import LayerModel, Settling, lab_to_srgb8
 
 
 class OpticalFaces(NamedTuple):

@@ -24,15 +24,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from offset.shells import Shell
-from pipeline.build._plan import BuildPlan, check_depth
-from pipeline.build._running import run_job, settle_running
+from pipeline.build import BuildPlan, check_depth, run_job, settle_running
 from pipeline.build._stack import _Job, _material_plan, stack_model
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
-from pipeline.model._mesh import ColouredMesh
-from pipeline.printer._profile import PrinterProfile
-from pipeline.run._checkpoints import RunSettings, model_key, run_key
-from pipeline.thickness._face_thickness import FaceThickness
+from pipeline.model import ColouredMesh
+from pipeline.printer import PrinterProfile
+from pipeline.run import RunSettings, model_key, run_key
+from pipeline.thickness import FaceThickness
 from pipeline.tray._mesh import TrayMesh, concatenate_thickness
 from pipeline.tray._plan import TrayPlan
 from voxel.slab import StackModel

@@ -15,11 +15,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.model._mesh import ColouredMesh
-from pipeline.thickness._face_colour import FaceColour
-from pipeline.thickness._face_thickness import FaceThickness
-from pipeline.thickness._optical_rule import OpticalFaces
-from voxel.colour._surface_colour import SurfaceColour
+from pipeline.model import ColouredMesh
+from pipeline.thickness import FaceColour, FaceThickness, OpticalFaces
+from voxel.colour import SurfaceColour
 
 
 @dataclass(frozen=True, eq=False)

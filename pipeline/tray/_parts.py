@@ -15,13 +15,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from pipeline.build._plan import grid_for
+from pipeline.build import grid_for
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._topology import face_areas
-from pipeline.thickness._rule import ThicknessRule
-from pipeline.thickness._rule_file import load_rule
+from pipeline.model import ColouredMesh, face_areas
+from pipeline.thickness import ThicknessRule, load_rule
 from pipeline.tray._spec import TrayModel
 from voxel.grid import GridSpec
 

@@ -20,15 +20,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.build._estimate import BuildEstimate, check_resources, estimate_build
-from pipeline.build._plan import slab_rows_for
+from pipeline.build import BuildEstimate, check_resources, estimate_build, slab_rows_for
 from pipeline.config import BuildConfig, LoadOptions
 from pipeline.errors import ResourceError
 from pipeline.loading import load_model
-from pipeline.model._mesh import ColouredMesh
-from pipeline.output._outdir import sha256
-from pipeline.run._task import resolve_workers
-from pipeline.thickness._rule import DEFAULT_RULE, ThicknessRule
+from pipeline.model import ColouredMesh
+from pipeline.output import sha256
+from pipeline.run import resolve_workers
+from pipeline.thickness import DEFAULT_RULE, ThicknessRule
 from pipeline.tray._layout import Layout, LayoutMode, lay_out
 from pipeline.tray._parts import ThicknessSource, TrayPart, check_same_layers, extent, prepare_part
 from pipeline.tray._spec import TraySpec

@@ -17,9 +17,9 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.output._ply import read_face_ply
+from pipeline.output import read_face_ply
+from voxel.geometry import SurfaceIndex, nearest_faces
 from voxel.geometry._closest_point import triangle_d2
-from voxel.geometry._nearest import SurfaceIndex, nearest_faces
 
 
 @dataclass(frozen=True, eq=False)

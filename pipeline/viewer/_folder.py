@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError
-from pipeline.output._checks import check_files, read_manifest
+from pipeline.output import check_files, read_manifest
 from pipeline.viewer._depth import Surface
 from pipeline.viewer._stacks import StackError, SymbolCache, TiffStack
 from voxel.grid import GridSpec

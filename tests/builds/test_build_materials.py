@@ -19,14 +19,12 @@ import tifffile
 import trimesh
 from PIL import Image
 
-from pipeline.build._stack import build_stack
+from pipeline.build import build_stack
 from pipeline.cli import main
 from pipeline.config import BuildConfig, MaterialSettings
-from pipeline.model._mesh import ColouredMesh
-from pipeline.printer._material_plan import build_material_plan
-from pipeline.printer._profile import load_profile
-from pipeline.thickness._face_thickness import face_thickness
-from pipeline.thickness._rule import LIGHTNESS_RULE
+from pipeline.model import ColouredMesh
+from pipeline.printer import build_material_plan, load_profile
+from pipeline.thickness import LIGHTNESS_RULE, face_thickness
 
 J750 = load_profile("j750")
 DEFAULT_MODEL = "data/colour_target/colour_target.obj"

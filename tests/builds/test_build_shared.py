@@ -7,10 +7,10 @@ import pytest
 import tifffile
 import trimesh
 
-from pipeline.build._stack import build_stack
+from pipeline.build import build_stack
 from pipeline.config import BuildConfig
 from pipeline.loading import load_model
-from pipeline.printer._profile import load_profile
+from pipeline.printer import load_profile
 
 
 @pytest.mark.slow

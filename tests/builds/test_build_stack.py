@@ -10,10 +10,10 @@ from openvdb_module import load_openvdb
 from skimage import measure
 from vdb_checks import describe_grids
 
-from pipeline.build._stack import build_stack
+from pipeline.build import build_stack
 from pipeline.config import BuildConfig
 from pipeline.errors import SlabWorkerDied
-from pipeline.model._mesh import ColouredMesh
+from pipeline.model import ColouredMesh
 
 
 def _ball(radius: float = 3.0) -> ColouredMesh:

@@ -14,11 +14,10 @@ import tifffile
 import trimesh
 from builders import j750_layer_model
 
-from pipeline.build._stack import build_stack
+from pipeline.build import build_stack
 from pipeline.config import BuildConfig
-from pipeline.model._mesh import ColouredMesh
-from pipeline.thickness._face_thickness import face_thickness
-from pipeline.thickness._rule import DEFAULT_RULE
+from pipeline.model import ColouredMesh
+from pipeline.thickness import DEFAULT_RULE, face_thickness
 
 VOXEL = 0.1
 #: +x, -x, +y, -y, +z, -z: light cyan, skin, yellow, grey, red, black.

@@ -15,9 +15,8 @@ from PIL import Image
 
 from pipeline.cli import main
 from pipeline.loading import load_model
-from pipeline.report._thickness_picture import COLOUR_MAP
-from pipeline.thickness._face_thickness import face_thickness
-from pipeline.thickness._rule import DEFAULT_RULE
+from pipeline.report import COLOUR_MAP
+from pipeline.thickness import DEFAULT_RULE, face_thickness
 
 #: A yellow of transparent colourant settles deep (about 2.2 mm) under the J750's optics;
 #: black settles at once (the 0.3 mm minimum).

@@ -9,7 +9,7 @@ import trimesh
 from pipeline.errors import FdmError
 from pipeline.fdm import nearest_filament, parse_filaments
 from pipeline.fdm._make import face_neighbours
-from voxel.colour._srgb import srgb8_to_lab
+from voxel.colour import srgb8_to_lab
 
 
 def test_parse_accepts_hash_or_not_and_any_case():

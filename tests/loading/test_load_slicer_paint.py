@@ -20,7 +20,7 @@ from builders import TET_FACES, TET_VERTICES, locate
 from pipeline.cli import main
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading import load_model
-from pipeline.loading.threemf._paint_tree import SCALE, decode
+from pipeline.loading.threemf import SCALE, decode
 
 CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
 PRODUCTION = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"

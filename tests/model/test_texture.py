@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.model._texture import Material
-from voxel.colour._srgb import decode_uint8, encode_uint8
+from pipeline.model import Material
+from voxel.colour import decode_uint8, encode_uint8
 
 
 def _material(wrap=("repeat", "repeat"), filt="linear"):

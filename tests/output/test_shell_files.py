@@ -25,8 +25,7 @@ from offset.robust import ShellDefectWarning
 from offset.shells import Shell
 from pipeline.cli import main
 from pipeline.errors import ShellvoxWarning
-from pipeline.output._ply import write_ply
-from pipeline.output._shells import read_ply, save_shells, write_shell
+from pipeline.output import read_ply, save_shells, write_ply, write_shell
 
 
 def _euler(faces):

@@ -17,7 +17,7 @@ from shell_file_checks import meshlab_checks, needs_meshlab
 
 from offset.intersections import coplanar_pairs, count_self_intersections
 from offset.jitter import JITTER_FRACTION, jitter_vertices
-from pipeline.output._ply import write_ply
+from pipeline.output import write_ply
 
 
 def _cross(a, b):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from calibration_sim import write_argyll, write_i1profiler
 
-from pipeline.printer._cgats import CgatsError, Readings, read_cgats, write_cgats
+from pipeline.printer import CgatsError, Readings, read_cgats, write_cgats
 
 BANDS = np.arange(400.0, 710.0, 10.0)
 

@@ -18,11 +18,17 @@ from calibration_sim import hidden_truth, measure, random_stacks, write_argyll, 
 from PIL import Image
 
 from pipeline.cli import main
-from pipeline.printer._chart import chart_json, chart_layout, chart_slab
-from pipeline.printer._chart_file import chart_readings, read_chart
-from pipeline.printer._profile import load_profile
-from pipeline.printer._profile_toml import profile_text, profile_with_optics
-from voxel.colour._calibration import delta_e_of_readings, predict
+from pipeline.printer import (
+    chart_json,
+    chart_layout,
+    chart_readings,
+    chart_slab,
+    load_profile,
+    profile_text,
+    profile_with_optics,
+    read_chart,
+)
+from voxel.colour import delta_e_of_readings, predict
 
 
 @pytest.fixture(scope="module")

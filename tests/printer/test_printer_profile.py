@@ -6,12 +6,7 @@ from pathlib import Path
 import pytest
 
 from pipeline.errors import InputError
-from pipeline.printer._profile import (
-    BACKGROUND_KEY,
-    load_profile,
-    parse_profile,
-    shipped_profiles,
-)
+from pipeline.printer import BACKGROUND_KEY, load_profile, parse_profile, shipped_profiles
 
 REPO = Path(__file__).resolve().parents[2]
 PROFILES = REPO / "pipeline" / "printer" / "profiles"

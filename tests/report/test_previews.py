@@ -16,7 +16,7 @@ import tifffile
 from PIL import Image
 
 from pipeline.cli import main
-from voxel.io._preview import BAND_RGB, CORE_RGB, FADE, OUTSIDE_RGB
+from voxel.io import BAND_RGB, CORE_RGB, FADE, OUTSIDE_RGB
 
 SECTIONS = ("section_xy.png", "section_xz.png", "section_yz.png")
 

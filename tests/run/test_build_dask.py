@@ -91,10 +91,10 @@ def _slab_job():
 
     from pipeline.config import LoadOptions
     from pipeline.loading import load_model
-    from pipeline.run._task import SlabJob
-    from voxel.geometry._nearest import SurfaceIndex
+    from pipeline.run import SlabJob
+    from voxel.geometry import SurfaceIndex
     from voxel.grid import GridSpec
-    from voxel.io.vdb._encode import VdbEncoder
+    from voxel.io.vdb import VdbEncoder
     from voxel.slab import StackModel
 
     mesh = load_model(MODEL, LoadOptions())

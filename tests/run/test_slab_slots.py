@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.run._slots import SlabSlots
+from pipeline.run import SlabSlots
 from voxel.slab import SlabResult
 
 SHAPE = (3, 5, 7)

@@ -8,12 +8,15 @@ import pytest
 import trimesh
 
 from pipeline.errors import InputError
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._texture import Material
-from pipeline.model._topology import edge_report, face_areas, signed_volume
-from pipeline.thickness._face_colour import face_colour
-from pipeline.thickness._face_split import split_faces, split_for_thickness
-from pipeline.thickness._rule import DEFAULT_RULE, SplitRule, ThicknessRule
+from pipeline.model import ColouredMesh, Material, edge_report, face_areas, signed_volume
+from pipeline.thickness import (
+    DEFAULT_RULE,
+    SplitRule,
+    ThicknessRule,
+    face_colour,
+    split_faces,
+    split_for_thickness,
+)
 
 
 def _edge_lengths(mesh: ColouredMesh) -> np.ndarray:

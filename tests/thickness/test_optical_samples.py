@@ -7,11 +7,9 @@ import pytest
 import trimesh
 from builders import j750_layer_model
 
-from pipeline.model._mesh import ColouredMesh
-from pipeline.thickness._face_colour import face_colour, face_samples
-from pipeline.thickness._optical_rule import optical_thickness
-from pipeline.thickness._rule import DEFAULT_RULE
-from voxel.colour._depth_effect import depth_effect
+from pipeline.model import ColouredMesh
+from pipeline.thickness import DEFAULT_RULE, face_colour, face_samples, optical_thickness
+from voxel.colour import depth_effect
 
 GREY = np.array([128, 128, 128, 255], np.uint8)
 YELLOW = np.array([230, 200, 20, 255], np.uint8)

@@ -15,26 +15,22 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pipeline.errors import InputError
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._texture import Material
-from pipeline.model._topology import face_areas
-from pipeline.thickness._face_colour import face_colour
-from pipeline.thickness._face_split import split_faces
-from pipeline.thickness._face_thickness import (
-    face_thickness,
-    mean_curvature,
-    thickness_summary,
-)
-from pipeline.thickness._rule import (
+from pipeline.model import ColouredMesh, Material, face_areas
+from pipeline.thickness import (
     DEFAULT_RULE,
     LIGHTNESS_RULE,
     ColourLayerRule,
     CurvatureRule,
     LayersRule,
     SmoothingRule,
+    face_colour,
+    face_thickness,
+    load_rule,
+    mean_curvature,
+    smooth_over_distance,
+    split_faces,
+    thickness_summary,
 )
-from pipeline.thickness._rule_file import load_rule
-from pipeline.thickness._surface_smoothing import smooth_over_distance
 
 #: The lightness rule, whose formula the tests below write out independently.
 NO_SMOOTHING_NO_CAP = dataclasses.replace(

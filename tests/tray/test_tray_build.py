@@ -19,8 +19,7 @@ from skimage.measure import label, regionprops
 from tray_models import tray_models
 
 from pipeline.cli import main
-from pipeline.viewer._folder import BuildFolder
-from pipeline.viewer._slices import probe
+from pipeline.viewer import BuildFolder, probe
 
 OPTIONS = ["--voxel-size", "0.3,0.3,0.25", "--format", "tiff", "--no-materials", "--no-progress"]
 GAP_MM = 4.0

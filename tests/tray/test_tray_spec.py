@@ -15,9 +15,9 @@ import trimesh
 
 from pipeline.cli import main
 from pipeline.errors import InputError
-from pipeline.run._task import stack_slab
-from pipeline.tray._spec import load_tray
-from voxel.geometry._nearest import SurfaceIndex
+from pipeline.run import stack_slab
+from pipeline.tray import load_tray
+from voxel.geometry import SurfaceIndex
 from voxel.grid import GridSpec
 from voxel.slab import StackModel, compute_slab
 from voxel.tray_slab import TrayError, TrayStack, compute_tray_slab

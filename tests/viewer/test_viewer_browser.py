@@ -24,7 +24,7 @@ import trimesh
 from PIL import Image
 from viewer_run import serving
 
-from voxel.io._preview import BAND_RGB, CORE_RGB, OUTSIDE_RGB
+from voxel.io import BAND_RGB, CORE_RGB, OUTSIDE_RGB
 
 CHROMIUM = Path("/usr/bin/chromium")
 ARGS = [

@@ -6,7 +6,7 @@ import numpy as np
 import trimesh
 
 from pipeline.viewer._depth import Surface
-from voxel.geometry._nearest import SurfaceIndex
+from voxel.geometry import SurfaceIndex
 
 
 def _surface(box: trimesh.Trimesh) -> Surface:

@@ -7,8 +7,8 @@ import zlib
 import numpy as np
 import pytest
 
-from pipeline.viewer._inflate import InflateError, pick_bytes
-from voxel.io._deflate import zlib_compress
+from pipeline.viewer import InflateError, pick_bytes
+from voxel.io import zlib_compress
 
 
 def _voxel_like(rng: np.random.Generator, n: int, period: int) -> bytes:

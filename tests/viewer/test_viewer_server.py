@@ -27,8 +27,7 @@ from viewer_run import serving
 
 from pipeline.cli import main
 from pipeline.errors import InputError
-from pipeline.viewer._folder import BuildFolder
-from pipeline.viewer._server import STATIC
+from pipeline.viewer import STATIC, BuildFolder
 
 REPO = Path(__file__).resolve().parents[2]
 

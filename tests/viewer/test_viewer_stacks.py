@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import tifffile
 
-from pipeline.viewer._stacks import StackError, TiffStack
+from pipeline.viewer import StackError, TiffStack
 from voxel.grid import GridSpec
-from voxel.io._tiff_writer import TiffStackWriter
+from voxel.io import TiffStackWriter
 
 SHAPE = (23, 37, 41)
 
@@ -130,7 +130,7 @@ def test_a_truncated_stack_is_refused(tmp_path) -> None:
 def test_the_cache_keeps_decoded_pages_within_its_budget(tmp_path) -> None:
     import threading
 
-    from pipeline.viewer._stacks import SymbolCache
+    from pipeline.viewer import SymbolCache
 
     volume = _volume(3)
     path = tmp_path / "c.tif"

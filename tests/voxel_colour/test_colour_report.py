@@ -7,10 +7,20 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.printer._profile import load_profile
-from voxel.colour._kubelka_munk import observer, r_infinity, reflectance_to_lab, saunderson, stack
-from voxel.colour._model_report import REACH_LIMITS_MM, ModelReport, lateral_reach, summary
-from voxel.colour._report import colour_regions, sample_surface
+from pipeline.printer import load_profile
+from voxel.colour import (
+    REACH_LIMITS_MM,
+    ModelReport,
+    colour_regions,
+    lateral_reach,
+    observer,
+    r_infinity,
+    reflectance_to_lab,
+    sample_surface,
+    saunderson,
+    stack,
+    summary,
+)
 from voxel.grid import GridSpec
 
 OPTICS = load_profile("j750").optics
@@ -81,8 +91,8 @@ def test_a_sample_is_inside_its_colour_region_unless_near_an_edge():
     # A cube whose +x face is half red (y < 0) and half blue, its other faces a smooth
     # grey ramp along z: samples within the ring's reach of the red-blue edge are near an
     # edge; those farther away, and those on the ramp (it averages to its centre), inside.
-    from pipeline.build._colour_check import uniform_surroundings
-    from pipeline.model._mesh import ColouredMesh
+    from pipeline.build import uniform_surroundings
+    from pipeline.model import ColouredMesh
 
     box = trimesh.creation.box((10.0, 10.0, 10.0)).subdivide().subdivide().subdivide()
     centre = box.triangles_center
@@ -122,7 +132,7 @@ def test_rays_follow_a_curved_surface():
     # A cylinder (radius 2.5 mm, axis x) with 0.3 mm of magenta over white: with the
     # surface given, the columns of 1 mm discs on its side read the stack; in the tangent
     # plane alone they start in the air and cut the layer obliquely.
-    from voxel.geometry._nearest import SurfaceIndex
+    from voxel.geometry import SurfaceIndex
 
     radius, depth = 2.5, 0.3
     cylinder = trimesh.creation.cylinder(radius=radius, height=6.0, sections=256)

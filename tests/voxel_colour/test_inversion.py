@@ -7,9 +7,17 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from voxel.colour._inversion import DeepColour, invert, project_to_simplex
-from voxel.colour._kubelka_munk import observer, saunderson, srgb_to_lab_d50
-from voxel.colour._optics import assumed_optics, body_reflectance, display_reflectance
+from voxel.colour import (
+    DeepColour,
+    assumed_optics,
+    body_reflectance,
+    display_reflectance,
+    invert,
+    observer,
+    project_to_simplex,
+    saunderson,
+    srgb_to_lab_d50,
+)
 
 NAMES = ("VeroCyan", "VeroMagenta", "VeroYellow", "VeroBlack", "VeroWhite", "VeroClear")
 ROLES = ("cyan", "magenta", "yellow", "black", "white", "clear")
@@ -33,14 +41,14 @@ def test_assumed_optics_give_a_deep_patch_its_display_reflectance():
     measured = display_reflectance(DISPLAY, optics.wavelengths_nm)
     deep = DeepColour(optics, range(6))
     seen = observer(optics.wavelengths_nm)
-    from voxel.colour._kubelka_munk import r_infinity
+    from voxel.colour import r_infinity
 
     body = r_infinity(optics.k_per_mm, optics.s_per_mm)
     shown = saunderson(body, optics.k1, optics.k2, specular_included=False)
     above = measured > optics.k1 + 0.01  # bands the surface reflection does not hide
     assert shown[:5][above[:5]] == pytest.approx(measured[:5][above[:5]], rel=1e-9)
     # with the gloss included, the deep white is lighter by the surface's k1
-    from voxel.colour._kubelka_munk import reflectance_to_lab
+    from voxel.colour import reflectance_to_lab
 
     glossy = reflectance_to_lab(measured[4] + optics.k1, seen)
     assert colour.delta_E(deep(np.eye(6)[4]), glossy, method="CIE 2000") < 0.01

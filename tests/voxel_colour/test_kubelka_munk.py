@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_bvp
 
-from voxel.colour._kubelka_munk import (
+from voxel.colour import (
     layer,
     mix,
     observer,

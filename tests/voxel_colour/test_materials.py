@@ -8,11 +8,8 @@ import numpy as np
 import pytest
 
 from pipeline.config import MaterialSettings
-from pipeline.printer._material_plan import build_material_plan
-from pipeline.printer._profile import load_profile
-from voxel.colour._blue_noise import blue_noise_tile
-from voxel.colour._inversion import DeepColour
-from voxel.colour._materials import MaterialPlan, materials_for_slab
+from pipeline.printer import build_material_plan, load_profile
+from voxel.colour import DeepColour, MaterialPlan, blue_noise_tile, materials_for_slab
 
 SRGB = colour.RGB_COLOURSPACES["sRGB"]
 WINDOW = 16

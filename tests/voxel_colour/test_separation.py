@@ -10,14 +10,12 @@ from scipy import ndimage, optimize
 
 from pipeline.config import MaterialSettings
 from pipeline.errors import InputError
-from pipeline.printer._material_plan import build_material_plan
-from pipeline.printer._profile import load_profile
-from pipeline.printer._table_cache import DiskTables
-from voxel.colour._mixing import mix_proportions
-from voxel.colour._separation import (
+from pipeline.printer import DiskTables, build_material_plan, load_profile
+from voxel.colour import (
     SeparationError,
     cmyk_to_proportions,
     icc_separation,
+    mix_proportions,
     mixing_separation,
 )
 

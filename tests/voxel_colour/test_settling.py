@@ -8,8 +8,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.thickness._surface_smoothing import smooth_over_distance
-from voxel.colour._kubelka_munk import (
+from pipeline.thickness import smooth_over_distance
+from voxel.colour import (
+    ModelReport,
+    assumed_optics,
     layer,
     mix,
     observer,
@@ -17,11 +19,9 @@ from voxel.colour._kubelka_munk import (
     r_infinity,
     reflectance_to_lab,
     saunderson,
+    settling_depth,
     stack,
 )
-from voxel.colour._model_report import ModelReport
-from voxel.colour._optics import assumed_optics
-from voxel.colour._settling import settling_depth
 from voxel.grid import GridSpec
 
 NAMES = ("VeroCyan", "VeroMagenta", "VeroYellow", "VeroBlack", "VeroWhite", "VeroClear")

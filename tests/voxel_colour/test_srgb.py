@@ -6,7 +6,7 @@ import colour
 import numpy as np
 import pytest
 
-from voxel.colour._srgb import (
+from voxel.colour import (
     DECODE_LUT,
     codes_to_linear,
     decode_uint8,

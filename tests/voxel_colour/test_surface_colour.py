@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._texture import Material
-from voxel.colour._surface_colour import voxel_colours
-from voxel.geometry._nearest import SurfaceIndex, on_faces
+from pipeline.model import ColouredMesh, Material
+from voxel.colour import voxel_colours
+from voxel.geometry import SurfaceIndex, on_faces
 
 
 def _mesh(kind: str, wrap: str = "repeat", filter_mode: str = "linear") -> ColouredMesh:

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from pipeline.cli.values import parse_voxel_size
 from pipeline.errors import InputError
-from pipeline.printer._profile import load_profile
+from pipeline.printer import load_profile
 from voxel.grid import GridSpec
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from voxel.geometry._nearest import SurfaceIndex
+from voxel.geometry import SurfaceIndex
 from voxel.grid import GridSpec
 from voxel.slab import StackModel, compute_slab
 

@@ -6,10 +6,15 @@ import numpy as np
 import pytest
 import trimesh
 
-from voxel.geometry._distance_scan import nearest_in_reach, nearest_within
-from voxel.geometry._nearest import SurfaceIndex, nearest_faces
-from voxel.geometry._voronoi import voronoi_regions
-from voxel.geometry._winding import inside_slab, winding_slab
+from voxel.geometry import (
+    SurfaceIndex,
+    inside_slab,
+    nearest_faces,
+    nearest_in_reach,
+    nearest_within,
+    voronoi_regions,
+    winding_slab,
+)
 from voxel.grid import GridSpec
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from voxel.geometry._nearest import (
+from voxel.geometry import (
     SurfaceIndex,
     closest_barycentric,
     distance_to_surface,

@@ -8,7 +8,7 @@ import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from voxel.geometry._winding import winding_slab
+from voxel.geometry import winding_slab
 from voxel.grid import GridSpec
 
 

@@ -9,7 +9,7 @@ import zlib
 import numpy as np
 import pytest
 
-from voxel.io._compression import check_level, compress, compressobj
+from voxel.io import check_level, compress, compressobj
 
 
 def _inputs() -> list[bytes]:

@@ -9,8 +9,7 @@ import pytest
 import tifffile
 
 from voxel.grid import GridSpec
-from voxel.io._deflate import pixel_bytes, zlib_compress
-from voxel.io._tiff_writer import TiffStackWriter
+from voxel.io import TiffStackWriter, pixel_bytes, zlib_compress
 
 
 @pytest.mark.parametrize("period", [1, 2, 3, 4])

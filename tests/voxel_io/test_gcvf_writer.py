@@ -20,11 +20,9 @@ from PIL import Image
 
 import voxel.io._gcvf_writer as gcvf_writer
 from pipeline.atomic import atomic_path
-from pipeline.printer._profile import load_profile
+from pipeline.printer import load_profile
 from voxel.grid import GridSpec
-from voxel.io._gcvf_job import GcvfJobError
-from voxel.io._gcvf_writer import GcvfWriter
-from voxel.io._tiff_writer import TiffStackWriter
+from voxel.io import GcvfJobError, GcvfWriter, TiffStackWriter
 
 J750 = load_profile("j750").voxel_mm
 GRID = GridSpec((-3.0, 1.0, 0.5), J750, (37, 29, 53))

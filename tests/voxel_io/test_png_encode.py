@@ -9,7 +9,7 @@ import pytest
 from PIL import Image
 
 import voxel.io._png_encode as png_encode
-from voxel.io._png_encode import encode_png
+from voxel.io import encode_png
 
 
 @pytest.mark.parametrize(

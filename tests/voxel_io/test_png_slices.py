@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pipeline.printer._profile import load_profile
+from pipeline.printer import load_profile
 from voxel.grid import GridSpec
-from voxel.io._png_slices import SIDECAR_NAME, PngSliceWriter
+from voxel.io import SIDECAR_NAME, PngSliceWriter
 
 GRID = GridSpec((1.0, -2.0, 0.25), load_profile("j750").voxel_mm, (23, 17, 31))
 

@@ -9,11 +9,9 @@ import numpy as np
 import pytest
 import tifffile
 
-from pipeline.run._chunks import decode_chunk, encode_chunk
-from pipeline.run._task import StackSlab
+from pipeline.run import StackSlab, decode_chunk, encode_chunk
 from voxel.grid import GridSpec
-from voxel.io._tiff_pages import PageEncoder
-from voxel.io._tiff_writer import TiffStackWriter
+from voxel.io import PageEncoder, TiffStackWriter
 from voxel.slab import SlabResult
 
 GRID = GridSpec((0.0, 0.0, 0.0), (0.05, 0.1, 0.02), (11, 23, 37))

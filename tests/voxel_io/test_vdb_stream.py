@@ -12,10 +12,9 @@ import pytest
 from openvdb_module import load_openvdb
 from vdb_checks import describe_grids
 
-from voxel.colour._srgb import codes_to_linear
+from voxel.colour import codes_to_linear
 from voxel.grid import GridSpec
-from voxel.io.vdb._encode import GRID_NAMES, MATERIAL_GRID
-from voxel.io.vdb._writer import VdbStackWriter
+from voxel.io.vdb import GRID_NAMES, MATERIAL_GRID, VdbStackWriter
 
 # 150 voxels in x: two 128^3 internal nodes; y and the last leaf row are partial.
 GRID = GridSpec((-1.0, 2.0, 0.5), (0.05, 0.08, 0.03), (45, 37, 150))

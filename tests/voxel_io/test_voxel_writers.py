@@ -9,8 +9,8 @@ from vdb_checks import describe_grids
 
 from pipeline.atomic import atomic_path, write_text_atomic
 from voxel.grid import GridSpec
-from voxel.io._tiff_writer import TiffStackWriter
-from voxel.io.vdb._writer import VdbStackWriter
+from voxel.io import TiffStackWriter
+from voxel.io.vdb import VdbStackWriter
 
 GRID = GridSpec((1.0, 2.0, 3.0), (0.0423, 0.0846, 0.027), (10, 20, 30))
 

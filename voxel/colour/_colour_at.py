@@ -7,7 +7,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.geometry._nearest import Nearest
+from voxel.geometry import Nearest
 
 
 class ColourAt(Protocol):

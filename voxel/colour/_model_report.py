@@ -50,7 +50,7 @@ from voxel.colour._kubelka_munk import (
 )
 from voxel.colour._optics import Optics
 from voxel.colour._report import statistics, tangent_basis
-from voxel.geometry._nearest import SurfaceIndex, nearest_on_surface
+from voxel.geometry import SurfaceIndex, nearest_on_surface
 from voxel.grid import GridSpec
 
 #: A disc whose rim lies within this of the surface (mm) is flat enough for its rays to

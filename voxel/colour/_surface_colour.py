@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from voxel.colour._srgb import DECODE_LUT
-from voxel.geometry._closest_point import barycentric
+from voxel.geometry import barycentric
 
 #: ``kind`` codes.
 CONSTANT, FACE, VERTEX, TEXTURE = 0, 1, 2, 3

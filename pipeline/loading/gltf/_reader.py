@@ -52,9 +52,8 @@ from pipeline.loading.gltf._document import (
     read_document,
 )
 from pipeline.loading.gltf._texcoord import primitive_uv, texture_transform
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._texture import FilterMode, Material, WrapMode
-from voxel.colour._srgb import encode_uint8
+from pipeline.model import ColouredMesh, FilterMode, Material, WrapMode
+from voxel.colour import encode_uint8
 
 GL_WRAP: dict[int, WrapMode] = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
 GL_NEAREST = (9728, 9984, 9986)

@@ -21,8 +21,8 @@ from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading._images import TextureRef, read_textures
 from pipeline.loading._references import check_inside, is_file, is_inside
-from pipeline.model._texture import Material, WrapMode
-from voxel.colour._srgb import srgb_to_linear
+from pipeline.model import Material, WrapMode
+from voxel.colour import srgb_to_linear
 
 #: Fix for an OBJ texture that cannot be used.
 TEXTURE_FIX = "put the image beside the MTL, or pass --texture FILE"

@@ -32,8 +32,8 @@ from numpy.typing import NDArray
 from pipeline.config import LoadOptions
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading.obj._mtl import MtlEntry, fallback_factor, read_materials, texture_materials
-from pipeline.model._mesh import ColouredMesh
-from voxel.colour._srgb import encode_uint8
+from pipeline.model import ColouredMesh
+from voxel.colour import encode_uint8
 
 
 class _Statements(NamedTuple):

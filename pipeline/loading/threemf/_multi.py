@@ -27,7 +27,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._srgb import decode_uint8, encode_uint8
+from voxel.colour import decode_uint8, encode_uint8
 
 Blend = Literal["mix", "multiply"]
 

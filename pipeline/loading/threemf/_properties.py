@@ -29,8 +29,8 @@ from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading._images import TextureRef, read_textures
 from pipeline.loading.threemf._multi import Layered, blend_methods, colour_table
 from pipeline.loading.threemf._package import read_entry
-from pipeline.model._texture import FilterMode, Material, WrapMode
-from voxel.colour._srgb import decode_uint8, encode_uint8
+from pipeline.model import FilterMode, Material, WrapMode
+from voxel.colour import decode_uint8, encode_uint8
 
 CORE = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
 MATERIAL = "{http://schemas.microsoft.com/3dmanufacturing/material/2015/02}"

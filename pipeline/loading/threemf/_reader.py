@@ -43,9 +43,8 @@ from pipeline.loading.threemf._properties import (
     read_properties,
 )
 from pipeline.loading.threemf._slicer_paint import PAINT_ATTRIBUTES, paint_parts, read_project
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._texture import Material
-from voxel.colour._srgb import decode_uint8
+from pipeline.model import ColouredMesh, Material
+from voxel.colour import decode_uint8
 
 PRODUCTION = "{http://schemas.microsoft.com/3dmanufacturing/production/2015/06}"
 UNITS_3MF = {

@@ -42,8 +42,7 @@ from pipeline.loading._combine import combine_parts
 from pipeline.loading._images import TextureRef, read_textures
 from pipeline.loading._references import check_inside, is_file
 from pipeline.loading.vrml._parse import FIX, Node, Value, parse_vrml
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._texture import Material, WrapMode
+from pipeline.model import ColouredMesh, Material, WrapMode
 
 GROUPS = ("Group", "Anchor", "Collision", "Billboard")
 #: Nodes without geometry or colour, skipped silently.
