@@ -1,11 +1,11 @@
-"""Marching tetrahedra on the Freudenthal (Kuhn) split of a grid, slab by slab, several levels.
+r"""Marching tetrahedra on the Freudenthal (Kuhn) split of a grid, slab by slab, several levels.
 
 Every cube of the node grid is split into the six tetrahedra along its main diagonal
 ``(0, 0, 0) - (1, 1, 1)``: for each order ``(a, b, c)`` of the axes, the tetrahedron
 ``0, e_a, e_a + e_b, e_a + e_b + e_c``. Every cube is split the same way, so the split of a
 shared face (its diagonal runs from its lowest to its highest corner) agrees between the two
 cubes: together the tetrahedra are a triangulation of the grid (Freudenthal [1]_), whose
-edges from a node go along the seven directions ``(dx, dy, dz)`` in ``{0, 1}^3 \\ {0}``.
+edges from a node go along the seven directions ``(dx, dy, dz)`` in ``{0, 1}^3 \ {0}``.
 
 On that triangulation the field, linear inside each tetrahedron, is piecewise linear and
 its zero set is a polygon (triangle or planar quad) in each tetrahedron crossed by it.
@@ -80,7 +80,7 @@ def _tables() -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
 
             def edge(i: int, j: int, tet: list[int] = tet) -> int:
                 a, b = sorted((tet[i], tet[j]))  # a path's corners grow bitwise: b = a | d
-                direction = int(np.flatnonzero((DIRECTIONS == corners[b] - corners[a]).all(1))[0])
+                direction = int(np.flatnonzero((corners[b] - corners[a] == DIRECTIONS).all(1))[0])
                 return edge_of[(a, direction)]
 
             minus = [i for i in range(4) if inside[i]]
@@ -164,13 +164,13 @@ def _node_value(
     y: int,
     x: int,
 ) -> float:
-    """Layer field ``D_k(f) - d`` of one node (see :func:`layer_value`)."""
+    """Layer field ``D_k(f) - d`` of one node (see :func:`march_slab`)."""
     if not inside[z, y, x]:
         return outside
     f = face[z, y, x]
     if f < 0:
-        return far[k]
-    return depth[k, f] - np.sqrt(squared[z, y, x])
+        return float(far[k])
+    return float(depth[k, f] - np.sqrt(squared[z, y, x]))
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
