@@ -93,14 +93,17 @@ class ShellConfig:
     thickness_mm : tuple of float
         Thickness of each layer, outside in (mm), the same for every face (``--thickness``);
         empty when a thickness rule sets it per face.
-    method : {"robust", "paper"}
-        Offset construction (see :mod:`offset`).
+    method : {"field", "robust", "paper"}
+        Offset construction (see :mod:`pipeline.output.shell_methods`).
+    step_mm : float, mm
+        Grid step of the ``field`` method.
     layer_height_mm : float
         Printer layer height used by the slicer baseline of the report.
     """
 
     thickness_mm: tuple[float, ...] = (0.5, 0.5)
-    method: Literal["robust", "paper"] = "robust"
+    method: Literal["field", "robust", "paper"] = "field"
+    step_mm: float = 0.1
     layer_height_mm: float = 0.027
 
 
