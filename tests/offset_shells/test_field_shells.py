@@ -142,7 +142,7 @@ def test_a_per_face_depth_keeps_each_face_at_its_own_plane():
 
 def test_a_layer_that_fills_the_part_has_no_faces():
     box = trimesh.creation.box((2.0, 2.0, 2.0))
-    ((v, f),) = field_surfaces(box.vertices, box.faces, np.full((1, 12), 1.5), 0.1).surfaces
+    ((_v, f),) = field_surfaces(box.vertices, box.faces, np.full((1, 12), 1.5), 0.1).surfaces
     assert len(f) == 0
 
 
