@@ -171,8 +171,9 @@ class BuildConfig:
         Also write the offset shells to ``shells/`` (the ``"shells"`` rule computes them
         anyway; with the ``"distance"`` rule they run beside the voxels, in another
         process, and the manifest reports how well the two realisations agree).
-    shell_method : {"robust", "paper"}
-        Offset construction (see :mod:`offset`).
+    shell_method : {"field", "robust", "paper"}
+        Offset construction (see :mod:`pipeline.output.shell_methods`; ``field`` on its
+        default grid step, ``--shell-step`` of ``shellvox shells``).
     margin_mm : float, mm
         Empty space around the model in the grid (at least the level-set half width).
     sdf_half_width_voxels : float
@@ -207,7 +208,7 @@ class BuildConfig:
     colour_layers: tuple[int, ...] = (1,)
     layer_rule: LayerRule = "distance"
     shell_meshes: bool = False
-    shell_method: Literal["robust", "paper"] = "robust"
+    shell_method: Literal["field", "robust", "paper"] = "field"
     margin_mm: float = 0.5
     sdf_half_width_voxels: float = 3.0
     slab_mb: float = 1024.0

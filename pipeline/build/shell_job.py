@@ -22,12 +22,12 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
-from offset import offset_shells
 from offset.for_file import shell_for_file
 from offset.shells import Shell
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
 from pipeline.model.mesh import ColouredMesh
+from pipeline.output.shell_methods import method_shells
 from pipeline.run.children import ChildCall
 
 #: Seconds between updates of the shells' progress bar.
@@ -174,7 +174,7 @@ def timed_shells(
     (:func:`offset.for_file.shell_for_file`: cleaned and jittered).
     """
     tick = time.perf_counter()
-    shells = offset_shells(vertices, faces, thickness, method=config.shell_method)
+    shells = method_shells(vertices, faces, thickness, method=config.shell_method).shells
     if for_files:
         shells = [shell_for_file(shell).shell for shell in shells]
     return shells, time.perf_counter() - tick
