@@ -22,12 +22,11 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
-from offset.for_file import shell_for_file
 from offset.shells import Shell
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
 from pipeline.model.mesh import ColouredMesh
-from pipeline.output.shell_methods import method_shells
+from pipeline.output.shell_methods import method_shells, ready_for_file
 from pipeline.run.children import ChildCall
 
 #: Seconds between updates of the shells' progress bar.
@@ -113,7 +112,7 @@ class ShellJob:
         if self._pending is None:
             if self.shells is None:
                 return None
-            return [shell_for_file(shell).shell for shell in self.shells]
+            return [ready_for_file(s, self.config.shell_method).shell for s in self.shells]
         tick = time.perf_counter()
         try:
             with self._bar(self._started):
@@ -176,5 +175,5 @@ def timed_shells(
     tick = time.perf_counter()
     shells = method_shells(vertices, faces, thickness, method=config.shell_method).shells
     if for_files:
-        shells = [shell_for_file(shell).shell for shell in shells]
+        shells = [ready_for_file(shell, config.shell_method).shell for shell in shells]
     return shells, time.perf_counter() - tick

@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 from offset import shell_report
-from offset.for_file import shell_for_file
 from pipeline import __version__
 from pipeline.atomic import write_text_atomic
 from pipeline.cli.loadargs import add_load_arguments, load_options
@@ -25,7 +24,12 @@ from pipeline.errors import InputError
 from pipeline.loading import load_model
 from pipeline.output.outdir import SHELL_OUTPUTS, OutputFolder, sha256
 from pipeline.output.ply import write_thickness_ply
-from pipeline.output.shell_methods import SHELL_METHODS, SHELL_STEP_MM, method_shells
+from pipeline.output.shell_methods import (
+    SHELL_METHODS,
+    SHELL_STEP_MM,
+    method_shells,
+    ready_for_file,
+)
 from pipeline.output.shells import save_shells
 from pipeline.printer.profile import load_profile
 from pipeline.thickness.face_thickness import thickness_summary
@@ -116,7 +120,7 @@ def _write(
     )
     offset_seconds = time.perf_counter() - started
     _say("cleaning, writing and reading back the shell files")
-    ready = [shell_for_file(shell) for shell in made.shells]
+    ready = [ready_for_file(shell, config.method) for shell in made.shells]
     written = save_shells(out, [r.shell for r in ready], cleaning=[r.cleaning for r in ready])
     _say("measuring the shells" + ("" if args.no_baselines else " and the baselines"))
     report: dict[str, Any] = {

@@ -20,6 +20,7 @@ import numpy.typing as npt
 from offset import offset_shells
 from offset._validate import check_choice, check_mesh, check_thickness
 from offset.adjacency import edge_adjacency
+from offset.for_file import ShellForFile, shell_for_file
 from offset.shells import Shell
 from offset.simplify import DEFAULT_LIMITS, GuardLimits, simplify_shells
 from voxel.geometry.layer_field import field_surfaces
@@ -114,3 +115,15 @@ def method_shells(
         "simplify": simplified.record,
     }
     return MethodShells(shells, record)
+
+
+def ready_for_file(shell: Shell, method: str) -> ShellForFile:
+    """Return a shell ready for its file: as it is for ``field``, else cleaned and jittered.
+
+    The field shells have no vertex clusters or slivers to clean (their simplification kept
+    them closed, manifold and crossing-free, checked); the exact ones go through
+    :func:`offset.for_file.shell_for_file`.
+    """
+    if method == "field":
+        return ShellForFile(shell, {"cleaning": "none (field shells)"})
+    return shell_for_file(shell)
