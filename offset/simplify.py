@@ -13,6 +13,10 @@ than the tolerance), and the result is accepted only when
 * no two triangles of the shells cross (:func:`offset.intersections.intersecting_pairs`
   over all shells together, so a shell crossing a neighbouring one counts too).
 
+The simplified vertices are then moved by at most 1e-8 of the part's size (seed 0), which
+breaks the exact coplanarity of flat parts that MeshLab's triangle test misreads (see
+:mod:`offset.for_file`); both checks run on the moved vertices, and where the move makes a
+crossing (two triangles within the move of each other) the unmoved ones are checked instead.
 Otherwise the tolerance is quartered and the shells simplified again from the originals;
 when every try fails the unsimplified shells are kept (they are valid by construction).
 """
@@ -27,6 +31,7 @@ import numpy as np
 
 from offset._validate import FloatArray, IntArray
 from offset.intersections import intersecting_pairs
+from offset.jitter import JITTER_FRACTION
 from voxel.geometry.nearest import SurfaceIndex, nearest_faces
 
 Mesh = tuple[FloatArray, IntArray]
@@ -111,7 +116,8 @@ def simplify_shells(
     tolerance = limits.tolerance_mm
     for attempt in range(limits.tries):
         record["tries"] = attempt + 1
-        candidate = [_manifold_simplify(v, f, tolerance) for v, f in meshes]
+        plain = [_manifold_simplify(v, f, tolerance) for v, f in meshes]
+        candidate = [_jitter(v, f) for v, f in plain]
         errors = [_depth_error(surface, depth_mm[k], v, f) for k, (v, f) in enumerate(candidate)]
         record["error_mm"] = [e[:2] for e in errors]
         # The p99 may exceed the limit by what the grid alone gives (a faceted input's
@@ -122,6 +128,9 @@ def simplify_shells(
             for e, r in zip(errors, raw, strict=True)
         )
         crossings = _crossing_pairs(candidate) if within else -1
+        if crossings > 0:  # the jitter closed a near contact: try without it
+            candidate = plain
+            crossings = _crossing_pairs(candidate)
         record["crossing_pairs"] = crossings
         if within and crossings == 0:
             record.update(tolerance_mm=tolerance, faces_after=[len(f) for _, f in candidate])
@@ -145,6 +154,20 @@ def _manifold_simplify(vertices: FloatArray, faces: IntArray, tolerance_mm: floa
     out = solid.simplify(tolerance_mm).to_mesh64()
     v = np.ascontiguousarray(np.asarray(out.vert_properties)[:, :3], dtype=np.float64)
     return v, np.ascontiguousarray(np.asarray(out.tri_verts), dtype=np.int64)
+
+
+def _jitter(vertices: FloatArray, faces: IntArray) -> Mesh:
+    """Move every vertex by at most ``JITTER_FRACTION`` of the extent (seed 0).
+
+    The simplification leaves exactly coplanar neighbours on flat parts, which a triangle
+    test without a coplanar tolerance (MeshLab's) reads as crossings at random; the
+    crossing check runs on the moved vertices.
+    """
+    if len(vertices) == 0:
+        return vertices, faces
+    amplitude = JITTER_FRACTION * float(np.ptp(vertices, axis=0).max())
+    move = np.random.default_rng(0).uniform(-amplitude, amplitude, vertices.shape)
+    return vertices + move, faces
 
 
 def _depth_error(
