@@ -138,7 +138,7 @@ def test_shells_uses_the_default_rule_without_thickness(tmp_path, capsys):
                     "--no-baselines",
                     "--method",
                     "robust",
-                ]  # fmt: skip
+                ]
             )
             == 0
         )
