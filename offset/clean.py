@@ -164,6 +164,10 @@ def clean_shell(vertices: FloatArray, faces: IntArray, *, tol: float) -> Cleaned
         ):
             return cleaned
         bad = source[np.unique(cleaned.faces[np.union1d(pairs.reshape(-1), folded)])]
+        if bad.size == 0:
+            # Only the Euler characteristic changed (a collapse changed the topology), with
+            # nothing to say where: keep the shell uncleaned (the duck at --scale 5).
+            break
         tree = tree or scipy.spatial.cKDTree(v)
         near = tree.query_ball_point(v[bad.reshape(-1)], 2.0 * MAX_CLUSTER * tol)
         frozen[np.concatenate([np.asarray(n, dtype=np.int64) for n in near])] = True

@@ -92,14 +92,17 @@ class ShellConfig:
     thickness_mm : tuple of float
         Thickness of each layer, outside in (mm), the same for every face (``--thickness``);
         empty when a thickness rule sets it per face.
-    method : {"robust", "paper"}
-        Offset construction (see :mod:`offset`).
+    method : {"field", "robust", "paper"}
+        Offset construction (see :mod:`pipeline.output._shell_methods`).
+    step_mm : float, mm
+        Grid step of the ``field`` method.
     layer_height_mm : float
         Printer layer height used by the slicer baseline of the report.
     """
 
     thickness_mm: tuple[float, ...] = (0.5, 0.5)
-    method: Literal["robust", "paper"] = "robust"
+    method: Literal["field", "robust", "paper"] = "robust"
+    step_mm: float = 0.1
     layer_height_mm: float = 0.027
 
 
@@ -167,8 +170,10 @@ class BuildConfig:
         Also write the offset shells to ``shells/`` (the ``"shells"`` rule computes them
         anyway; with the ``"distance"`` rule they run beside the voxels, in another
         process, and the manifest reports how well the two realisations agree).
-    shell_method : {"robust", "paper"}
-        Offset construction (see :mod:`offset`).
+    shell_method : {"field", "robust", "paper"}
+        Offset construction (see :mod:`pipeline.output._shell_methods`; ``field`` on its
+        default grid step, ``--shell-step`` of ``shellvox shells``; ``robust`` by default
+        until the field method's simplification holds on large meshes).
     margin_mm : float, mm
         Empty space around the model in the grid (at least the level-set half width).
     sdf_half_width_voxels : float
@@ -203,7 +208,7 @@ class BuildConfig:
     colour_layers: tuple[int, ...] = (1,)
     layer_rule: LayerRule = "distance"
     shell_meshes: bool = False
-    shell_method: Literal["robust", "paper"] = "robust"
+    shell_method: Literal["field", "robust", "paper"] = "robust"
     margin_mm: float = 0.5
     sdf_half_width_voxels: float = 3.0
     slab_mb: float = 1024.0

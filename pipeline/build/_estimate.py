@@ -46,8 +46,10 @@ SECONDS_PER_BAND_VOXEL = 7e-7
 
 #: Seconds on one core per face and layer of the offset shells, by method: the robust
 #: shells of bench_offset.json's real meshes took 2.8-12.5 ms (icosphere, spot, bunny,
-#: duck, airplane at 50-100 mm, two layers); the paper's construction about 20 us.
-SECONDS_PER_SHELL_FACE = {"robust": 1e-2, "paper": 2e-5}
+#: duck, airplane at 50-100 mm, two layers); the paper's construction about 20 us; the
+#: field shells scale with the area over the grid step squared, not the faces (spot at
+#: 100 mm, 93,696 faces, two layers: about 1 ms a face and layer).
+SECONDS_PER_SHELL_FACE = {"robust": 1e-2, "paper": 2e-5, "field": 1e-3}
 
 #: Bytes on disk per voxel of the whole grid (compressed TIFF pages, VDB topology) and per
 #: voxel of the surface band (colour, level-set values), measured on the demo and spot.
@@ -119,7 +121,7 @@ def estimate_build(
     slab_rows: int,
     workers: int,
     shell_face_layers: int = 0,
-    shell_method: str = "robust",
+    shell_method: str = "field",
 ) -> BuildEstimate:
     """Estimate a build's cost from its grid and its models' surfaces.
 
@@ -141,7 +143,7 @@ def estimate_build(
         Slab processes.
     shell_face_layers : int
         Faces times layers of the offset shells to compute (0: none).
-    shell_method : {"robust", "paper"}
+    shell_method : {"field", "robust", "paper"}
         Their construction.
     """
     z, y, x = (int(n) for n in shape_zyx)

@@ -22,12 +22,11 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
-from offset import offset_shells
-from offset.for_file import shell_for_file
 from offset.shells import Shell
 from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
 from pipeline.model import ColouredMesh
+from pipeline.output import method_shells, ready_for_file
 from pipeline.run import ChildCall
 
 #: Seconds between updates of the shells' progress bar.
@@ -122,7 +121,9 @@ class ShellJob:
         if self._pending is None:
             if self.shells is None:
                 return ShellsDone(None, {})
-            return ShellsDone([shell_for_file(shell).shell for shell in self.shells], {})
+            return ShellsDone(
+                [ready_for_file(s, self.config.shell_method).shell for s in self.shells], {}
+            )
         tick = time.perf_counter()
         seconds = {}
         try:
@@ -184,7 +185,7 @@ def timed_shells(
     (:func:`offset.for_file.shell_for_file`: cleaned and jittered).
     """
     tick = time.perf_counter()
-    shells = offset_shells(vertices, faces, thickness, method=config.shell_method)
+    shells = method_shells(vertices, faces, thickness, method=config.shell_method).shells
     if for_files:
-        shells = [shell_for_file(shell).shell for shell in shells]
+        shells = [ready_for_file(shell, config.shell_method).shell for shell in shells]
     return shells, time.perf_counter() - tick

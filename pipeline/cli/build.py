@@ -13,7 +13,6 @@ from typing import Any, get_args
 
 import numpy as np
 
-from offset import METHODS
 from pipeline.build import build_stack, report_line
 from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.runargs import add_running_arguments, running_from_args
@@ -22,6 +21,7 @@ from pipeline.cli.values import parse_lengths, parse_voxel_size
 from pipeline.config import FORMATS, BuildConfig, MaterialSettings
 from pipeline.errors import InputError
 from pipeline.loading import load_model
+from pipeline.output import SHELL_METHODS
 from pipeline.printer import PrinterProfile, load_profile, shipped_profiles
 from pipeline.tray import (
     LayoutMode,
@@ -149,7 +149,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="also write the offset shells to DIR/shells/ (the robust shells of a large "
         "model take minutes, as the estimate says; `shellvox shells` makes them alone)",
     )
-    parser.add_argument("--method", choices=METHODS, default="robust", help="offset construction")
+    parser.add_argument(
+        "--method",
+        choices=SHELL_METHODS,
+        default="robust",
+        help="offset construction of the shells (default robust; see `shellvox shells`)",
+    )
     parser.add_argument("--alpha", action="store_true", help="write colour.tif as RGBA")
     parser.add_argument("--no-vdb", action="store_true", help="skip volume.vdb (see --format)")
     parser.add_argument(

@@ -5,6 +5,7 @@
 - :mod:`~pipeline.output._streams` the streaming writers fed one slab at a time;
 - :mod:`~pipeline.output._manifest` what ``manifest.json`` says; :mod:`~pipeline.output._checks`
   reading it back and checking the files it lists;
+- :mod:`~pipeline.output._shell_methods` the shells by method (robust, field, paper);
 - :mod:`~pipeline.output._shells` shell meshes as files; :mod:`~pipeline.output._ply` the
   float64 PLY with per-face values.
 """
@@ -16,12 +17,20 @@ from pipeline.output._folder import BuildFolder
 from pipeline.output._manifest import Tally, stack_manifest
 from pipeline.output._outdir import LOCK_NAME, SHELL_OUTPUTS, OutputFolder, remove_leftovers, sha256
 from pipeline.output._ply import read_face_ply, write_ply, write_thickness_ply
+from pipeline.output._shell_methods import (
+    SHELL_METHODS,
+    SHELL_STEP_MM,
+    method_shells,
+    ready_for_file,
+)
 from pipeline.output._shells import read_ply, save_shells, write_shell
 from pipeline.output._streams import StackOutputs, gcvf_slices, gcvf_writer
 
 __all__ = [
     "LOCK_NAME",
+    "SHELL_METHODS",
     "SHELL_OUTPUTS",
+    "SHELL_STEP_MM",
     "BuildFolder",
     "OutputFolder",
     "StackOutputs",
@@ -29,9 +38,11 @@ __all__ = [
     "check_files",
     "gcvf_slices",
     "gcvf_writer",
+    "method_shells",
     "read_face_ply",
     "read_manifest",
     "read_ply",
+    "ready_for_file",
     "remove_leftovers",
     "save_shells",
     "sha256",

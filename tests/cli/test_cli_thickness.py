@@ -127,7 +127,19 @@ def test_shells_uses_the_default_rule_without_thickness(tmp_path, capsys):
         box.export(tmp_path / f"{name}.ply")
         out = tmp_path / name
         assert (
-            main(["shells", str(tmp_path / f"{name}.ply"), "-o", str(out), "--no-baselines"]) == 0
+            main(
+                # --method robust: exact inner cubes (the field shells' edges are chamfered)
+                [
+                    "shells",
+                    str(tmp_path / f"{name}.ply"),
+                    "-o",
+                    str(out),
+                    "--no-baselines",
+                    "--method",
+                    "robust",
+                ]
+            )
+            == 0
         )
         report = json.loads((out / "report.json").read_text())
         assert report["config"]["thickness_mm"] == []

@@ -156,6 +156,8 @@ def icosphere_out(tmp_path_factory):
                 "--thickness",
                 "0.5,0.5",
                 "--no-baselines",
+                "--method",
+                "robust",
             ]
         )
         == 0
@@ -208,7 +210,7 @@ def test_icosphere_shell_files_are_valid_as_meshlab_reads_them(icosphere_out):
 
 
 def test_a_shell_defect_warning_reaches_the_user_as_one_line(tmp_path, capsys, monkeypatch):
-    import pipeline.cli.shells as shells_cli
+    import pipeline.output._shell_methods as shells_cli
 
     def defective(*args, **kwargs):
         warnings.warn(
@@ -230,6 +232,8 @@ def test_a_shell_defect_warning_reaches_the_user_as_one_line(tmp_path, capsys, m
                 "--thickness",
                 "0.5",
                 "--no-baselines",
+                "--method",
+                "robust",
             ]
         )
         == 0

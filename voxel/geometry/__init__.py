@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from voxel.geometry._closest_point import barycentric
 from voxel.geometry._distance_scan import nearest_in_reach, nearest_within
+from voxel.geometry._layer_field import field_surfaces
 from voxel.geometry._layer_kernel import (
     LayerInputs,
     LayerOutputs,
@@ -43,6 +44,7 @@ __all__ = [
     "closest_barycentric",
     "colour_voxels",
     "distance_to_surface",
+    "field_surfaces",
     "inside_slab",
     "layer_material_counts",
     "nearest_faces",

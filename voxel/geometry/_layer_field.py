@@ -1,0 +1,206 @@
+"""Shell surfaces from the layer field: one slab-by-slab scan, every layer meshed from it.
+
+The layer field of layer ``k`` at a point ``p`` inside the part is ``D_k(f) - d(p)``, with
+``d`` the exact distance to the surface and ``f`` the face of the nearest point (the lowest
+index among ties), as the voxel layers use it (:mod:`voxel.slab`): negative deeper than the
+layer's inner boundary. It is sampled at the nodes of a regular grid of step ``step_mm``
+by the project's own scan (:func:`voxel.geometry._distance_scan.nearest_in_reach`, out to
+the deepest depth plus two steps) and inside test (:func:`voxel.geometry._winding.inside_slab`),
+one slab of node planes at a time (memory bounded by the slab), and every layer's zero set
+is meshed in the same pass by marching tetrahedra (:mod:`voxel.geometry._marching_tets`).
+
+A deeper layer has a depth at least as large on every face, so its field is no higher at
+every node and its surface is nested inside the shallower one by construction (strictly
+when the thickness is positive).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from voxel.geometry._distance_scan import nearest_in_reach
+from voxel.geometry._marching_tets import (
+    EDGES,
+    TABLE,
+    TETS,
+    TRIANGLES_PER_CASE,
+    count_triangles,
+    march_slab,
+)
+from voxel.geometry._voronoi import voronoi_regions
+from voxel.geometry._winding import inside_slab
+from voxel.grid import GridSpec
+
+#: Node values allowed in one slab (about 30 bytes a node with two layers).
+NODES_PER_SLAB = 1 << 24
+
+
+class FieldSurfaces(NamedTuple):
+    """The zero sets of the layer fields, outside in.
+
+    Attributes
+    ----------
+    surfaces : list of (vertices (V, 3) float64 mm, faces (T, 3) int64)
+        One closed, outward-oriented surface per layer (no faces where the layer fills
+        the part).
+    grid : GridSpec
+        The nodes (``voxel_mm`` is the step).
+    n_unbalanced_rows : int
+        Rows of the inside test whose crossings did not cancel (0 for a closed mesh).
+    """
+
+    surfaces: list[tuple[NDArray[np.float64], NDArray[np.int64]]]
+    grid: GridSpec
+    n_unbalanced_rows: int
+
+
+def field_grid(vertices: NDArray[np.float64], step_mm: float) -> GridSpec:
+    """Return the node grid of step `step_mm` around a mesh, two steps of margin."""
+    return GridSpec.from_bounds(
+        vertices.min(axis=0), vertices.max(axis=0), (step_mm,) * 3, margin_mm=2 * step_mm
+    )
+
+
+def field_surfaces(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    depth_mm: NDArray[np.float64],
+    step_mm: float,
+    *,
+    nodes_per_slab: int = NODES_PER_SLAB,
+) -> FieldSurfaces:
+    """Mesh the zero set of every layer field of a closed mesh on a grid of step `step_mm`.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+        Closed, outward-oriented triangles.
+    depth_mm : (K, F) float64, mm
+        Cumulative depth of each layer per face, positive, non-decreasing in ``k``
+        (``K <= 8``).
+    step_mm : float, mm
+        Node spacing (the same on the three axes).
+    nodes_per_slab : int, optional
+        Nodes scanned at once (bounds the memory).
+
+    Returns
+    -------
+    FieldSurfaces
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> box = trimesh.creation.box((4.0, 4.0, 4.0))
+    >>> out = field_surfaces(box.vertices, box.faces, np.full((1, 12), 0.5), 0.25)
+    >>> v, f = out.surfaces[0]
+    >>> round(float(v[:, 0].max()), 6), trimesh.Trimesh(v, f).is_watertight
+    (1.5, True)
+    """
+    vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    depth = np.ascontiguousarray(depth_mm, dtype=np.float64)
+    n_levels = depth.shape[0]
+    if depth.ndim != 2 or depth.shape[1] != len(faces) or not 1 <= n_levels <= 8:
+        raise ValueError(f"depth_mm must be (K, {len(faces)}) with 1 <= K <= 8, got {depth.shape}")
+    if not (math.isfinite(step_mm) and step_mm > 0):
+        raise ValueError(f"step_mm must be positive and finite, got {step_mm}")
+    grid = field_grid(vertices, step_mm)
+    n_z, n_y, n_x = grid.shape_zyx
+    reach = float(depth.max()) + 2.0 * step_mm
+    far = depth.max(axis=1) - reach
+    regions = voronoi_regions(vertices, faces)
+    origin = np.asarray(grid.origin_mm, dtype=np.float64)
+    step = np.asarray(grid.voxel_mm, dtype=np.float64)
+    plane_ids = np.full((2, n_levels, n_y, n_x, 3), -1, dtype=np.int64)
+    between_ids = np.full((n_levels, n_y, n_x, 4), -1, dtype=np.int64)
+    state = np.zeros((2, n_levels), dtype=np.int64)
+    tables = (EDGES, TETS, TABLE)
+    out_v: list[list[NDArray[np.float64]]] = [[] for _ in range(n_levels)]
+    out_f: list[list[NDArray[np.int64]]] = [[] for _ in range(n_levels)]
+    planes = max(2, nodes_per_slab // (n_y * n_x))
+    carry: tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.int32], NDArray[np.uint8]]
+    carry = (
+        np.zeros((0, n_y, n_x), bool),
+        np.zeros((0, n_y, n_x)),
+        np.zeros((0, n_y, n_x), np.int32),
+        np.zeros((0, n_y, n_x), np.uint8),
+    )
+    unbalanced = 0
+    for z_start in range(0, n_z, planes):
+        z_stop = min(n_z, z_start + planes)
+        inside, n_bad = inside_slab(vertices, faces, grid, z_start, z_stop)
+        unbalanced += n_bad
+        near = nearest_in_reach(
+            vertices, faces, grid, z_start, z_stop, reach, inside=inside,
+            outside_reach_mm=0.0, regions=regions,
+        )  # fmt: skip
+        bits = np.empty(inside.shape, dtype=np.uint8)
+        _layer_bits(inside, near.squared_mm2, near.face, depth, bits)
+        inside = np.concatenate([carry[0], inside])
+        squared = np.concatenate([carry[1], near.squared_mm2])
+        face = np.concatenate([carry[2], near.face])
+        bits = np.concatenate([carry[3], bits])
+        z_base = z_start - len(carry[0])
+        carry = (inside[-1:], squared[-1:], face[-1:], bits[-1:])
+        if len(bits) < 2:
+            continue
+        counts = count_triangles(bits, n_levels, TETS, TRIANGLES_PER_CASE)
+        f_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        v_start = 3 * f_start
+        new_vertices = np.empty((int(v_start[-1]), 3))
+        new_faces = np.empty((int(f_start[-1]), 3), dtype=np.int64)
+        made = march_slab(
+            bits, inside, squared, face, depth, far, step_mm, origin, step, z_base,
+            plane_ids, between_ids, state, tables, new_vertices, v_start, new_faces, f_start,
+        )  # fmt: skip
+        for k in range(n_levels):
+            out_v[k].append(new_vertices[v_start[k] : v_start[k] + made[k]])
+            out_f[k].append(new_faces[f_start[k] : f_start[k + 1]])
+    surfaces = [
+        (
+            np.concatenate(out_v[k]) if out_v[k] else np.zeros((0, 3)),
+            np.concatenate(out_f[k]) if out_f[k] else np.zeros((0, 3), dtype=np.int64),
+        )
+        for k in range(n_levels)
+    ]
+    return FieldSurfaces(surfaces, grid, unbalanced)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _layer_bits(
+    inside: NDArray[np.bool_],
+    squared: NDArray[np.float64],
+    face: NDArray[np.int32],
+    depth: NDArray[np.float64],
+    bits: NDArray[np.uint8],
+) -> None:
+    """Set bit ``k`` of a node where it lies inside layer ``k`` (field ``<= 0``, ties inside).
+
+    The same expression as :func:`voxel.geometry._marching_tets.march_slab`'s node value, so
+    a crossed edge always has one value ``<= 0`` and one ``> 0``.
+    """
+    flat_inside = inside.reshape(-1)
+    flat_squared = squared.reshape(-1)
+    flat_face = face.reshape(-1)
+    flat_bits = bits.reshape(-1)
+    n_levels = depth.shape[0]
+    for i in range(flat_bits.size):
+        if not flat_inside[i]:
+            flat_bits[i] = 0
+            continue
+        f = flat_face[i]
+        if f < 0:
+            flat_bits[i] = (1 << n_levels) - 1
+            continue
+        d = np.sqrt(flat_squared[i])
+        b = 0
+        for k in range(n_levels):
+            if depth[k, f] - d <= 0.0:
+                b |= 1 << k
+        flat_bits[i] = b
