@@ -73,6 +73,7 @@ class _Columns(NamedTuple):
     model: LayerModel
     shares: NDArray[np.float64]
     reach: NDArray[np.float64]
+    surface: SurfaceIndex
 
 
 class ColourCheck:
@@ -130,7 +131,7 @@ class ColourCheck:
         report = ModelReport(
             samples.points, samples.normals, grid, optics, disc_radius_mm=reach, surface=surface
         )
-        return _Columns(samples, report, model, shares, reach)
+        return _Columns(samples, report, model, shares, reach, surface)
 
     @property
     def samples(self) -> SurfaceSamples:
@@ -148,12 +149,14 @@ class ColourCheck:
 
     def result(self) -> dict[str, Any]:
         """Return the report: errors apart, per region, and what per-face depth buys."""
-        samples, report, model, shares, reach = self._report.result()
+        samples, report, model, shares, reach, surface = self._report.result()
         aim = model.deep_lab(shares)
         white = observer(self.profile.optics.wavelengths_nm).white_xy
         target = srgb_to_lab_d50(samples.target_rgba[:, :3] / 255.0, white)
         errors = report.errors(aim, target)
-        interior = uniform_surroundings(self.mesh, samples, reach + UNIFORM_MARGIN_MM)
+        interior = uniform_surroundings(
+            self.mesh, samples, reach + UNIFORM_MARGIN_MM, surface=surface
+        )
         result = summary(errors, interior, in_gamut_de=IN_GAMUT_DE)
         result["lateral_reach_mm"] = statistics(reach)
         regions = colour_regions(samples.target_rgba[:, :3])
@@ -178,17 +181,23 @@ class ColourCheck:
 
 
 def uniform_surroundings(
-    mesh: ColouredMesh, samples: SurfaceSamples, radius_mm: NDArray[np.float64]
+    mesh: ColouredMesh,
+    samples: SurfaceSamples,
+    radius_mm: NDArray[np.float64],
+    *,
+    surface: SurfaceIndex | None = None,
 ) -> NDArray[np.bool_]:
     """Return which samples lie inside a colour region, not at an edge (see the module).
 
     The mean CIELAB of the surface colour at :data:`RING_POINTS` points `radius_mm`
     ``(N,)`` around each sample in its tangent plane (at the nearest surface points)
-    against its own colour, and the farthest of them.
+    against its own colour, and the farthest of them. `surface` is the mesh's index when
+    the caller has one.
     """
     if len(samples.points) == 0:
         return np.zeros(0, bool)
-    surface = SurfaceIndex.build(mesh.vertices, mesh.faces)
+    if surface is None:
+        surface = SurfaceIndex.build(mesh.vertices, mesh.faces)
     angle = 2 * np.pi * np.arange(RING_POINTS) / RING_POINTS
     u, v = tangent_basis(samples.normals)
     ring = samples.points[:, None] + np.asarray(radius_mm, np.float64)[:, None, None] * (
