@@ -126,7 +126,8 @@ CASES = {
 def test_corrupted_folder(folder, tmp_path, case):
     corrupt, needle = CASES[case]
     corrupt(folder)
-    result = run(["inspect", str(folder)], tmp_path / "run", timeout=60)
+    # within 2 GB of address space: a refusal must not allocate the grid it refuses
+    result = run(["inspect", str(folder)], tmp_path / "run", timeout=60, rlimit_as=2 << 30)
     assert_failed(result, 2, needle, "rebuild", folder=folder)
 
 

@@ -149,8 +149,6 @@ def _scan(folder: Path, shape: tuple[int, int, int], colour_layers: tuple[int, .
     n_z, n_y, n_x = shape
     is_colour = np.zeros(256, dtype=bool)
     is_colour[list(colour_layers)] = True
-    columns = np.arange(n_x)
-    rows = np.arange(n_y)
     with (
         tifffile.TiffFile(folder / "layers.tif") as lt,
         tifffile.TiffFile(folder / "colour.tif") as ct,
@@ -162,6 +160,8 @@ def _scan(folder: Path, shape: tuple[int, int, int], colour_layers: tuple[int, .
                     f"{name} holds {found} (z, y, x) voxels but the manifest's grid is {shape}"
                 )
         stats = _Scan(shape)
+        columns = np.arange(n_x)
+        rows = np.arange(n_y)
         for z in range(n_z):  # one page at a time: memory stays one page
             layers = lt.pages[z].asarray()
             rgb = ct.pages[z].asarray()[..., :3]
