@@ -1,6 +1,8 @@
 # Two entry points (see README): `make demo` runs the main job, `make test` runs the test suite
 # (`make test-fast` leaves out the slow tests). They install what is missing first
-# (scripts/bootstrap.sh is idempotent).
+# (scripts/bootstrap.sh is idempotent). A test worker that dies ends the run at once, naming
+# the test it died in (pytest-xdist 3.8 can wait for ever after replacing one under
+# --dist loadgroup: pytest-xdist #1323, #1327, #1378).
 VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= out/demo
@@ -21,7 +23,7 @@ test: setup
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
-	$(BIN)/python -m pytest -n auto --dist loadgroup --durations=25
+	$(BIN)/python -m pytest -n auto --dist loadgroup --max-worker-restart=0 --durations=25
 
 # The quick loop: lint, types, the doctests and the tests not marked slow.
 test-fast: setup

@@ -6,18 +6,16 @@ Both merge coincident vertices first (trimesh's ``merge_vertices``, MeshLab's
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pytest
 import trimesh
+from meshlab_process import HAVE_PYMESHLAB, meshlab_checks, needs_meshlab
 
 from offset.intersections import count_self_intersections
 
-HAVE_PYMESHLAB = importlib.util.find_spec("pymeshlab") is not None
-needs_meshlab = pytest.mark.skipif(not HAVE_PYMESHLAB, reason="pymeshlab is not installed")
+__all__ = ["HAVE_PYMESHLAB", "header", "meshlab_checks", "needs_meshlab", "trimesh_checks"]
 
 
 def header(path: Path) -> list[str]:
@@ -56,25 +54,4 @@ def trimesh_checks(path: Path) -> dict[str, Any]:
         "self_intersections": count_self_intersections(v, f),
         "folded_edges": _folded_edges(mesh),
         "n_faces": len(f),
-    }
-
-
-def meshlab_checks(path: Path) -> dict[str, Any]:
-    """Read with pymeshlab, remove duplicate vertices, and measure."""
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.load_new_mesh(str(path))
-    ms.meshing_remove_duplicate_vertices()
-    topo = ms.get_topological_measures()
-    mesh = ms.current_mesh()
-    ms.compute_selection_by_self_intersections_per_face()
-    return {
-        "two_manifold": bool(topo["is_mesh_two_manifold"]),
-        "boundary_edges": int(topo["boundary_edges"]),
-        "non_manifold_edges": int(topo["non_two_manifold_edges"]),
-        "non_manifold_vertices": int(topo["non_two_manifold_vertices"]),
-        "zero_area_faces": _zero_area(mesh.vertex_matrix(), mesh.face_matrix()),
-        "self_intersecting_faces": int(ms.current_mesh().selected_face_number()),
-        "n_faces": int(mesh.face_number()),
     }

@@ -13,12 +13,13 @@ import json
 import numpy as np
 import pytest
 from builders import TET_FACES, TET_VERTICES, locate, marker_image, png_bytes
+from meshlab_process import meshlab_read
 
 from pipeline.cli import main
 from pipeline.errors import InputError, ShellvoxWarning
 from pipeline.loading import load_model
 
-pymeshlab = pytest.importorskip("pymeshlab")
+pytest.importorskip("pymeshlab")  # the reference reader (in a process of its own)
 
 POINTS = ", ".join(" ".join(str(c) for c in p) for p in TET_VERTICES)
 COORD_INDEX = " ".join(" ".join(str(v) for v in f) + " -1" for f in TET_FACES)
@@ -32,20 +33,6 @@ def _face_set(extra: str, coord: str = f"Coordinate {{ point [ {POINTS} ] }}") -
 
 def _write(path, body: str) -> None:
     path.write_text("#VRML V2.0 utf8\n# written by hand for shellvox's tests\n" + body + "\n")
-
-
-def _meshlab(path):
-    meshes = pymeshlab.MeshSet()
-    meshes.load_new_mesh(str(path))
-    mesh = meshes.current_mesh()
-    arrays = {"vertices": mesh.vertex_matrix(), "faces": mesh.face_matrix()}
-    if mesh.has_face_color():
-        arrays["face_colours"] = mesh.face_color_matrix()
-    if mesh.has_vertex_color():
-        arrays["vertex_colours"] = mesh.vertex_color_matrix()
-    if mesh.has_wedge_tex_coord():
-        arrays["wedge_uv"] = mesh.wedge_tex_coord_matrix()
-    return arrays  # copied while the MeshSet that owns the mesh is alive
 
 
 def _colour_at(mesh, point) -> list[int]:
@@ -72,7 +59,7 @@ def test_per_face_colours_and_nested_transforms_match_meshlab(tmp_path):
     )
     mesh = load_model(path)
     assert mesh.colour_kind == "face"
-    reference = _meshlab(path)
+    reference = meshlab_read(path)
     expected_vertices = reference["vertices"]
     for vertex in expected_vertices:
         assert np.isclose(mesh.vertices, vertex, atol=1e-6).all(1).any(), vertex
@@ -86,7 +73,7 @@ def test_per_vertex_colours_match_meshlab(tmp_path):
     _write(path, f"Shape {{ geometry {_face_set(f'color Color {{ color [ {COLOUR_TEXT} ] }}')} }}")
     mesh = load_model(path)
     assert mesh.colour_kind == "vertex"
-    reference = _meshlab(path)
+    reference = meshlab_read(path)
     colours = np.rint(reference["vertex_colours"] * 255).astype(int)
     for vertex, rgba in zip(reference["vertices"], colours, strict=True):
         for face in TET_FACES:  # the same colour at this corner of every face around it
@@ -122,7 +109,7 @@ def test_texture_coordinates_match_meshlab_and_the_marker_lands(tmp_path):
     _write(path, f"Shape {{ appearance {look} geometry {_face_set(extra)} }}")
     mesh = load_model(path)
     assert mesh.colour_kind == "texture"
-    reference = _meshlab(path)
+    reference = meshlab_read(path)
     wedges = reference["wedge_uv"].reshape(-1, 3, 2)
     for face, corners in zip(reference["faces"], wedges, strict=True):
         triangle = reference["vertices"][face]

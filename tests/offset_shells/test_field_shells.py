@@ -7,11 +7,10 @@ winding checks, MeshLab's self-intersection test, libigl's exact distances (thro
 
 from __future__ import annotations
 
-import importlib.util
-
 import numpy as np
 import pytest
 import trimesh
+from meshlab_process import meshlab_crossing_faces, needs_meshlab
 
 from offset import offset_shells
 from offset.intersections import intersecting_pairs
@@ -21,7 +20,6 @@ from voxel.geometry._layer_field import field_surfaces
 from voxel.geometry._marching_tets import TABLE, TRIANGLES_PER_CASE
 from voxel.geometry._nearest import SurfaceIndex, distance_to_surface, winding_numbers
 
-HAVE_PYMESHLAB = importlib.util.find_spec("pymeshlab") is not None
 NO_SIMPLIFY = GuardLimits(tries=0)
 
 
@@ -38,16 +36,6 @@ def _assert_closed(vertices: np.ndarray, faces: np.ndarray) -> trimesh.Trimesh:
     merged.merge_vertices()
     assert len(merged.vertices) == len(mesh.vertices)  # no two vertices in one place
     return mesh
-
-
-def _meshlab_crossings(vertices: np.ndarray, faces: np.ndarray) -> int:
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=vertices, face_matrix=faces.astype(np.int32)))
-    ms.meshing_remove_duplicate_vertices()
-    ms.compute_selection_by_self_intersections_per_face()
-    return int(ms.current_mesh().selected_face_number())
 
 
 def test_the_table_makes_one_or_two_triangles_per_crossed_tetrahedron():
@@ -96,7 +84,7 @@ def test_a_deeper_layer_nests_inside_and_the_sphere_is_at_its_depth():
     assert len(intersecting_pairs(both_v, both_f)) == 0
 
 
-@pytest.mark.skipif(not HAVE_PYMESHLAB, reason="pymeshlab is not installed")
+@needs_meshlab
 def test_meshlab_finds_no_crossing_in_the_simplified_shells():
     # (MeshLab's test flags some slivers of the raw marching-tetrahedra mesh, whose
     # vertices lie within 1e-6 of a grid edge from a node; the project's own test, above,
@@ -105,7 +93,7 @@ def test_meshlab_finds_no_crossing_in_the_simplified_shells():
     out = method_shells(sphere.vertices, sphere.faces, [0.4, 0.4], step_mm=0.1, method="field")
     for shell in out.shells:
         _assert_closed(shell.vertices, shell.faces)
-        assert _meshlab_crossings(shell.vertices, shell.faces) == 0
+        assert meshlab_crossing_faces(shell.vertices, shell.faces) == 0
     record = out.record["simplify"]
     assert record["tolerance_mm"] > 0  # accepted
     assert record["faces_after"][0] < record["faces_before"][0] / 5

@@ -12,8 +12,8 @@ from fractions import Fraction
 import numpy as np
 import pytest
 import trimesh
+from meshlab_process import meshlab_checks, meshlab_crossing_faces, needs_meshlab
 from scipy.spatial.transform import Rotation
-from shell_file_checks import meshlab_checks, needs_meshlab
 
 from offset.intersections import coplanar_pairs, count_self_intersections
 from offset.jitter import JITTER_FRACTION, jitter_vertices
@@ -67,15 +67,11 @@ def test_meshlab_flags_two_disjoint_coplanar_triangles():
     # agree to round-off, their boxes overlap, an exact separating plane exists, and
     # MeshLab (vcg's NoDivTriTriIsect, whose coplanarity tolerance is never compiled
     # in) reports both as self-intersecting.
-    import pymeshlab
-
     t0, t1 = COPLANAR_PAIR[:3], COPLANAR_PAIR[3:]
     assert _exactly_separated(t0, t1)
     assert np.all((t0.min(axis=0) < t1.max(axis=0)) & (t1.min(axis=0) < t0.max(axis=0)))
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(COPLANAR_PAIR, np.array([[0, 1, 2], [3, 4, 5]])))
-    ms.compute_selection_by_self_intersections_per_face()
-    assert ms.current_mesh().selected_face_number() == 2
+    faces = np.array([[0, 1, 2], [3, 4, 5]])
+    assert meshlab_crossing_faces(COPLANAR_PAIR, faces, merge_duplicates=False) == 2
 
 
 def _rotated_box(subdivisions):
