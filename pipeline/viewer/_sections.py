@@ -44,8 +44,12 @@ def vivid_voxels(
     is_colour = np.zeros(256, dtype=bool)
     is_colour[list(colour_layers)] = True
     coloured = is_colour[layers]
-    span = np.ptp(rgb[..., :3].astype(np.int16), axis=-1)
-    return coloured, coloured & (span > VIVID_SPAN)
+    where = np.flatnonzero(coloured)  # the colour layers are a thin skin: few voxels
+    r, g, b = rgb.reshape(-1, rgb.shape[-1])[where, :3].T.astype(np.int16)
+    span = np.maximum(np.maximum(r, g), b) - np.minimum(np.minimum(r, g), b)
+    vivid = np.zeros(coloured.shape, dtype=bool)
+    vivid.reshape(-1)[where] = span > VIVID_SPAN
+    return coloured, vivid
 
 
 def choose_section(vivid: NDArray[np.int64], inside: NDArray[np.bool_]) -> int:
