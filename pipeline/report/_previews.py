@@ -1,11 +1,10 @@
 """Preview pictures of a build (``shellvox inspect``): sections, outer views, depths, halftone.
 
 - ``section_xy.png``, ``section_xz.png``, ``section_yz.png``: on each axis the section
-  with the most vivid colour-layer voxels among the planes that cross the part (its
-  middle 60 %, so the plane crosses the surface instead of running inside the coloured
-  skin), drawn as its colour beside its layers, and below both a square of voxels at
-  voxel scale where the colour is densest. (Mid planes are no good default: on the
-  default model they fall on the grey gaps between the colour patches.)
+  with the most vivid colour-layer voxels among the planes that cross the part
+  (:class:`pipeline.viewer.SectionCounts`, which also picks ``shellvox view``'s opening
+  slice), drawn as its colour beside its layers, and below both a square of voxels at
+  voxel scale where the colour is densest.
 - ``outer_views.png``: the outer colour layer seen from the six sides, orthographic,
   at one scale: for each line of sight, the colour of the first colour-layer voxel.
 - ``layer_depth_histogram.png``: the depth of each band's inner boundary in the mid
@@ -28,7 +27,7 @@ from numpy.typing import NDArray
 from PIL import Image
 
 from pipeline.atomic import atomic_path
-from pipeline.viewer import Axis, TiffStack
+from pipeline.viewer import Axis, SectionCounts, TiffStack
 from voxel.io import (
     boundary_depths,
     halftone_image,
@@ -36,11 +35,6 @@ from voxel.io import (
     outer_views_image,
     section_pair_image,
 )
-
-#: A colour-layer voxel is vivid when its sRGB channels span more than this.
-VIVID_SPAN = 24
-#: Sections are chosen among the planes in this middle fraction of the part.
-MIDDLE = 0.6
 
 
 def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
@@ -64,7 +58,7 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
     preview = folder / "preview"
     preview.mkdir(exist_ok=True)
     written = []
-    chosen = {axis: _choose(stats.vivid[axis], stats.inside[axis]) for axis in "zyx"}
+    chosen = stats.counts.chosen()
     samples = 4 if manifest.get("tiff", {}).get("colour.tif", {}).get("samples") == 4 else 3
     with (
         TiffStack(folder / "layers.tif", (n_z, n_y, n_x), samples=0) as layers_stack,
@@ -85,7 +79,8 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
             size = manifest["grid"]["voxel_size_mm"]["xyz".index(axis)]
             title = (
                 f"{col_axis}{row_axis} section at {axis} = {index} ({origin + index * size:.3f} "
-                f"mm): the most vivid colour-layer voxels ({int(stats.vivid[axis][index]):,})"
+                f"mm): the most vivid colour-layer voxels "
+                f"({int(stats.counts.vivid[axis][index]):,})"
             )
             image = section_pair_image(
                 np.ascontiguousarray(layers),
@@ -105,7 +100,7 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
     image = histogram_image([np.concatenate(d) for d in depths], expected)
     written.append(_save(image, preview / "layer_depth_histogram.png"))
     if "materials.tif" in manifest["files"] and manifest.get("materials"):
-        z = int(np.argmax(stats.colour_voxels))
+        z = int(np.argmax(stats.counts.colour_voxels))
         written.append(_halftone_preview(folder, manifest, z))
     return written
 
@@ -113,15 +108,9 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
 class _Scan:
     """What one pass over the pages gathers (see :func:`_scan`)."""
 
-    def __init__(self, shape: tuple[int, int, int]) -> None:
+    def __init__(self, shape: tuple[int, int, int], colour_layers: tuple[int, ...]) -> None:
         n_z, n_y, n_x = shape
-        self.vivid = {
-            "z": np.zeros(n_z, np.int64),
-            "y": np.zeros(n_y, np.int64),
-            "x": np.zeros(n_x, np.int64),
-        }
-        self.inside = {"z": np.zeros(n_z, bool), "y": np.zeros(n_y, bool), "x": np.zeros(n_x, bool)}
-        self.colour_voxels = np.zeros(n_z, np.int64)
+        self.counts = SectionCounts(shape, colour_layers)
         # the outer colour layer seen along each axis: colour, and where it was seen
         self.top = np.zeros((n_y, n_x, 3), np.uint8)
         self.bottom = np.zeros((n_y, n_x, 3), np.uint8)
@@ -147,8 +136,6 @@ class _Scan:
 def _scan(folder: Path, shape: tuple[int, int, int], colour_layers: tuple[int, ...]) -> _Scan:
     """Read layers.tif and colour.tif page by page; gather counts, views, mid sections."""
     n_z, n_y, n_x = shape
-    is_colour = np.zeros(256, dtype=bool)
-    is_colour[list(colour_layers)] = True
     with (
         tifffile.TiffFile(folder / "layers.tif") as lt,
         tifffile.TiffFile(folder / "colour.tif") as ct,
@@ -159,22 +146,13 @@ def _scan(folder: Path, shape: tuple[int, int, int], colour_layers: tuple[int, .
                 raise ValueError(
                     f"{name} holds {found} (z, y, x) voxels but the manifest's grid is {shape}"
                 )
-        stats = _Scan(shape)
+        stats = _Scan(shape, colour_layers)
         columns = np.arange(n_x)
         rows = np.arange(n_y)
         for z in range(n_z):  # one page at a time: memory stays one page
             layers = lt.pages[z].asarray()
             rgb = ct.pages[z].asarray()[..., :3]
-            coloured = is_colour[layers]
-            vivid = coloured & (np.ptp(rgb.astype(np.int16), axis=-1) > VIVID_SPAN)
-            stats.colour_voxels[z] = np.count_nonzero(coloured)
-            stats.vivid["z"][z] = np.count_nonzero(vivid)
-            stats.vivid["y"] += np.count_nonzero(vivid, axis=1)
-            stats.vivid["x"] += np.count_nonzero(vivid, axis=0)
-            inside = layers > 0
-            stats.inside["z"][z] = inside.any()
-            stats.inside["y"] |= inside.any(axis=1)
-            stats.inside["x"] |= inside.any(axis=0)
+            coloured = stats.counts.add_page(z, layers, rgb)
             # the outer colour layer: from +z the last seen wins, from -z the first
             stats.top[coloured] = rgb[coloured]
             stats.top_hit |= coloured
@@ -195,23 +173,6 @@ def _scan(folder: Path, shape: tuple[int, int, int], colour_layers: tuple[int, .
             if z == n_z // 2:
                 stats.xy_mid = layers
     return stats
-
-
-def _choose(vivid: NDArray[np.int64], inside: NDArray[np.bool_]) -> int:
-    """Return the plane with the most vivid voxels mid-part (ties: the most central)."""
-    where = np.nonzero(inside)[0]
-    if not len(where):
-        return len(vivid) // 2
-    low, high = int(where[0]), int(where[-1])
-    margin = (1 - MIDDLE) / 2 * (high - low)
-    first, last = int(np.ceil(low + margin)), int(np.floor(high - margin))
-    if last < first:
-        first = last = (low + high) // 2
-    candidates = np.arange(first, last + 1)
-    centre = (low + high) / 2
-    best = vivid[candidates].max()
-    ties = candidates[vivid[candidates] == best]
-    return int(ties[np.argmin(np.abs(ties - centre))])
 
 
 def _outer_views(stats: _Scan, voxel_mm: tuple[float, float, float]) -> Image.Image:

@@ -7,19 +7,33 @@ from __future__ import annotations
 
 from pipeline.viewer._folder import BuildFolder
 from pipeline.viewer._inflate import InflateError, decode, pick_bytes
+from pipeline.viewer._sections import (
+    MIDDLE,
+    VIVID_SPAN,
+    SectionCounts,
+    choose_section,
+)
 from pipeline.viewer._server import STATIC, ViewerServer
 from pipeline.viewer._slices import probe
 from pipeline.viewer._stacks import Axis, StackError, SymbolCache, TiffStack
+from pipeline.viewer._surface import MAX_FACES, Overview, SurfaceMesh
 
 __all__ = [
+    "MAX_FACES",
+    "MIDDLE",
     "STATIC",
+    "VIVID_SPAN",
     "Axis",
     "BuildFolder",
     "InflateError",
+    "Overview",
+    "SectionCounts",
     "StackError",
+    "SurfaceMesh",
     "SymbolCache",
     "TiffStack",
     "ViewerServer",
+    "choose_section",
     "decode",
     "pick_bytes",
     "probe",

@@ -10,6 +10,12 @@ Routes (GET and HEAD only; anything else is 404 or 405):
   ``X-Shape`` header (``H,W,S``) and its dtype in ``X-Dtype`` (``uint8`` or
   ``float32``, little-endian).
 - ``/api/voxel?z=&y=&x=``: one voxel's read-out (JSON).
+- ``/api/opening?wait=S``: the slice to open on each axis, the one with the most vivid
+  colour-layer voxels (:mod:`pipeline.viewer._surface`): ``{"ready": false}`` until the
+  pass over the pages is done, waiting up to ``S`` seconds (0..30) for it.
+- ``/api/surface``: the surface for the 3D view, once the pass is done
+  (:meth:`~pipeline.viewer._surface.SurfaceMesh.to_bytes`; ``X-Faces``,
+  ``X-Source-Faces`` and ``X-Depth-Range`` headers); 404 without ``thickness.ply``.
 - ``/files/NAME``: ``manifest.json`` and ``thickness.ply`` as they are.
 
 A request path is never joined to a folder: every name is looked up in a table made
@@ -41,11 +47,16 @@ from pipeline.viewer._slices import (
     read_region,
 )
 from pipeline.viewer._stacks import StackError
+from pipeline.viewer._surface import Overview
+
+#: Longest wait of a request for the pass over the pages (s).
+SURFACE_WAIT_S = 600.0
 
 #: The page's files: name -> content type.
 STATIC = {
     "index.html": "text/html; charset=utf-8",
     "viewer.js": "text/javascript; charset=utf-8",
+    "surface.js": "text/javascript; charset=utf-8",
     "viewer.css": "text/css; charset=utf-8",
 }
 
@@ -70,15 +81,24 @@ class ViewerServer(ThreadingHTTPServer):
     warm : bool
         Decode the pages of whole-model y and x slices in the background
         (:meth:`BuildFolder.warm_in_background`).
+    overview : bool
+        Start the pass over the pages that finds the opening slices and colours the
+        surface (:class:`~pipeline.viewer._surface.Overview`); without it
+        ``/api/opening`` and ``/api/surface`` never become ready.
     """
 
     daemon_threads = True
 
-    def __init__(self, folder: BuildFolder, port: int = 0, *, warm: bool = True) -> None:
+    def __init__(
+        self, folder: BuildFolder, port: int = 0, *, warm: bool = True, overview: bool = True
+    ) -> None:
         self.folder = folder
         self.static = static_files()
         self.build_json = json.dumps(folder.describe()).encode("utf-8")
+        self.overview = Overview(folder)
         super().__init__(("127.0.0.1", port), _Handler)
+        if overview:
+            self.overview.start()
         if warm:
             folder.warm_in_background()
 
@@ -95,6 +115,7 @@ class ViewerServer(ThreadingHTTPServer):
     def server_close(self) -> None:
         """Stop listening and close the build."""
         super().server_close()
+        self.overview.close()
         self.folder.close()
 
     def handle_error(self, request: Any, client_address: Any) -> None:
@@ -151,6 +172,10 @@ class _Handler(BaseHTTPRequestHandler):
                 self._slice(query, head=head)
             elif path == "/api/voxel":
                 self._voxel(query, head=head)
+            elif path == "/api/opening":
+                self._opening(query, head=head)
+            elif path == "/api/surface":
+                self._surface(head=head)
             elif path.startswith("/files/") and path[7:] in self.server.folder.files:
                 file = self.server.folder.files[path[7:]]
                 kind = _FILE_TYPES.get(file.suffix, "application/octet-stream")
@@ -190,6 +215,34 @@ class _Handler(BaseHTTPRequestHandler):
             index.append(int(values[0]))
         body = json.dumps(probe(self.server.folder, *index)).encode("utf-8")
         self._send(HTTPStatus.OK, body, "application/json", head=head)
+
+    def _opening(self, query: dict[str, list[str]], *, head: bool) -> None:
+        values = query.get("wait") or ["0"]
+        try:
+            wait = float(values[0]) if len(values) == 1 else -1.0
+        except ValueError:
+            wait = -1.0
+        if not 0 <= wait <= 30:
+            raise RequestError("wait must be one number of seconds, 0 to 30")
+        self.server.overview.done.wait(wait)
+        body = json.dumps(self.server.overview.opening_json()).encode("utf-8")
+        self._send(HTTPStatus.OK, body, "application/json", head=head)
+
+    def _surface(self, *, head: bool) -> None:
+        overview = self.server.overview
+        if self.server.folder.surface is None:
+            message = b"this build has no thickness.ply (built with --thickness): no surface\n"
+            self._send(HTTPStatus.NOT_FOUND, message, "text/plain", head=head)
+            return
+        if not overview.done.wait(SURFACE_WAIT_S) or overview.surface is None:
+            why = f"the surface is not ready ({overview.error or 'still reading'})\n"
+            self._send(HTTPStatus.SERVICE_UNAVAILABLE, why.encode(), "text/plain", head=head)
+            return
+        surface = overview.surface
+        body = surface.to_bytes()
+        self._send(
+            HTTPStatus.OK, body, "application/octet-stream", head=head, headers=surface.headers()
+        )
 
     def _send(
         self,

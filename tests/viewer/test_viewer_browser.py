@@ -22,7 +22,7 @@ import pytest
 import tifffile
 import trimesh
 from PIL import Image
-from viewer_run import serving
+from viewer_run import MODEL, expected_opening, serving, uniform_texture_colour
 
 from voxel.io import BAND_RGB, CORE_RGB, OUTSIDE_RGB
 
@@ -117,10 +117,12 @@ def test_viewer_in_chromium(page, served, small_colour_build, artifacts):
     palette.update({k: BAND_RGB[(k - 1) % len(BAND_RGB)] for k in range(1, n_layers - 1)})
     display = {m["index"]: m["display_srgb"] for m in manifest["materials"]}
     display[0] = list(OUTSIDE_RGB)
-    n_z = layers.shape[0]
 
+    opening = expected_opening(folder)
     page.goto(served.url)
-    _wait_view(page, "z", n_z // 2, "colour")
+    _wait_view(page, "z", opening["z"], "colour")
+    page.locator("#toggle3d").click()  # the slices alone, the whole width (voxels larger)
+    page.wait_for_function("document.getElementById('stage3d').classList.contains('hidden')")
 
     # move the slider to a slice through the top face's colour patches, then one key step
     in_colour = np.isin(layers, colour_layers)
@@ -136,7 +138,7 @@ def test_viewer_in_chromium(page, served, small_colour_build, artifacts):
     rng = np.random.default_rng(2)
     for axis in ("z", "y", "x"):
         page.locator(f'button.axis[data-axis="{axis}"]').click()
-        index = top if axis == "z" else layers.shape["zyx".index(axis)] // 2
+        index = top if axis == "z" else opening[axis]
         for mode in MODES:
             page.locator(f'button.mode[data-mode="{mode}"]').click()
             _wait_view(page, axis, index, mode)
@@ -195,3 +197,109 @@ def test_viewer_in_chromium(page, served, small_colour_build, artifacts):
     path = artifacts / "viewer_readout.png"
     page.screenshot(path=str(path))
     print(f"screenshot: {path}")
+
+
+def _ramp(stops, t):
+    """The page's colour ramp (its stops, linearly between them) at ``t`` in [0, 1]."""
+    stops = np.asarray(stops, float)
+    x = np.clip(t, 0, 1) * (len(stops) - 1)
+    i = np.minimum(len(stops) - 2, np.floor(x).astype(int))
+    return stops[i] + (stops[i + 1] - stops[i]) * (x - i)[:, None]
+
+
+def _inner_radius_px(corners):
+    """Radius (px) of the circle inside each screen triangle ``(n, 3, 2)``."""
+    a, b, c = (
+        np.linalg.norm(corners[:, (k + 1) % 3] - corners[:, (k + 2) % 3], axis=1) for k in range(3)
+    )
+    u, v = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    area = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]) / 2
+    return 2 * area / np.maximum(a + b + c, 1e-9)
+
+
+def test_opening_slice_and_3d_surface_in_chromium(page, served, small_colour_build, artifacts):
+    from pipeline.viewer import VIVID_SPAN
+
+    folder = small_colour_build
+    manifest = json.loads((folder / "manifest.json").read_text())
+    layers = tifffile.imread(folder / "layers.tif")
+    rgb = tifffile.imread(folder / "colour.tif")[..., :3]
+    colour_layers = [layer["index"] for layer in manifest["layers"] if layer["colour"]]
+    opening = expected_opening(folder)
+
+    # opens on the slice with the most vivid colour, and draws it in colour
+    page.goto(served.url)
+    _wait_view(page, "z", opening["z"], "colour")
+    assert page.locator("#slice-number").input_value() == str(opening["z"])
+    assert page.evaluate("document.body.dataset.opening") == ",".join(
+        f"{a}:{opening[a]}" for a in "zyx"
+    )
+    pixels, box = _canvas_pixels(page)
+    a, b = (
+        page.evaluate("([u, v]) => shellvoxView.voxelToClient(u, v)", p) for p in ([0, 0], [1, 1])
+    )
+    voxel_px = abs(b["x"] - a["x"]) * abs(b["y"] - a["y"])
+    vivid = np.isin(layers[opening["z"]], colour_layers) & (
+        np.ptp(rgb[opening["z"]].astype(int), axis=-1) > VIVID_SPAN
+    )
+    drawn = np.count_nonzero(np.ptp(pixels.astype(int), axis=-1) > VIVID_SPAN)
+    assert drawn > 0.5 * vivid.sum() * voxel_px > 1000
+
+    # the surface in 3D: colour and depth, seen from the top and from the front
+    page.wait_for_function("(document.body.dataset.surface || '').startsWith('colour:')")
+    obj = trimesh.load(MODEL, process=False, force="mesh")
+    ply = trimesh.load(folder / "thickness.ply", process=False, force="mesh")
+    depth = np.asarray(ply.metadata["_ply_raw"]["face"]["data"]["thickness_1"])  # layer 1
+    stops = page.evaluate("shellvoxView.RAMP")
+    plane_z = manifest["grid"]["origin_mm"][2] + opening["z"] * manifest["grid"]["voxel_size_mm"][2]
+    shots = []
+    for view, towards in (("top", [0, 0, 1]), ("front", [0, -1, 0])):
+        # faces turned to the camera, away from the section's cut line
+        facing = ply.face_normals @ towards > 0.9999
+        corners_z = ply.triangles[:, :, 2]
+        clear = (corners_z.min(axis=1) > plane_z + 0.4) | (corners_z.max(axis=1) < plane_z - 0.4)
+        faces = np.flatnonzero(facing & clear)
+        for mode in ("colour", "depth"):
+            page.locator(f'button.surface-view[data-view="{view}"]').click()
+            page.locator(f'button.surface-mode[data-mode="{mode}"]').click()
+            page.wait_for_function(
+                "([key]) => (document.body.dataset.surface || '').startsWith(key)",
+                arg=[f"{mode}:{view}:z:{opening['z']}"],
+            )
+            path = artifacts / f"surface_{view}_{mode}.png"
+            page.screenshot(path=str(path))
+            shots.append(path)
+            box = page.locator("#view3d").bounding_box()
+            picture = Image.open(io.BytesIO(page.locator("#view3d").screenshot())).convert("RGB")
+            pixels = np.asarray(picture).astype(int)
+            points = np.concatenate(
+                [ply.triangles_center[faces], ply.triangles[faces].reshape(-1, 3)]
+            )
+            screen = page.evaluate(
+                "(ps) => ps.map((p) => shellvoxSurface.project(p))", points.tolist()
+            )
+            screen = np.array([[p["x"] - box["x"], p["y"] - box["y"]] for p in screen])
+            centre_px, corner_px = screen[: len(faces)], screen[len(faces) :].reshape(-1, 3, 2)
+            big = _inner_radius_px(corner_px) >= 3  # the centre pixel well inside the face
+            got = pixels[
+                np.round(centre_px[:, 1]).astype(int), np.round(centre_px[:, 0]).astype(int)
+            ]
+            if mode == "colour":
+                expected, uniform = uniform_texture_colour(obj, ply.triangles_center[faces], 0.5)
+                keep = big & uniform
+                tolerance = 4
+            else:
+                expected = _ramp(stops, depth[faces] / depth.max())
+                keep = big
+                tolerance = 2
+            assert keep.sum() >= 15, (view, mode, keep.sum())
+            error = np.abs(got[keep] - expected[keep]).max(axis=1)
+            assert np.mean(error <= tolerance) >= 0.95, (view, mode, np.sort(error)[-10:])
+    # the section plane is drawn: the cut line's colour appears in the turned view
+    page.locator("#view3d").dblclick()
+    page.wait_for_function("(document.body.dataset.surface || '').startsWith('depth:default')")
+    pixels = np.asarray(Image.open(io.BytesIO(page.locator("#view3d").screenshot())).convert("RGB"))
+    cut = np.all(np.abs(pixels.astype(int) - [237, 0, 92]) <= 3, axis=-1)
+    assert cut.sum() > 200
+    for path in shots:
+        print(f"screenshot: {path}")

@@ -52,6 +52,7 @@
     materialRgb: null,
     depthMax: 1,
     thicknessRange: [0, 1],
+    moved: false, // the slice or axis was changed by hand (then the opening slice waits)
   };
 
   // ---- geometry ----
@@ -430,6 +431,9 @@
       text += `\nserver ${image.serverMs.toFixed(0)} ms, total ${image.totalMs.toFixed(0)} ms`;
     }
     document.getElementById("status").textContent = text;
+    document.dispatchEvent(new CustomEvent("shellvox:section", {
+      detail: { axis: state.axis, index: i, grid: g },
+    }));
   }
 
   function showError(text) {
@@ -487,14 +491,14 @@
 
   function bindControls() {
     for (const button of document.querySelectorAll("button.axis")) {
-      button.addEventListener("click", () => setAxis(button.dataset.axis));
+      button.addEventListener("click", () => { state.moved = true; setAxis(button.dataset.axis); });
     }
     for (const button of document.querySelectorAll("button.mode")) {
       button.addEventListener("click", () => setMode(button.dataset.mode));
     }
     document.getElementById("fit").addEventListener("click", () => { fit(); draw(); requestLoad(); });
-    slider.addEventListener("input", () => setIndex(Number(slider.value)));
-    number.addEventListener("change", () => setIndex(Number(number.value)));
+    slider.addEventListener("input", () => { state.moved = true; setIndex(Number(slider.value)); });
+    number.addEventListener("change", () => { state.moved = true; setIndex(Number(number.value)); });
     let drag = null;
     canvas.addEventListener("pointerdown", (event) => {
       drag = { x: event.clientX, y: event.clientY, cx: state.cx, cy: state.cy, moved: false };
@@ -527,6 +531,8 @@
       const step = event.shiftKey ? 10 : 1;
       const key = event.key;
       const { w, h } = size();
+      if (["z", "y", "x", "ArrowRight", "ArrowUp", ".", "ArrowLeft", "ArrowDown", ",",
+        "PageUp", "PageDown"].includes(key)) state.moved = true;
       if (key === "z" || key === "y" || key === "x") setAxis(key);
       else if (key >= "1" && key <= "6") setMode(MODES[Number(key) - 1]);
       else if (key === "ArrowRight" || key === "ArrowUp" || key === ".") setIndex(state.index[state.axis] + step);
@@ -549,6 +555,10 @@
     document.getElementById("build-name").textContent = b.input || b.folder;
     document.getElementById("build-name").title = b.folder;
     for (const axis of ["z", "y", "x"]) state.index[axis] = Math.floor(b.grid.shape_zyx[ZYX[axis]] / 2);
+    // open on the slices with the most vivid colour (the server's pass over the pages);
+    // if that takes longer than a moment, open mid-part and move there when it comes
+    const opening = await fetchOpening(3);
+    if (opening.ready) useOpening(opening);
     const materials = document.querySelector('button.mode[data-mode="materials"]');
     materials.disabled = !b.stacks.includes("materials");
     for (const mode of ["depth", "thickness"]) {
@@ -560,11 +570,33 @@
     bindControls();
     setMode("colour");
     setAxis("z");
+    if (!opening.ready) waitOpening();
+  }
+
+  async function fetchOpening(seconds) {
+    const response = await fetch(`/api/opening?wait=${seconds}`);
+    if (!response.ok) throw new Error(`opening slice: ${await response.text()}`);
+    return response.json();
+  }
+
+  function useOpening(opening) {
+    if (!opening.slices) return;
+    for (const axis of ["z", "y", "x"]) state.index[axis] = opening.slices[axis];
+    body.dataset.opening = ["z", "y", "x"].map((a) => `${a}:${opening.slices[a]}`).join(",");
+  }
+
+  async function waitOpening() {
+    let opening = { ready: false };
+    while (!opening.ready) opening = await fetchOpening(30);
+    if (state.moved) return;
+    useOpening(opening);
+    setIndex(state.index[state.axis]);
   }
 
   // for scripts and tests: the state and the screen position of a voxel of the slice
   window.shellvoxView = {
     state,
+    RAMP,
     voxelToClient(iu, iv) {
       const p = plane(state.axis);
       const [sx, sy] = toScreen(p.ou + iu * p.su, p.ov + iv * p.sv);
