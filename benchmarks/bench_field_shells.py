@@ -1,4 +1,4 @@
-"""Field shells (the default ``shellvox shells --method field``): speed against OpenVDB, validity.
+"""Field shells (``shellvox shells --method field``): speed against OpenVDB, validity.
 
 Usage: .venv/bin/python benchmarks/bench_field_shells.py [--part speed|meshes|both]
        [--out benchmarks/results/bench_field_shells.json]
@@ -65,7 +65,9 @@ def run_shells(model: Path, out: Path, extra: list[str]) -> float:
     command = [sys.executable, "-m", "pipeline.cli", "shells", str(model), "-o", str(out)]
     start = time.perf_counter()
     subprocess.run(
-        [*command, "--thickness", THICKNESS, "--no-baselines", *extra], check=True, env=env
+        [*command, "--thickness", THICKNESS, "--no-baselines", "--method", "field", *extra],
+        check=True,
+        env=env,
     )
     return time.perf_counter() - start
 
