@@ -40,13 +40,20 @@ class Extrusion:
     tool_changes: dict[float, int]
 
 
+#: A move farther than this from the origin is off any printer's bed (mm): the slicer failed.
+OFF_BED_MM = 2000.0
+
+
 def read_extrusion(path: Path, *, step_mm: float = 0.2) -> Extrusion:
-    """Read the extruding moves of a G-code file (relative E)."""
+    """Read the extruding moves of a G-code file (relative E).
+
+    Raises AssertionError naming the line at the first move off any bed (:data:`OFF_BED_MM`).
+    """
     x = y = z = 0.0
     tool = -1
     pieces: list[tuple[float, float, float, int, float]] = []
     changes: dict[float, int] = {}
-    for line in path.read_text().splitlines():
+    for number, line in enumerate(path.read_text().splitlines(), 1):
         line = line.split(";", 1)[0].strip()
         if not line:
             continue
@@ -60,6 +67,8 @@ def read_extrusion(path: Path, *, step_mm: float = 0.2) -> Extrusion:
         nx, ny = float(words.get("X", x)), float(words.get("Y", y))
         z = float(words.get("Z", z))
         e = float(words.get("E", 0.0))
+        if not (abs(nx) <= OFF_BED_MM and abs(ny) <= OFF_BED_MM):
+            raise AssertionError(f"{path}:{number}: a move off any bed: {line}")
         if e > 0 and (nx, ny) != (x, y):
             n = max(1, int(np.ceil(np.hypot(nx - x, ny - y) / step_mm)))
             for k in range(n):

@@ -9,6 +9,7 @@ from fdm_slicer import BOX_FILAMENTS, coloured_box, slice_with_prusa
 
 from pipeline.cli import main
 from pipeline.fdm import FdmSettings, make_project, parse_filaments, write_projects
+from pipeline.fdm._prusa import PER_FILAMENT
 
 SKIN_MM = 1.2
 
@@ -78,7 +79,15 @@ def test_real_models_slice(shared_mesh, tmp_path, capsys, model, scale):
     assert status == 0
     (project,) = out.glob("*_prusa.3mf")
     slice_with_prusa(project, tmp_path / "model.gcode")
-    ex = read_extrusion(tmp_path / "model.gcode")
+    ex = read_extrusion(tmp_path / "model.gcode")  # fails at a move off the bed
+    # PrusaSlicer took one value per filament of every per-filament option (its footer)
+    footer = dict(
+        line[2:].split(" = ", 1)
+        for line in (tmp_path / "model.gcode").read_text().splitlines()
+        if line.startswith("; ") and " = " in line
+    )
+    for key in PER_FILAMENT:
+        assert len(footer[key].split(",")) == 6, (key, footer[key])
     changes = np.array(list(ex.tool_changes.values()))
     with capsys.disabled():
         print(
