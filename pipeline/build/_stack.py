@@ -197,7 +197,9 @@ class _Job:
             )
         )
         shell_job.start_beside(stack)
-        outputs = StackOutputs(folder, plan.grid, config, self._profile(), self.materials)
+        outputs = StackOutputs(
+            folder, plan.grid, config, self._profile(), self.materials, slab_rows=plan.rows
+        )
         sampler = None  # the voxels compared with the shell meshes, when there are any
         if shell_job.writes_meshes:
             n_slabs = math.ceil(plan.grid.shape_zyx[0] / plan.rows)
@@ -290,11 +292,14 @@ class _Job:
         """Return the slab arrays this process uses when the workers encode the pages.
 
         ``layers`` for the voxels compared with the shell meshes (`sampled`); ``layers``
-        and ``rgba`` for the PNG slices and for error diffusion (made here); ``layers``,
-        ``rgba`` and ``sdf`` for VDB leaves not encoded where the slab is computed.
+        and ``rgba`` for the PNG slices, the OME-Zarr store and for error diffusion (made
+        here); ``layers``, ``rgba`` and ``sdf`` for VDB leaves not encoded where the slab
+        is computed.
         """
         config, plan = self.config, self.materials
         send = {"layers"} if sampled else set()
+        if "zarr" in config.formats:
+            send |= {"layers", "rgba"}
         if plan is not None and ("png" in config.formats or plan.halftone != "blue-noise"):
             send |= {"layers", "rgba"}
         if config.write_vdb and self._encoder() is None:

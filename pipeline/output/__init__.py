@@ -12,7 +12,7 @@
 
 from __future__ import annotations
 
-from pipeline.output._checks import check_files, read_manifest, verify_files
+from pipeline.output._checks import check_files, file_summary, read_manifest, verify_files
 from pipeline.output._folder import BuildFolder
 from pipeline.output._manifest import Tally, stack_manifest
 from pipeline.output._outdir import LOCK_NAME, SHELL_OUTPUTS, OutputFolder, remove_leftovers, sha256
@@ -36,6 +36,7 @@ __all__ = [
     "StackOutputs",
     "Tally",
     "check_files",
+    "file_summary",
     "gcvf_slices",
     "gcvf_writer",
     "method_shells",
