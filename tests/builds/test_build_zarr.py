@@ -27,7 +27,8 @@ from pipeline.output import verify_files
 from pipeline.run import RUN_FOLDER, RunFolder
 
 MODEL = Path(__file__).resolve().parents[2] / "data" / "colour_target" / "colour_target.obj"
-#: The default model on a coarse grid, in several slabs (the pyramid's rows carried over).
+#: The default model on a coarse grid, in several slabs (the pyramid's rows carried over),
+#: as the ``small_zarr_build`` fixture builds it.
 SMALL = ["--voxel-size", "0.2,0.2,0.15", "--report-samples", "0", "--slab-mb", "2",
          "--no-progress"]  # fmt: skip
 
@@ -36,11 +37,10 @@ def _build(out: Path, *options: str) -> int:
     return main(["build", str(MODEL), "-o", str(out), *options])
 
 
-@pytest.fixture(scope="module")
-def build(tmp_path_factory):
-    out = tmp_path_factory.mktemp("zarr") / "build"
-    assert _build(out, *SMALL, "--format", "tiff,zarr") == 0
-    return out
+@pytest.fixture
+def build(small_zarr_build):
+    """The default model with --format tiff,zarr (SMALL): read-only."""
+    return small_zarr_build
 
 
 def _tiff(path: Path) -> np.ndarray:
