@@ -143,12 +143,25 @@ def _mode_kernel(
     n_z, n_y, n_x = labels.shape
     values = np.empty(fz * fy * fx, dtype=np.uint8)
     for oz in range(out.shape[0]):
+        z0, z1 = oz * fz, min(n_z, oz * fz + fz)
         for oy in range(out.shape[1]):
+            y0, y1 = oy * fy, min(n_y, oy * fy + fy)
             for ox in range(out.shape[2]):
+                x0, x1 = ox * fx, min(n_x, ox * fx + fx)
+                first = labels[z0, y0, x0]
+                uniform = True
+                for z in range(z0, z1):  # most blocks hold one value: no counting
+                    for y in range(y0, y1):
+                        for x in range(x0, x1):
+                            if labels[z, y, x] != first:
+                                uniform = False
+                if uniform:
+                    out[oz, oy, ox] = first
+                    continue
                 n = 0
-                for z in range(oz * fz, min(n_z, oz * fz + fz)):
-                    for y in range(oy * fy, min(n_y, oy * fy + fy)):
-                        for x in range(ox * fx, min(n_x, ox * fx + fx)):
+                for z in range(z0, z1):
+                    for y in range(y0, y1):
+                        for x in range(x0, x1):
                             values[n] = labels[z, y, x]
                             n += 1
                 best, best_count = values[0], 0
@@ -159,8 +172,6 @@ def _mode_kernel(
                             count += 1
                     if count > best_count or (count == best_count and values[i] < best):
                         best, best_count = values[i], count
-                    if best_count == n:
-                        break
                 out[oz, oy, ox] = best
 
 
@@ -177,23 +188,26 @@ def _mean_kernel(
 ) -> None:  # pragma: no cover - compiled
     n_c = colour.shape[0]
     n_z, n_y, n_x = weight.shape
-    sums = np.zeros(n_c, dtype=np.float64)
+    linear[:] = 0.0
+    total[:] = 0.0
+    for z in range(n_z):  # the voxels in order, each added to its block
+        oz = z // fz
+        for y in range(n_y):
+            oy = y // fy
+            for x in range(n_x):
+                w = np.float32(weight[z, y, x])
+                if w == 0:
+                    continue
+                ox = x // fx
+                total[oz, oy, ox] += w
+                for c in range(min(n_c, 3)):
+                    linear[c, oz, oy, ox] += w * lut[colour[c, z, y, x]]
+                if n_c == 4:
+                    linear[3, oz, oy, ox] += w * np.float32(colour[3, z, y, x] / 255.0)
     for oz in range(total.shape[0]):
         for oy in range(total.shape[1]):
             for ox in range(total.shape[2]):
-                sums[:] = 0.0
-                w_sum = np.float64(0.0)
-                for z in range(oz * fz, min(n_z, oz * fz + fz)):
-                    for y in range(oy * fy, min(n_y, oy * fy + fy)):
-                        for x in range(ox * fx, min(n_x, ox * fx + fx)):
-                            w = np.float64(weight[z, y, x])
-                            if w == 0:
-                                continue
-                            w_sum += w
-                            for c in range(min(n_c, 3)):
-                                sums[c] += w * lut[colour[c, z, y, x]]
-                            if n_c == 4:
-                                sums[3] += w * (colour[3, z, y, x] / 255.0)
-                total[oz, oy, ox] = w_sum
-                for c in range(n_c):
-                    linear[c, oz, oy, ox] = sums[c] / w_sum if w_sum > 0 else 0.0
+                t = total[oz, oy, ox]
+                if t > 0:
+                    for c in range(n_c):
+                        linear[c, oz, oy, ox] /= t
