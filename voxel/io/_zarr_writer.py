@@ -64,14 +64,16 @@ class _Rows:
     def __len__(self) -> int:
         return int(self.weight.shape[0])
 
-    def split(self, n: int) -> tuple[_Rows, _Rows]:
-        """Return the first `n` rows and the rest."""
+    def split(self, n: int) -> tuple[_Rows, _Rows | None]:
+        """Return the first `n` rows and the rest (None: no rows, nor the slab they are of)."""
         head = _Rows(
             self.z,
             self.colour[:, :n],
             self.weight[:n],
             {k: v[:n] for k, v in self.labels.items()},
         )
+        if n >= len(self):
+            return head, None
         tail = _Rows(
             self.z + n,
             self.colour[:, n:],
