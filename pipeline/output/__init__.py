@@ -24,7 +24,7 @@ from pipeline.output._shell_methods import (
     ready_for_file,
 )
 from pipeline.output._shells import read_ply, save_shells, write_shell
-from pipeline.output._streams import StackOutputs, gcvf_slices, gcvf_writer
+from pipeline.output._streams import StackOutputs, gcvf_slices, gcvf_writer, zarr_shards
 
 __all__ = [
     "LOCK_NAME",
@@ -52,4 +52,5 @@ __all__ = [
     "write_ply",
     "write_shell",
     "write_thickness_ply",
+    "zarr_shards",
 ]

@@ -33,6 +33,7 @@ from voxel.io import (
     LabelValue,
     OmeZarrWriter,
     PngSliceWriter,
+    ShardEncoder,
     TiffStackWriter,
     key_rgba,
     material_table,
@@ -119,10 +120,7 @@ class StackOutputs:
                 )
         self.zarr: OmeZarrWriter | None = None
         if "zarr" in formats:
-            labels = {"layers": _layer_labels(config)}
-            if with_materials:
-                assert profile is not None
-                labels = {"materials": _material_labels(profile), **labels}
+            labels = zarr_labels(config, profile if with_materials else None)
             self.zarr = stack.enter_context(
                 OmeZarrWriter(
                     folder.path / self.ZARR_NAME,
@@ -190,7 +188,8 @@ class StackOutputs:
             labels = {"layers": slab.layers}
             if materials is not None and "materials" in self.zarr.label_names:
                 labels["materials"] = materials
-            self.zarr.write_slab(slab.rgba, self._is_colour[slab.layers], labels)
+            shards = pages.get(self.ZARR_NAME)
+            self.zarr.write_slab(slab.rgba, self._is_colour[slab.layers], labels, shards)
 
     def colour_slices(self, slab: SlabResult, materials: NDArray[np.uint8]) -> NDArray[np.uint8]:
         """Return the RGBA ``(Zs, Y, X, 4) uint8`` of a slab for colour-slice printers.
@@ -250,6 +249,28 @@ class StackOutputs:
                 "samples": self.samples,
             }
         return summary
+
+
+def zarr_labels(config: BuildConfig, profile: PrinterProfile | None) -> dict[str, list[LabelValue]]:
+    """Return the store's label images and their values: materials (with `profile`), layers."""
+    labels = {"layers": _layer_labels(config)}
+    if profile is not None:
+        labels = {"materials": _material_labels(profile), **labels}
+    return labels
+
+
+def zarr_shards(
+    grid: GridSpec, config: BuildConfig, slab_rows: int, profile: PrinterProfile | None
+) -> ShardEncoder | None:
+    """Return the slab workers' encoder of the store's level-0 shards (None: no store).
+
+    The same arrays as :class:`StackOutputs` makes with `slab_rows` (and `profile` when the
+    voxels have materials).
+    """
+    if "zarr" not in config.formats:
+        return None
+    labels = tuple(zarr_labels(config, profile))
+    return ShardEncoder(grid.shape_zyx, 4 if config.alpha else 3, slab_rows, labels)
 
 
 def _material_labels(profile: PrinterProfile) -> list[LabelValue]:

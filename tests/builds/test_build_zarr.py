@@ -212,7 +212,7 @@ def test_void_chunks_are_not_stored_and_inspect_verifies_every_file(build, capsy
     verify_files(build, manifest)
 
 
-def test_same_inputs_same_bytes_and_resumed_slabs_too(tmp_path, monkeypatch):
+def test_same_inputs_same_bytes_wherever_encoded_and_resumed(tmp_path, monkeypatch):
     options = [*SMALL, "--format", "zarr", "--workers", "2", "--checkpoint"]
     reference, out = tmp_path / "reference", tmp_path / "out"
     assert _build(reference, *options) == 0
@@ -220,6 +220,9 @@ def test_same_inputs_same_bytes_and_resumed_slabs_too(tmp_path, monkeypatch):
         patch.setattr(RunFolder, "remove", lambda self: None)
         assert _build(out, *options) == 0
     assert output_digests(out) == output_digests(reference)
+    here = tmp_path / "here"  # level 0 encoded by the writer, not by the slab workers
+    assert _build(here, *SMALL, "--format", "zarr", "--workers", "1") == 0
+    assert output_digests(here) == output_digests(reference)
     chunks = sorted((out / RUN_FOLDER).glob("slab_*.npz"))
     assert len(chunks) >= 3
     for chunk in chunks[1::2]:

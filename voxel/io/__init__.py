@@ -10,7 +10,8 @@ These modules import only :mod:`voxel.grid`, :mod:`voxel.colour._srgb` and each 
   :mod:`~voxel.io._gcvf_writer` GrabCAD Voxel Print jobs; :mod:`~voxel.io._slab_thread` the
   writer thread they share;
 - :mod:`~voxel.io._zarr_writer` the OME-Zarr store (with ``zarr``), its metadata
-  :mod:`~voxel.io._ome_metadata` and its levels :mod:`~voxel.io._pyramid`;
+  :mod:`~voxel.io._ome_metadata`, its levels :mod:`~voxel.io._pyramid` and its level-0
+  shards encoded where a slab is computed :mod:`~voxel.io._zarr_shards`;
 - :mod:`voxel.io.vdb` ``volume.vdb`` without OpenVDB; :mod:`~voxel.io._preview` section
   pictures and the depth histogram.
 """
@@ -38,6 +39,7 @@ from voxel.io._preview import (
 from voxel.io._pyramid import downsample_colour, downsample_labels, level_factors
 from voxel.io._tiff_pages import PageEncoder
 from voxel.io._tiff_writer import TiffStackWriter
+from voxel.io._zarr_shards import ShardEncoder
 from voxel.io._zarr_writer import OmeZarrWriter
 
 __all__ = [
@@ -54,6 +56,7 @@ __all__ = [
     "OmeZarrWriter",
     "PageEncoder",
     "PngSliceWriter",
+    "ShardEncoder",
     "TiffStackWriter",
     "boundary_depths",
     "check_level",

@@ -32,7 +32,6 @@ from typing import Any
 import numpy as np
 import zarr
 from numpy.typing import NDArray
-from zarr.codecs import ZstdCodec
 
 from voxel.grid import GridSpec
 from voxel.io._ome_metadata import (
@@ -44,12 +43,7 @@ from voxel.io._ome_metadata import (
 from voxel.io._png_slices import _replace_folder
 from voxel.io._pyramid import Factors, downsample_colour, downsample_labels, level_factors
 from voxel.io._slab_thread import ClosingWriter, SlabThread
-
-#: Inner chunk ``(z, y, x)`` of every array, at most: z is the largest divisor of the
-#: shard's rows up to this (zarr's cost is per chunk: about 0.2 ms each to write).
-CHUNK_ZYX = (64, 64, 64)
-#: zstd level of the chunks.
-ZSTD_LEVEL = 1
+from voxel.io._zarr_shards import level_array, write_solid
 
 
 @dataclass
@@ -108,10 +102,14 @@ class _Level:
         self.unwritten: _Rows | None = None
         self.unreduced: _Rows | None = None
 
-    def add(self, rows: _Rows) -> _Rows | None:
-        """Take rows (in z order); write whole shards; return rows for the next level."""
-        self.unwritten = _Rows.join(self.unwritten, rows)
-        self._write(final=False)
+    def add(self, rows: _Rows, *, written: bool = False) -> _Rows | None:
+        """Take rows (in z order); write whole shards; return rows for the next level.
+
+        `written`: the rows' shards are stored already (encoded where the slab was made).
+        """
+        if not written:
+            self.unwritten = _Rows.join(self.unwritten, rows)
+            self._write(final=False)
         if self.factors is None:
             return None
         self.unreduced = _Rows.join(self.unreduced, rows)
@@ -133,28 +131,10 @@ class _Level:
         rows = self.unwritten
         while rows is not None and len(rows) and (len(rows) >= self.shard_rows or final):
             shard, rows = rows.split(min(self.shard_rows, len(rows)))
-            _write_solid(self.arrays["colour"], shard.z, shard.colour)
+            write_solid(self.arrays["colour"], shard.z, shard.colour)
             for name, labels in shard.labels.items():
-                _write_solid(self.arrays[name], shard.z, labels)
+                write_solid(self.arrays[name], shard.z, labels)
         self.unwritten = rows
-
-
-def _write_solid(array: Any, z0: int, rows: NDArray[np.uint8]) -> None:
-    """Write `rows` (``(..., n, Y, X)``) from row `z0`: only the chunks' box around non-void.
-
-    Chunks outside the box hold void only and would not be stored anyway; leaving them out
-    spares zarr the work (the shard's bytes are the same).
-    """
-    solid = rows.reshape(-1, *rows.shape[-2:]).any(axis=0)
-    ys, xs = np.nonzero(solid.any(axis=1))[0], np.nonzero(solid.any(axis=0))[0]
-    if not len(ys):
-        return
-    cy, cx = array.chunks[-2:]
-    y0, y1 = ys[0] // cy * cy, -(-(ys[-1] + 1) // cy) * cy
-    x0, x1 = xs[0] // cx * cx, -(-(xs[-1] + 1) // cx) * cx
-    lead = (slice(None),) * (rows.ndim - 3)
-    box = (slice(y0, y1), slice(x0, x1))
-    array[(*lead, slice(z0, z0 + rows.shape[-3]), *box)] = rows[(*lead, slice(None), *box)]
 
 
 def _reduce(rows: _Rows, factors: Factors) -> _Rows:
@@ -200,6 +180,7 @@ class OmeZarrWriter(ClosingWriter):
         self.path = Path(path)
         self.grid = grid
         self.samples = samples
+        self.slab_rows = slab_rows
         self.label_names = tuple(labels)
         self._next_z = 0
         self._files: list[Path] | None = None
@@ -214,7 +195,7 @@ class OmeZarrWriter(ClosingWriter):
         self.factors = level_factors((vz, vy, vx), grid.shape_zyx)
         transforms = level_transforms((vz, vy, vx), (oz, oy, ox), self.factors)
         self._levels = self._create(slab_rows, labels, transforms)
-        self._thread: SlabThread[_Rows] = SlabThread(
+        self._thread: SlabThread[tuple[_Rows, list[bytes] | None]] = SlabThread(
             str(self.path), self._consume, queue_slabs=queue_slabs
         )
 
@@ -243,7 +224,7 @@ class OmeZarrWriter(ClosingWriter):
         levels = []
         for k in range(len(transforms)):
             arrays = {
-                name: _array(
+                name: level_array(
                     group, str(k), shape, slab_rows, 0 if name != "colour" else self.samples
                 )
                 for name, group in groups.items()
@@ -259,6 +240,7 @@ class OmeZarrWriter(ClosingWriter):
         colour: NDArray[np.uint8],
         coloured: NDArray[np.bool_],
         labels: Mapping[str, NDArray[np.uint8]],
+        shards: list[bytes] | None = None,
     ) -> None:
         """Queue the next slab (z rows in order).
 
@@ -270,6 +252,9 @@ class OmeZarrWriter(ClosingWriter):
             The colour-layer voxels (the colour pyramid averages only these).
         labels : mapping of str to (Zs, Y, X) uint8
             Every label image named at construction.
+        shards : list of bytes, optional
+            The slab's level-0 shard files already encoded
+            (:meth:`voxel.io._zarr_shards.ShardEncoder.encode`): stored as they are.
         """
         n = len(coloured)
         shape = (n, *self.grid.shape_zyx[1:])
@@ -285,18 +270,34 @@ class OmeZarrWriter(ClosingWriter):
             coloured,
             {name: labels[name] for name in self.label_names},
         )
-        self._thread.put(rows)
+        self._thread.put((rows, shards))
         self._next_z += n
 
-    def _consume(self, rows: _Rows) -> None:
+    def _consume(self, item: tuple[_Rows, list[bytes] | None]) -> None:
         """In the writer thread: level 0, then every level the rows complete."""
+        rows, shards = item
+        if shards is not None:
+            self._store(shards)
         rows.colour = np.ascontiguousarray(np.moveaxis(rows.colour, -1, 0))
         rows.weight = rows.weight.view(np.uint8)
-        current: _Rows | None = rows
-        for level in self._levels:
+        current = self._levels[0].add(rows, written=shards is not None)
+        for level in self._levels[1:]:
             if current is None:
                 break
             current = level.add(current)
+
+    def _store(self, shards: list[bytes]) -> None:
+        """Put shard files (``[key, data, ...]``) of level 0 in place, as zarr made them."""
+        assert self._temporary is not None
+        prefixes = ("0/c/", *(f"labels/{name}/0/c/" for name in self.label_names))
+        for key, data in zip(shards[::2], shards[1::2], strict=True):
+            name = key.decode()
+            parts = name.split("/")
+            if not name.startswith(prefixes) or any(p in ("", ".", "..") for p in parts):
+                raise ValueError(f"{self.path}: {name!r} is no shard of level 0")
+            path = self._temporary.joinpath(*parts)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(data)
 
     def close(self) -> list[Path]:
         """Write the last rows of every level, move the store into place; return its files.
@@ -332,24 +333,3 @@ class OmeZarrWriter(ClosingWriter):
         if self._temporary is not None:
             shutil.rmtree(self._temporary, ignore_errors=True)
             self._temporary = None
-
-
-def _array(group: Any, name: str, shape_zyx: Sequence[int], rows: int, samples: int) -> Any:
-    """Create one level's array: ``(C, Z, Y, X)`` (``samples > 0``) or ``(Z, Y, X)`` uint8."""
-    n_z, n_y, n_x = (int(n) for n in shape_zyx)
-    cz = max(d for d in range(1, min(rows, CHUNK_ZYX[0]) + 1) if rows % d == 0)
-    cy, cx = min(CHUNK_ZYX[1], n_y), min(CHUNK_ZYX[2], n_x)
-    chunks = (cz, cy, cx)
-    shards = (rows, -(-n_y // cy) * cy, -(-n_x // cx) * cx)
-    lead = (samples,) if samples else ()
-    return group.create_array(
-        name,
-        shape=(*lead, n_z, n_y, n_x),
-        chunks=(*lead, *chunks),
-        shards=(*lead, *shards),
-        dtype="uint8",
-        fill_value=0,
-        compressors=ZstdCodec(level=ZSTD_LEVEL),
-        config={"write_empty_chunks": False},
-        dimension_names=(*(("c",) if samples else ()), "z", "y", "x"),
-    )
