@@ -156,7 +156,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="robust",
         help="offset construction of the shells (default robust; see `shellvox shells`)",
     )
-    parser.add_argument("--alpha", action="store_true", help="write colour.tif as RGBA")
+    parser.add_argument(
+        "--alpha",
+        action="store_true",
+        help="write colour.tif (and the OME-Zarr store's colour) as RGBA",
+    )
     parser.add_argument("--no-vdb", action="store_true", help="skip volume.vdb (see --format)")
     parser.add_argument(
         "--slab-mb",

@@ -11,10 +11,11 @@ each asked-for voxel gives its value (the mode of the labels, the colour layers'
 colour there).
 
 What a slice reads is a band of whole chunks: along the normal, the chunks holding the
-slice; across it, those holding the region. Bands are kept in a :class:`BlockCache`
-shared by the images of a build (least recently used first out), so the next slices
-through the same chunks (a y slice's neighbours, the same region panned a little less
-than a chunk) are picked from memory.
+slice; across it, those holding the region. Small bands (up to 1/32 of the budget) are
+kept in a :class:`BlockCache` shared by the images of a build (least recently used first
+out), so the next slices through the same chunks (a z slice's neighbours, the same region
+panned a little less than a chunk) are picked from memory; from a larger band only the
+slice is copied out (assembling a few hundred megabytes costs more than decoding them).
 """
 
 from __future__ import annotations
@@ -33,6 +34,8 @@ from pipeline.viewer._stacks import Axis, StackError
 
 #: Memory for the bands kept between requests, bytes.
 CACHE_BYTES = 1 << 30
+#: A band larger than the budget over this is not kept: the slice is read alone.
+BAND_SHARE = 32
 
 #: The axes of a slice's rows and columns (and their positions in ``(z, y, x)``).
 _PLANE = {"z": ("y", "x"), "y": ("z", "x"), "x": ("z", "y")}
@@ -159,6 +162,17 @@ class ZarrStack:
         box[ni] = (at, at + 1)
         box[ri] = (int(row_at[0]), int(row_at[-1]) + 1)
         box[ci] = (int(col_at[0]), int(col_at[-1]) + 1)
+        strided = rows.step % factors[ri] == 0 and cols.step % factors[ci] == 0
+        if strided and self._band_bytes(level, box) > self.cache.budget_bytes // BAND_SHARE:
+            # a large band costs more to assemble than its chunks to decode: read the slice
+            steps = [1, 1, 1]
+            steps[ri], steps[ci] = rows.step // factors[ri], cols.step // factors[ci]
+            selection = tuple(slice(lo, hi, st) for (lo, hi), st in zip(box, steps, strict=True))
+            lead = (slice(None),) if self.samples else ()
+            values = np.asarray(self.levels[level][(*lead, *selection)])
+            if self.samples:
+                values = np.moveaxis(values, 0, -1)
+            return np.ascontiguousarray(values.reshape(shape))
         band, origin = self._band(level, axis, box)
         picks: list[Any] = [None, None, None]
         picks[ni] = np.array([at - origin[ni]])
@@ -185,6 +199,14 @@ class ZarrStack:
             if all(factors[_POSITION[a]] <= limit[a] for a in "zyx"):
                 best = level
         return best
+
+    def _band_bytes(self, level: int, box: list[tuple[int, int]]) -> int:
+        """Bytes of the whole chunks holding `box` at `level`."""
+        array = self.levels[level]
+        size = self.pixel_bytes
+        for (lo, hi), ch, n in zip(box, array.chunks[-3:], array.shape[-3:], strict=True):
+            size *= min(n, -(-hi // ch) * ch) - lo // ch * ch
+        return size
 
     def _band(
         self, level: int, axis: Axis, box: list[tuple[int, int]]

@@ -76,7 +76,6 @@ def test_zoomed_out_slices_are_the_coarser_levels_voxels(small_zarr_build, folde
     rows = range(1, shape[row_axis], 2 * f[row_axis])  # every second level-1 voxel or so
     cols = range(0, shape[col_axis], f[col_axis])
     index = shape[axis] // 2
-    got = folder.stacks[kind].region(axis, index, rows, cols)
     expected = _plane(
         level1,
         axis,
@@ -84,7 +83,16 @@ def test_zoomed_out_slices_are_the_coarser_levels_voxels(small_zarr_build, folde
         [r // f[row_axis] for r in rows],
         [c // f[col_axis] for c in cols],
     )
-    assert np.array_equal(got, expected)
+    assert np.array_equal(folder.stacks[kind].region(axis, index, rows, cols), expected)
+    # with no room for bands, the slice is read alone (zarr's strided selection)
+    alone = ZarrStack(
+        small_zarr_build / "stack.ome.zarr" / GROUPS[kind],
+        folder.grid.shape_zyx,
+        samples=3 if kind == "colour" else 0,
+        cache=BlockCache(budget_bytes=1000),
+    )
+    assert np.array_equal(alone.region(axis, index, rows, cols), expected)
+    assert alone.cache.used_bytes == 0
 
 
 def test_bands_are_kept_within_the_budget(small_zarr_build, truth):
