@@ -41,6 +41,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from pipeline.output import file_summary  # noqa: E402
 from pipeline.viewer import BuildFolder, ViewerServer  # noqa: E402
 
 MODES = {
@@ -140,7 +141,7 @@ def main() -> None:
         "stacks": sorted({type(s).__name__ for s in folder.stacks.values()}),
         "grid_zyx": [n_z, n_y, n_x],
         "voxels": n_z * n_y * n_x,
-        "file_bytes": {name: r["bytes"] for name, r in folder.manifest["files"].items()},
+        "file_bytes": {name: size for name, _, size in file_summary(folder.manifest["files"])},
     }
     result["first_slice"] = {
         "open_seconds": round(opened, 3),
