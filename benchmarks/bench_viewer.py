@@ -2,7 +2,8 @@
 
 Usage (from the repository root, on a finished build)::
 
-    .venv/bin/python benchmarks/bench_viewer.py /tmp/spot100 [--screen 1600x1000]
+    .venv/bin/python benchmarks/bench_viewer.py /tmp/spot100 [--screen 1600x1000] \
+        [--source auto|tiff|zarr] [--out FILE]
 
 The server runs in this process (a thread), and the requests are the page's own: for
 a screen of W x H device pixels, the slice fitted to the screen (every ``step``-th voxel,
@@ -11,6 +12,8 @@ once (colour: layers + colour; depth: layers + depth; ...), timed until the last
 
 - ``first_slice``: from opening the folder (manifest, file sizes, page index of each
   stack) to the first z slice in colour mode, as ``shellvox view`` starts.
+- ``--source``: the TIFF stacks or the OME-Zarr store (``auto``: the store when the build
+  has one, as ``shellvox view`` does).
 - ``cold``: each axis and mode in turn on a server that decodes pages only when asked
   (the first y or x slice through a stack decodes its pages; the next ones read them
   from the cache).
@@ -38,6 +41,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from pipeline.output import file_summary  # noqa: E402
 from pipeline.viewer import BuildFolder, ViewerServer  # noqa: E402
 
 MODES = {
@@ -112,19 +116,21 @@ def main() -> None:
     parser.add_argument("build", type=Path)
     parser.add_argument("--screen", default="1600x1000", help="device pixels W x H")
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/bench_viewer.json")
+    parser.add_argument("--source", choices=("auto", "tiff", "zarr"), default="auto")
     args = parser.parse_args()
     width, height = (int(v) for v in args.screen.split("x"))
     load = os.getloadavg()
     pool = ThreadPoolExecutor(4)
     result: dict[str, object] = {
-        "command": f"benchmarks/bench_viewer.py BUILD --screen {args.screen}",
+        "command": f"benchmarks/bench_viewer.py BUILD --screen {args.screen} "
+        f"--source {args.source}",
         "machine": f"{os.cpu_count()} cores shared with other jobs; load average at start "
         f"{load[0]:.1f}, {load[1]:.1f}, {load[2]:.1f}",
     }
 
     # time to first slice, as `shellvox view` starts: open, index the stacks, z in colour
     started = time.perf_counter()
-    folder = BuildFolder.open(args.build)
+    folder = BuildFolder.open(args.build, source=args.source)
     opened = time.perf_counter() - started
     server, thread = serve(folder, warm=False)
     n_z, n_y, n_x = folder.grid.shape_zyx
@@ -132,9 +138,10 @@ def main() -> None:
     first = view(pool, server.port, "colour", "z", n_z // 2, region)
     result["build"] = {
         "folder": str(args.build),
+        "stacks": sorted({type(s).__name__ for s in folder.stacks.values()}),
         "grid_zyx": [n_z, n_y, n_x],
         "voxels": n_z * n_y * n_x,
-        "file_bytes": {name: r["bytes"] for name, r in folder.manifest["files"].items()},
+        "file_bytes": {name: size for name, _, size in file_summary(folder.manifest["files"])},
     }
     result["first_slice"] = {
         "open_seconds": round(opened, 3),
@@ -166,7 +173,7 @@ def main() -> None:
     thread.join()
 
     # warmed: the server decodes the whole-model pages first (as `shellvox view` does)
-    folder = BuildFolder.open(args.build)
+    folder = BuildFolder.open(args.build, source=args.source)
     started = time.perf_counter()
     server, thread = serve(folder, warm=True)
     assert folder._warming is not None

@@ -107,7 +107,7 @@ class ShellConfig:
 
 
 #: Output formats ``build`` can write (``--format``).
-FORMATS = ("tiff", "vdb", "gcvf", "png")
+FORMATS = ("tiff", "vdb", "gcvf", "png", "zarr")
 
 
 @dataclass(frozen=True)
@@ -188,10 +188,11 @@ class BuildConfig:
     compression_level : int, optional
         zlib level of the TIFFs (1 fast .. 9 small); None (default): the fast
         setting of :mod:`voxel.io._compression` (zlib-ng's level 2).
-    formats : tuple of {"tiff", "vdb", "gcvf", "png"}
+    formats : tuple of {"tiff", "vdb", "gcvf", "png", "zarr"}
         Files to write: ``tiff`` = ``layers.tif``, ``colour.tif`` and ``materials.tif``;
         ``vdb`` = ``volume.vdb``; ``gcvf`` = ``job.gcvf`` (GrabCAD Voxel Print);
-        ``png`` = ``slices/`` (RGBA colour-and-translucency slices).
+        ``png`` = ``slices/`` (RGBA colour-and-translucency slices); ``zarr`` =
+        ``stack.ome.zarr/`` (OME-Zarr 0.5: colour, materials and layers, multiscale).
     material : MaterialSettings or None
         Separation and halftone of the voxels into the printer's materials (None: no
         materials, no ``materials.tif``, job or colour report).

@@ -93,3 +93,18 @@ def small_colour_build(tmp_path_factory):
             "--format", "tiff", "--no-progress"]  # fmt: skip
     assert main(argv) == 0
     return out
+
+
+@pytest.fixture(scope="session")
+def small_zarr_build(tmp_path_factory):
+    """The default model on a coarse grid in slabs of 3 rows, TIFFs and the OME-Zarr store
+    (materials; no colour report). Read-only: a test that changes it copies it first."""
+    from pipeline.cli import main
+
+    out = tmp_path_factory.mktemp("small_zarr_build") / "build"
+    model = Path(__file__).resolve().parents[1] / "data" / "colour_target" / "colour_target.obj"
+    argv = ["build", str(model), "-o", str(out), "--voxel-size", "0.2,0.2,0.15",
+            "--report-samples", "0", "--slab-mb", "2", "--format", "tiff,zarr",
+            "--no-progress"]  # fmt: skip
+    assert main(argv) == 0
+    return out

@@ -38,7 +38,14 @@ from pipeline.config import BuildConfig
 from pipeline.errors import ShellvoxWarning
 from pipeline.faults import DeferredSignals
 from pipeline.model import ColouredMesh
-from pipeline.output import BuildFolder, StackOutputs, Tally, gcvf_slices, stack_manifest
+from pipeline.output import (
+    BuildFolder,
+    StackOutputs,
+    Tally,
+    gcvf_slices,
+    stack_manifest,
+    zarr_shards,
+)
 from pipeline.printer import PrinterProfile, build_material_plan
 from pipeline.run import SLAB_ARRAYS, RunFolder, RunSettings, SlabRunner, material_tally, run_key
 from pipeline.thickness import FaceThickness
@@ -197,7 +204,9 @@ class _Job:
             )
         )
         shell_job.start_beside(stack)
-        outputs = StackOutputs(folder, plan.grid, config, self._profile(), self.materials)
+        outputs = StackOutputs(
+            folder, plan.grid, config, self._profile(), self.materials, slab_rows=plan.rows
+        )
         sampler = None  # the voxels compared with the shell meshes, when there are any
         if shell_job.writes_meshes:
             n_slabs = math.ceil(plan.grid.shape_zyx[0] / plan.rows)
@@ -271,30 +280,35 @@ class _Job:
         return stack_model(self.mesh, self.config, self.plan.depth if by_distance else None, shells)
 
     def _page_encoder(self) -> PageEncoder | None:
-        """Return the slab workers' encoder of TIFF pages and job slices (the writers' own)."""
+        """Return the slab workers' encoder of TIFF pages, job slices and the store's shards."""
         config, profile = self.config, self._profile()
         slices = None
         if profile is not None and self.materials is not None and "gcvf" in config.formats:
             slices = gcvf_slices(profile, self.materials)
         tiff = "tiff" in config.formats
-        if not tiff and slices is None:
+        shards = zarr_shards(self.plan.grid, config, self.plan.rows, profile)
+        if not tiff and slices is None and shards is None:
             return None
         return PageEncoder(
             slices=slices,
             colour_samples=(4 if config.alpha else 3) if tiff else None,
             level=config.compression_level,
             materials_tif=profile is not None,
+            zarr=shards,
         )
 
     def _send(self, sampled: bool) -> tuple[str, ...]:
         """Return the slab arrays this process uses when the workers encode the pages.
 
         ``layers`` for the voxels compared with the shell meshes (`sampled`); ``layers``
-        and ``rgba`` for the PNG slices and for error diffusion (made here); ``layers``,
-        ``rgba`` and ``sdf`` for VDB leaves not encoded where the slab is computed.
+        and ``rgba`` for the PNG slices, the OME-Zarr store and for error diffusion (made
+        here); ``layers``, ``rgba`` and ``sdf`` for VDB leaves not encoded where the slab
+        is computed.
         """
         config, plan = self.config, self.materials
         send = {"layers"} if sampled else set()
+        if "zarr" in config.formats:
+            send |= {"layers", "rgba"}
         if plan is not None and ("png" in config.formats or plan.halftone != "blue-noise"):
             send |= {"layers", "rgba"}
         if config.write_vdb and self._encoder() is None:

@@ -21,7 +21,7 @@ from pipeline.cli.values import parse_lengths, parse_voxel_size
 from pipeline.config import FORMATS, BuildConfig, MaterialSettings
 from pipeline.errors import InputError
 from pipeline.loading import load_model
-from pipeline.output import SHELL_METHODS
+from pipeline.output import SHELL_METHODS, file_summary
 from pipeline.printer import PrinterProfile, load_profile, shipped_profiles
 from pipeline.tray import (
     LayoutMode,
@@ -88,7 +88,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="auto",
         metavar="F1,F2,...",
         help="files to write, among " + ",".join(FORMATS) + " (tiff: layers/colour/materials"
-        ".tif, vdb: volume.vdb, gcvf: job.gcvf, png: slices/); default auto: tiff, vdb and "
+        ".tif, vdb: volume.vdb, gcvf: job.gcvf, png: slices/, zarr: stack.ome.zarr/, OME-Zarr "
+        "with colour, materials and layers and their pyramids); default auto: tiff, vdb and "
         "the printer's job format when the grid is the printer's",
     )
     materials = parser.add_argument_group("materials (separation and halftone)")
@@ -155,7 +156,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="robust",
         help="offset construction of the shells (default robust; see `shellvox shells`)",
     )
-    parser.add_argument("--alpha", action="store_true", help="write colour.tif as RGBA")
+    parser.add_argument(
+        "--alpha",
+        action="store_true",
+        help="write colour.tif (and the OME-Zarr store's colour) as RGBA",
+    )
     parser.add_argument("--no-vdb", action="store_true", help="skip volume.vdb (see --format)")
     parser.add_argument(
         "--slab-mb",
@@ -310,8 +315,9 @@ def _report(out: Path, manifest: dict[str, Any], load_seconds: float) -> None:
     """Print where the files are, the voxel counts, the colour report and the times."""
     shape = " x ".join(str(n) for n in manifest["grid"]["shape_zyx"])
     print(f"{out}: grid {shape} (z, y, x) voxels")
-    for name, record in manifest["files"].items():
-        print(f"  {name}: {record['bytes']:,} bytes")
+    for name, n_files, n_bytes in file_summary(manifest["files"]):
+        files = f"{n_files:,} files, " if name.endswith("/") else ""
+        print(f"  {name}: {files}{n_bytes:,} bytes")
     print(json.dumps(manifest["voxel_counts"]))
     line = report_line(manifest.get("colour_report"))
     if line is not None:

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from pipeline.errors import InputError
-from pipeline.output import OutputFolder, read_manifest, verify_files
+from pipeline.output import OutputFolder, file_summary, read_manifest, verify_files
 from pipeline.report import write_previews
 
 
@@ -34,6 +34,10 @@ def run(args: argparse.Namespace) -> int:
         return 0
     with OutputFolder(folder, outputs=("preview/*.png",), marker=".no-marker") as lock:
         manifest = _verify_and_print(folder)
+        if "layers.tif" not in manifest["files"]:
+            print("no previews: the previews are drawn from the TIFF stacks (--format tiff)")
+            lock.commit([])
+            return 0
         try:
             written = write_previews(folder, manifest)
         except (ValueError, OSError, KeyError, IndexError) as error:
@@ -84,8 +88,9 @@ def summary_rows(manifest: dict[str, Any], folder: Path) -> list[tuple[str, str]
                 f"{layer['voxels']:,} voxels, {volume:,.1f} mm^3",
             )
         )
-    for name, record in manifest["files"].items():
-        rows.append((name, f"{record['bytes']:,} bytes, verified"))
+    for name, n_files, n_bytes in file_summary(manifest["files"]):
+        files = f"{n_files:,} files, " if name.endswith("/") else ""
+        rows.append((name, f"{files}{n_bytes:,} bytes, verified"))
     for name, value in manifest["seconds"].items():
         rows.append((f"seconds {name}", f"{value:.2f}"))
     return rows

@@ -12,7 +12,7 @@
 
 from __future__ import annotations
 
-from pipeline.output._checks import check_files, read_manifest, verify_files
+from pipeline.output._checks import check_files, file_summary, read_manifest, verify_files
 from pipeline.output._folder import BuildFolder
 from pipeline.output._manifest import Tally, stack_manifest
 from pipeline.output._outdir import LOCK_NAME, SHELL_OUTPUTS, OutputFolder, remove_leftovers, sha256
@@ -24,7 +24,7 @@ from pipeline.output._shell_methods import (
     ready_for_file,
 )
 from pipeline.output._shells import read_ply, save_shells, write_shell
-from pipeline.output._streams import StackOutputs, gcvf_slices, gcvf_writer
+from pipeline.output._streams import StackOutputs, gcvf_slices, gcvf_writer, zarr_shards
 
 __all__ = [
     "LOCK_NAME",
@@ -36,6 +36,7 @@ __all__ = [
     "StackOutputs",
     "Tally",
     "check_files",
+    "file_summary",
     "gcvf_slices",
     "gcvf_writer",
     "method_shells",
@@ -51,4 +52,5 @@ __all__ = [
     "write_ply",
     "write_shell",
     "write_thickness_ply",
+    "zarr_shards",
 ]

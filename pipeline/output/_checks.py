@@ -17,8 +17,10 @@ from typing import Any
 from pipeline.errors import InputError
 from pipeline.output._outdir import sha256
 
-#: The stacks every build writes: a manifest must list (and so verify) them.
+#: The stacks every build writes, as TIFFs or in the OME-Zarr store: a manifest must list
+#: (and so verify) one or the other.
 STACK_FILES = ("layers.tif", "colour.tif")
+ZARR_ROOT = "stack.ome.zarr/zarr.json"
 
 
 def read_manifest(folder: Path) -> dict[str, Any]:
@@ -48,7 +50,7 @@ def read_manifest(folder: Path) -> dict[str, Any]:
     }
     problems = [f"grid {key} is {grid.get(key)!r}" for key, ok in valid.items() if not ok]
     missing = [name for name in STACK_FILES if name not in manifest["files"]]
-    if missing:
+    if missing and ZARR_ROOT not in manifest["files"]:
         problems.append(f"it does not list {' and '.join(missing)}")
     if problems:
         raise InputError(path, f"is not a valid build manifest: {'; '.join(problems)}", fix)
@@ -102,3 +104,26 @@ def verify_files(folder: Path, manifest: dict[str, Any]) -> None:
             raise InputError(
                 folder / name, "differs from what the build wrote (SHA-256 mismatch)", fix
             )
+
+
+def file_summary(files: dict[str, Any]) -> list[tuple[str, int, int]]:
+    """Return ``(name, files, bytes)`` per listed file, a Zarr store's files as one row.
+
+    A store (``NAME.zarr/...``) is named by its folder (``NAME.zarr/``), after the files.
+
+    Examples
+    --------
+    >>> file_summary(
+    ...     {"a.tif": {"bytes": 3}, "s.zarr/zarr.json": {"bytes": 2}, "s.zarr/0/c/0": {"bytes": 5}}
+    ... )
+    [('a.tif', 1, 3), ('s.zarr/', 2, 7)]
+    """
+    rows: list[tuple[str, int, int]] = []
+    stores: dict[str, list[int]] = {}
+    for name, record in files.items():
+        top, _, rest = name.partition("/")
+        if top.endswith(".zarr") and rest:
+            stores.setdefault(top + "/", []).append(int(record["bytes"]))
+        else:
+            rows.append((name, 1, int(record["bytes"])))
+    return rows + [(name, len(sizes), sum(sizes)) for name, sizes in stores.items()]

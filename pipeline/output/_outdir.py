@@ -53,6 +53,8 @@ BUILD_OUTPUTS = (
     "shells/shell_*.ply",
     "preview/*.png",
     "slices/*",
+    "stack.ome.zarr/*",
+    "stack.ome.zarr/**/*",
 )
 
 #: Names of what ``shells`` writes.
@@ -134,9 +136,10 @@ class OutputFolder:
         for path in old:
             if path.resolve() not in keep and path.name != self.marker:
                 path.unlink(missing_ok=True)
-        # the folders the old outputs were in (shells/, preview/), deepest first
+        # the folders the old outputs were in (shells/, preview/, the OME-Zarr store's
+        # nested ones), deepest first
         root = self.path.resolve()
-        folders = {p.parent.resolve() for p in old}
+        folders = {f for p in old for f in p.resolve().parents if root in f.parents}
         for folder in sorted(folders, key=lambda p: len(p.parts), reverse=True):
             if root in folder.parents:
                 with contextlib.suppress(OSError):

@@ -1,11 +1,11 @@
 """The build's streaming writers: every output file, fed one slab at a time.
 
 ``layers.tif``, ``colour.tif`` and ``materials.tif`` (ImageJ stacks), ``volume.vdb``
-(density, layer, color, sdf and material grids), ``job.gcvf`` (GrabCAD Voxel Print) and
-``slices/`` (RGBA colour-and-translucency PNGs), as ``BuildConfig.formats``
-chooses. Each file is written under a temporary name of the build's folder
-(:meth:`pipeline.output._folder.BuildFolder.temporary`) and appears only when the whole build
-succeeded; the writers only serialise.
+(density, layer, color, sdf and material grids), ``job.gcvf`` (GrabCAD Voxel Print),
+``slices/`` (RGBA colour-and-translucency PNGs) and ``stack.ome.zarr/`` (OME-Zarr: colour,
+materials and layers), as ``BuildConfig.formats`` chooses. Each file is written under a
+temporary name of the build's folder (:meth:`pipeline.output._folder.BuildFolder.temporary`)
+and appears only when the whole build succeeded; the writers only serialise.
 """
 
 from __future__ import annotations
@@ -24,11 +24,16 @@ from pipeline.printer import PrinterProfile
 from voxel.colour import MaterialPlan
 from voxel.grid import GridSpec
 from voxel.io import (
+    BAND_RGB,
+    CORE_RGB,
     RGBA,
     GcvfJobError,
     GcvfWriter,
     KeySlices,
+    LabelValue,
+    OmeZarrWriter,
     PngSliceWriter,
+    ShardEncoder,
     TiffStackWriter,
     key_rgba,
     material_table,
@@ -53,7 +58,12 @@ class StackOutputs:
         Materials (names, keys, display colours); None: no material outputs.
     plan : MaterialPlan or None
         Which material indices the voxels may hold (with `profile`).
+    slab_rows : int, optional
+        Rows of the slabs (the OME-Zarr store's shards); default the whole grid.
     """
+
+    #: The OME-Zarr store's folder name.
+    ZARR_NAME = "stack.ome.zarr"
 
     def __init__(
         self,
@@ -62,6 +72,8 @@ class StackOutputs:
         config: BuildConfig,
         profile: PrinterProfile | None,
         plan: MaterialPlan | None,
+        *,
+        slab_rows: int | None = None,
     ) -> None:
         self.folder = folder
         self.grid = grid
@@ -106,6 +118,18 @@ class StackOutputs:
                         metadata={"creator": f"shellvox {__version__}", "printer": profile.name},
                     )
                 )
+        self.zarr: OmeZarrWriter | None = None
+        if "zarr" in formats:
+            labels = zarr_labels(config, profile if with_materials else None)
+            self.zarr = stack.enter_context(
+                OmeZarrWriter(
+                    folder.path / self.ZARR_NAME,
+                    grid,
+                    samples=self.samples,
+                    slab_rows=slab_rows or grid.shape_zyx[0],
+                    labels=labels,
+                )
+            )
 
     def _tiff(self, name: str, samples: int, level: int | None) -> TiffStackWriter:
         path = self.folder.temporary(name)
@@ -160,6 +184,12 @@ class StackOutputs:
             self.gcvf.write_slab(materials)
         if self.png is not None and materials is not None:
             self.png.write_slab(self.colour_slices(slab, materials))
+        if self.zarr is not None:
+            labels = {"layers": slab.layers}
+            if materials is not None and "materials" in self.zarr.label_names:
+                labels["materials"] = materials
+            shards = pages.get(self.ZARR_NAME)
+            self.zarr.write_slab(slab.rgba, self._is_colour[slab.layers], labels, shards)
 
     def colour_slices(self, slab: SlabResult, materials: NDArray[np.uint8]) -> NDArray[np.uint8]:
         """Return the RGBA ``(Zs, Y, X, 4) uint8`` of a slab for colour-slice printers.
@@ -206,7 +236,62 @@ class StackOutputs:
             slices = self.folder.path / "slices"
             self.folder.add(sorted(p for p in slices.iterdir() if p.is_file()))
             summary["png_slices"] = {"folder": "slices", "files": len(list(slices.iterdir()))}
+        if self.zarr is not None:
+            files = self.zarr.close()
+            self.folder.add(files)
+            summary["zarr"] = {
+                "folder": self.ZARR_NAME,
+                "ngff": "0.5",
+                "files": len(files),
+                "levels": 1 + len(self.zarr.factors),
+                "level_factors_zyx": [list(f) for f in self.zarr.factors],
+                "labels": list(self.zarr.label_names),
+                "samples": self.samples,
+            }
         return summary
+
+
+def zarr_labels(config: BuildConfig, profile: PrinterProfile | None) -> dict[str, list[LabelValue]]:
+    """Return the store's label images and their values: materials (with `profile`), layers."""
+    labels = {"layers": _layer_labels(config)}
+    if profile is not None:
+        labels = {"materials": _material_labels(profile), **labels}
+    return labels
+
+
+def zarr_shards(
+    grid: GridSpec, config: BuildConfig, slab_rows: int, profile: PrinterProfile | None
+) -> ShardEncoder | None:
+    """Return the slab workers' encoder of the store's level-0 shards (None: no store).
+
+    The same arrays as :class:`StackOutputs` makes with `slab_rows` (and `profile` when the
+    voxels have materials).
+    """
+    if "zarr" not in config.formats:
+        return None
+    labels = tuple(zarr_labels(config, profile))
+    return ShardEncoder(grid.shape_zyx, 4 if config.alpha else 3, slab_rows, labels)
+
+
+def _material_labels(profile: PrinterProfile) -> list[LabelValue]:
+    """Return every material (not void) of `profile` as a label value: display colour, name."""
+    return [
+        LabelValue(m.index, (*m.display_srgb, 255), {"name": m.name, "role": m.role})
+        for m in profile.materials[1:]
+    ]
+
+
+def _layer_labels(config: BuildConfig) -> list[LabelValue]:
+    """Return the layers (outside, bands, core) as label values, named as in the manifest."""
+    n_bands = len(config.thickness_mm)
+    values = [LabelValue(0, (255, 255, 255, 0), {"name": "outside", "colour": False})]
+    for k in range(1, n_bands + 1):
+        colour = k in config.colour_layers
+        rgb = BAND_RGB[(k - 1) % len(BAND_RGB)]
+        name = f"{'colour' if colour else 'backing'}_{k}"
+        values.append(LabelValue(k, (*rgb, 255), {"name": name, "colour": colour}))
+    values.append(LabelValue(n_bands + 1, (*CORE_RGB, 255), {"name": "core", "colour": False}))
+    return values
 
 
 def _gcvf_table(profile: PrinterProfile, plan: MaterialPlan) -> list[tuple[int, str, RGBA]]:

@@ -92,7 +92,9 @@ def stack_slab(
     materials = tally = None
     if plan is not None:
         if plan.halftone != "blue-noise":
-            encoded_pages = None if pages is None else pages.encode(slab.layers, slab.rgba, None)
+            encoded_pages = (
+                None if pages is None else pages.encode(slab.layers, slab.rgba, None, z_start)
+            )
             return StackSlab(slab, None, pages=encoded_pages)
         materials = materials_for_slab(slab.layers, slab.rgba, z_start, plan).materials
         tally = material_tally(slab.layers, materials, plan.core_layer + 1)
@@ -103,7 +105,9 @@ def stack_slab(
         encoded = vdb.encode(
             z_start, slab.layers, slab.rgba[..., :3], is_colour[slab.layers], slab.sdf, materials
         )
-    encoded_pages = None if pages is None else pages.encode(slab.layers, slab.rgba, materials)
+    encoded_pages = (
+        None if pages is None else pages.encode(slab.layers, slab.rgba, materials, z_start)
+    )
     return StackSlab(slab, materials, tally, encoded, encoded_pages)
 
 

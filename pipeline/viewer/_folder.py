@@ -3,8 +3,10 @@
 Opening checks that the folder is a complete build: a valid ``manifest.json``, and
 every file it lists present, inside the folder (after symbolic links) and of the size
 the build recorded (``shellvox inspect`` also compares checksums, which reads every
-byte: too slow to wait for before a 5 G-voxel build opens). The stacks are then indexed
-and kept open (:class:`~pipeline.viewer._stacks.TiffStack`). Every failure is one
+byte: too slow to wait for before a 5 G-voxel build opens). The stacks are then opened:
+from the OME-Zarr store when the build has one
+(:class:`~pipeline.viewer._zarr_stacks.ZarrStack`), else the TIFF stacks, indexed and kept
+open (:class:`~pipeline.viewer._stacks.TiffStack`). Every failure is one
 :class:`~pipeline.errors.InputError` line.
 
 Only the files named here can ever be read: the stacks, ``thickness.ply`` and
@@ -17,7 +19,7 @@ import math
 import threading
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +28,7 @@ from pipeline.errors import InputError
 from pipeline.output import check_files, read_manifest
 from pipeline.viewer._depth import Surface
 from pipeline.viewer._stacks import StackError, SymbolCache, TiffStack
+from pipeline.viewer._zarr_stacks import BlockCache, ZarrStack
 from voxel.grid import GridSpec
 
 #: The stacks the viewer reads: name -> (file, samples). materials.tif is optional.
@@ -34,6 +37,14 @@ STACKS = {
     "colour": ("colour.tif", 3),
     "materials": ("materials.tif", 0),
 }
+
+#: The OME-Zarr store's images: name -> (group in the store, colour).
+ZARR_IMAGES = {"layers": ("labels/layers", False), "colour": (".", True),
+               "materials": ("labels/materials", False)}  # fmt: skip
+ZARR_STORE = "stack.ome.zarr"
+
+#: Where the stacks are read: the store when the build has one ("auto"), or as named.
+Source = Literal["auto", "tiff", "zarr"]
 
 #: Files the viewer hands out as they are (``/files/NAME``), when the build has them.
 SERVED_FILES = ("manifest.json", "thickness.ply")
@@ -67,7 +78,7 @@ class BuildFolder:
         root: Path,
         manifest: dict[str, Any],
         grid: GridSpec,
-        stacks: dict[str, TiffStack],
+        stacks: dict[str, TiffStack | ZarrStack],
         surface: Surface | None,
         files: dict[str, Path],
     ) -> None:
@@ -99,8 +110,12 @@ class BuildFolder:
         )
 
     @classmethod
-    def open(cls, folder: Path) -> BuildFolder:
-        """Open the build in ``folder``; raise InputError when it is not a complete build."""
+    def open(cls, folder: Path, *, source: Source = "auto") -> BuildFolder:
+        """Open the build in ``folder``; raise InputError when it is not a complete build.
+
+        `source`: read the stacks from the OME-Zarr store (``"zarr"``; ``"auto"`` when the
+        build has one) or the TIFF stacks (``"tiff"``).
+        """
         folder = Path(folder)
         fix = f"give the -o DIR of a finished shellvox build, or rebuild with -o {folder}"
         if not folder.is_dir():
@@ -133,17 +148,12 @@ class BuildFolder:
         listed = manifest["files"]
         files = {"manifest.json": (folder / "manifest.json").resolve()}
         files.update({name: (folder / name).resolve() for name in SERVED_FILES if name in listed})
-        stacks: dict[str, TiffStack] = {}
-        cache = SymbolCache()  # one memory budget for the build's stacks
+        stacks: dict[str, TiffStack | ZarrStack] = {}
         try:
-            for key, (name, samples) in STACKS.items():
-                if name not in listed:
-                    continue
-                if key == "colour":
-                    samples = int(manifest.get("tiff", {}).get(name, {}).get("samples", 3))
-                stacks[key] = TiffStack(
-                    (folder / name).resolve(), grid.shape_zyx, samples=samples, cache=cache
-                )
+            if source == "zarr" or (source == "auto" and f"{ZARR_STORE}/zarr.json" in listed):
+                stacks.update(_zarr_stacks(folder, manifest, grid))
+            else:
+                stacks.update(_tiff_stacks(folder, manifest, grid))
         except StackError as error:
             for stack in stacks.values():
                 stack.close()
@@ -227,3 +237,41 @@ class BuildFolder:
             "thickness_range_mm": self._range("thickness_per_face_mm", colour_only=True),
             "files": sorted(self.files),
         }
+
+
+def _tiff_stacks(folder: Path, manifest: dict[str, Any], grid: GridSpec) -> dict[str, TiffStack]:
+    """Open the build's TIFF stacks (one decoded-page budget for them all)."""
+    stacks: dict[str, TiffStack] = {}
+    cache = SymbolCache()
+    try:
+        for key, (name, samples) in STACKS.items():
+            if name not in manifest["files"]:
+                continue
+            if key == "colour":
+                samples = int(manifest.get("tiff", {}).get(name, {}).get("samples", 3))
+            stacks[key] = TiffStack(
+                (folder / name).resolve(), grid.shape_zyx, samples=samples, cache=cache
+            )
+    except StackError:
+        for stack in stacks.values():
+            stack.close()
+        raise
+    return stacks
+
+
+def _zarr_stacks(folder: Path, manifest: dict[str, Any], grid: GridSpec) -> dict[str, ZarrStack]:
+    """Open the images of the build's OME-Zarr store (one band budget for them all)."""
+    listed = manifest["files"]
+    if f"{ZARR_STORE}/zarr.json" not in listed:
+        raise StackError(f"{folder}: the build has no {ZARR_STORE}")
+    store = (folder / ZARR_STORE).resolve()
+    cache = BlockCache()
+    samples = int(manifest.get("zarr", {}).get("samples", 3))
+    stacks = {}
+    for key, (group, colour) in ZARR_IMAGES.items():
+        if f"{ZARR_STORE}/{group}/zarr.json".replace("/./", "/") not in listed:
+            continue
+        stacks[key] = ZarrStack(
+            store / group, grid.shape_zyx, samples=samples if colour else 0, cache=cache
+        )
+    return stacks

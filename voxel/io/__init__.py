@@ -9,6 +9,9 @@ These modules import only :mod:`voxel.grid`, :mod:`voxel.colour._srgb` and each 
   :mod:`~voxel.io._png_slices` PNG slices; :mod:`~voxel.io._gcvf_job`,
   :mod:`~voxel.io._gcvf_writer` GrabCAD Voxel Print jobs; :mod:`~voxel.io._slab_thread` the
   writer thread they share;
+- :mod:`~voxel.io._zarr_writer` the OME-Zarr store (with ``zarr``), its metadata
+  :mod:`~voxel.io._ome_metadata`, its levels :mod:`~voxel.io._pyramid` and its level-0
+  shards encoded where a slab is computed :mod:`~voxel.io._zarr_shards`;
 - :mod:`voxel.io.vdb` ``volume.vdb`` without OpenVDB; :mod:`~voxel.io._preview` section
   pictures and the depth histogram.
 """
@@ -19,6 +22,7 @@ from voxel.io._compression import check_level, compress, compressobj
 from voxel.io._deflate import pixel_bytes, zlib_compress
 from voxel.io._gcvf_job import RGBA, GcvfJobError, key_rgba, material_table
 from voxel.io._gcvf_writer import GcvfWriter, KeySlices
+from voxel.io._ome_metadata import LabelValue
 from voxel.io._png_encode import encode_png
 from voxel.io._png_slices import SIDECAR_NAME, PngSliceWriter
 from voxel.io._preview import (
@@ -32,8 +36,11 @@ from voxel.io._preview import (
     outer_views_image,
     section_pair_image,
 )
+from voxel.io._pyramid import downsample_colour, downsample_labels, level_factors
 from voxel.io._tiff_pages import PageEncoder
 from voxel.io._tiff_writer import TiffStackWriter
+from voxel.io._zarr_shards import ShardEncoder
+from voxel.io._zarr_writer import OmeZarrWriter
 
 __all__ = [
     "BAND_RGB",
@@ -45,17 +52,23 @@ __all__ = [
     "GcvfJobError",
     "GcvfWriter",
     "KeySlices",
+    "LabelValue",
+    "OmeZarrWriter",
     "PageEncoder",
     "PngSliceWriter",
+    "ShardEncoder",
     "TiffStackWriter",
     "boundary_depths",
     "check_level",
     "compress",
     "compressobj",
+    "downsample_colour",
+    "downsample_labels",
     "encode_png",
     "halftone_image",
     "histogram_image",
     "key_rgba",
+    "level_factors",
     "material_table",
     "outer_views_image",
     "pixel_bytes",

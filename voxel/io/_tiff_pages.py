@@ -5,7 +5,8 @@ thread, and :class:`voxel.io._gcvf_writer.GcvfWriter` encodes each slice's PNG i
 in the process that writes the files. A build's slab workers can do the same work beside
 the numerics (:class:`PageEncoder`) and hand over the bytes, which the writers then store
 as they are: the bytes are those :func:`compress_page` and
-:meth:`voxel.io._gcvf_writer.KeySlices.encode` give either way, so the files are the same.
+:meth:`voxel.io._gcvf_writer.KeySlices.encode` give either way, so the files are the same
+(and the OME-Zarr store's level-0 shards, :mod:`voxel.io._zarr_shards`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from numpy.typing import NDArray
 from voxel.io._compression import compress
 from voxel.io._deflate import pixel_bytes
 from voxel.io._gcvf_writer import KeySlices
+from voxel.io._zarr_shards import ShardEncoder
 
 
 def compress_page(page: NDArray[np.uint8], level: int | None) -> bytes:
@@ -47,18 +49,23 @@ class PageEncoder:
         The build writes ``materials.tif`` (with the same level).
     slices : KeySlices, optional
         The printer job's slice encoder (``job.gcvf``), when the build writes one.
+    zarr : ShardEncoder, optional
+        The OME-Zarr store's level-0 shards (``stack.ome.zarr``: ``[key, data, ...]``),
+        when the build writes the store.
     """
 
     colour_samples: int | None
     level: int | None
     materials_tif: bool
     slices: KeySlices | None = None
+    zarr: ShardEncoder | None = None
 
     def encode(
         self,
         layers: NDArray[np.uint8],
         rgba: NDArray[np.uint8],
         materials: NDArray[np.uint8] | None,
+        z_start: int = 0,
     ) -> dict[str, list[bytes]]:
         """Return each stack's compressed pages of a slab, by file name.
 
@@ -68,6 +75,8 @@ class PageEncoder:
         rgba : (Zs, Y, X, 4) uint8
         materials : (Zs, Y, X) uint8, optional
             Given when the materials are known here (``materials.tif`` then included).
+        z_start : int
+            The slab's first row (where its shards of the store go).
         """
         samples = self.colour_samples
         pages: dict[str, list[bytes]] = {}
@@ -78,4 +87,9 @@ class PageEncoder:
             pages["materials.tif"] = [compress_page(page, self.level) for page in materials]
         if materials is not None and self.slices is not None:
             pages["job.gcvf"] = [self.slices.encode(plane) for plane in materials]
+        zarr = self.zarr
+        if zarr is not None and (materials is not None or "materials" not in zarr.label_names):
+            labels = {"layers": layers, "materials": materials}
+            chosen = {name: labels[name] for name in zarr.label_names}
+            pages["stack.ome.zarr"] = zarr.encode(z_start, rgba, chosen)  # type: ignore[arg-type]
         return pages

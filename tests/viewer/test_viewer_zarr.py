@@ -1,0 +1,125 @@
+"""The viewer on a build's OME-Zarr store: the same slices as the TIFF stacks (issue 26).
+
+Independent truth: the TIFF stacks read back by tifffile (at one voxel per pixel), and the
+store's pyramid levels read with ``zarr`` alone (a zoomed-out region is the level's voxels
+holding the asked-for ones).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+import tifffile
+import zarr
+
+from pipeline.viewer import BuildFolder
+from pipeline.viewer._slices import probe
+from pipeline.viewer._zarr_stacks import BlockCache, ZarrStack
+
+PLANE = {"z": ("y", "x"), "y": ("z", "x"), "x": ("z", "y")}
+KINDS = {"layers": "layers.tif", "colour": "colour.tif", "materials": "materials.tif"}
+GROUPS = {"layers": "labels/layers", "colour": "", "materials": "labels/materials"}
+
+
+@pytest.fixture(scope="module")
+def truth(small_zarr_build):
+    return {kind: tifffile.imread(small_zarr_build / name) for kind, name in KINDS.items()}
+
+
+@pytest.fixture(scope="module")
+def folder(small_zarr_build):
+    with BuildFolder.open(small_zarr_build) as opened:
+        yield opened
+
+
+def _plane(volume, axis, index, rows, cols):
+    plane = volume[(slice(None),) * "zyx".index(axis) + (index,)]
+    return plane[np.ix_(list(rows), list(cols))]
+
+
+def test_a_build_with_the_store_is_read_from_it(folder):
+    assert all(isinstance(stack, ZarrStack) for stack in folder.stacks.values())
+    assert sorted(folder.stacks) == ["colour", "layers", "materials"]
+    assert folder.describe()["colour_samples"] == 3
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+@pytest.mark.parametrize("axis", ["z", "y", "x"])
+def test_slices_at_one_voxel_a_pixel_are_the_tiff_stacks(folder, truth, kind, axis):
+    shape = dict(zip("zyx", folder.grid.shape_zyx, strict=True))
+    row_axis, col_axis = PLANE[axis]
+    for index in (0, shape[axis] // 2, shape[axis] - 1):
+        for rows, cols in (
+            (range(shape[row_axis]), range(shape[col_axis])),
+            (range(3, shape[row_axis] - 1), range(10, 20)),
+        ):
+            got = folder.stacks[kind].region(axis, index, rows, cols)
+            assert np.array_equal(got, _plane(truth[kind], axis, index, rows, cols))
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+@pytest.mark.parametrize("axis", ["z", "y", "x"])
+def test_zoomed_out_slices_are_the_coarser_levels_voxels(small_zarr_build, folder, kind, axis):
+    root = zarr.open_group(small_zarr_build / "stack.ome.zarr", mode="r")
+    group = root[GROUPS[kind]] if GROUPS[kind] else root
+    level1 = group["1"][:]
+    if kind == "colour":
+        level1 = np.moveaxis(level1, 0, -1)
+    factors = json.loads((small_zarr_build / "manifest.json").read_text())["zarr"]
+    fz, fy, fx = factors["level_factors_zyx"][0]
+    f = dict(zip("zyx", (fz, fy, fx), strict=True))
+    shape = dict(zip("zyx", folder.grid.shape_zyx, strict=True))
+    row_axis, col_axis = PLANE[axis]
+    rows = range(1, shape[row_axis], 2 * f[row_axis])  # every second level-1 voxel or so
+    cols = range(0, shape[col_axis], f[col_axis])
+    index = shape[axis] // 2
+    expected = _plane(
+        level1,
+        axis,
+        index // f[axis],
+        [r // f[row_axis] for r in rows],
+        [c // f[col_axis] for c in cols],
+    )
+    assert np.array_equal(folder.stacks[kind].region(axis, index, rows, cols), expected)
+    # with no room for bands, the slice is read alone (zarr's strided selection)
+    alone = ZarrStack(
+        small_zarr_build / "stack.ome.zarr" / GROUPS[kind],
+        folder.grid.shape_zyx,
+        samples=3 if kind == "colour" else 0,
+        cache=BlockCache(budget_bytes=1000),
+    )
+    assert np.array_equal(alone.region(axis, index, rows, cols), expected)
+    assert alone.cache.used_bytes == 0
+
+
+def test_bands_are_kept_within_the_budget(small_zarr_build, truth):
+    cache = BlockCache(budget_bytes=40_000)
+    shape = truth["layers"].shape
+    stack = ZarrStack(small_zarr_build / "stack.ome.zarr/labels/layers", shape, samples=0,
+                      cache=cache)  # fmt: skip
+    for index in range(0, shape[1], 7):
+        got = stack.region("y", index, range(shape[0]), range(shape[2]))
+        assert np.array_equal(got, truth["layers"][:, index])
+        assert cache.used_bytes <= max(cache.budget_bytes, got.size * 64)
+    again = stack.region("y", 0, range(shape[0]), range(shape[2]))
+    assert np.array_equal(again, truth["layers"][:, 0])
+
+
+def test_a_build_with_only_the_store_opens_and_reads_out_voxels(small_zarr_build, tmp_path, truth):
+    folder = tmp_path / "build"
+    shutil.copytree(small_zarr_build, folder)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    for name in KINDS.values():
+        (folder / name).unlink()
+        del manifest["files"][name]
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    z, y, x = (n // 2 for n in truth["layers"].shape)
+    with BuildFolder.open(folder) as opened:
+        result = probe(opened, z, y, x)
+    assert result["layer"]["index"] == truth["layers"][z, y, x]
+    assert result["material"]["index"] == truth["materials"][z, y, x]
+    with BuildFolder.open(small_zarr_build, source="tiff") as tiff:
+        assert probe(tiff, z, y, x) == result

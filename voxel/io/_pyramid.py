@@ -1,0 +1,213 @@
+"""The multiscale pyramid of a stack: factors per level, mode of labels, mean of colour.
+
+Level ``k + 1`` halves the axes of level ``k`` whose voxels are finest (:func:`level_factors`):
+an axis is halved when its doubled voxel is at most ``sqrt(2)`` times the coarsest voxel of
+the level, and every axis when none is; so the J750's ``27 x 85 x 42 um`` voxels (z, y, x)
+become ``54 x 85 x 85``, then ``108 x 85 x 85``, then double on all axes. Levels are added
+while an axis is longer than ``min_extent`` voxels.
+
+A block of level ``k`` (``fz x fy x fx`` voxels, fewer at the far edges) gives one voxel of
+level ``k + 1``:
+
+- labels (layers, materials): the most frequent value of the block, ties to the smallest
+  (as :func:`scipy.stats.mode`);
+- colour: the mean, in linear light, of the block's colour voxels weighted by how many
+  colour-layer voxels of level 0 each stands for (:data:`voxel.colour._srgb.DECODE_LUT_F32`
+  decodes, :func:`voxel.colour._srgb.linear_to_srgb` encodes); alpha is averaged as it is;
+  0 where the block has no colour voxel.
+
+Both kernels are compiled and release the GIL (the writer thread runs them beside the slabs).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from voxel.colour._srgb import DECODE_LUT_F32, linear_to_srgb
+
+Factors = tuple[int, int, int]
+
+
+def level_factors(
+    voxel_zyx: Sequence[float], shape_zyx: Sequence[int], *, min_extent: int = 64
+) -> list[Factors]:
+    """Return the ``(fz, fy, fx)`` factor of each level after the first (see the module).
+
+    Parameters
+    ----------
+    voxel_zyx : (3,) float, mm
+        Voxel size of level 0, ``(z, y, x)``.
+    shape_zyx : (3,) int
+        Voxels of level 0.
+    min_extent : int
+        Levels are added while an axis of the last one has more voxels than this.
+
+    Examples
+    --------
+    >>> level_factors((0.027, 0.0847, 0.0423), (261, 202, 592))
+    [(2, 1, 2), (2, 1, 1), (2, 2, 2), (2, 2, 2), (2, 2, 2)]
+    >>> level_factors((0.1, 0.1, 0.1), (10, 64, 64))
+    []
+    """
+    size = [float(v) for v in voxel_zyx]
+    shape = [int(n) for n in shape_zyx]
+    factors: list[Factors] = []
+    while max(shape) > min_extent and len(factors) < 16:
+        movable = [a for a in range(3) if shape[a] > 1]
+        coarse = max(size[a] for a in movable)
+        halve = [a for a in movable if 2 * size[a] <= math.sqrt(2) * coarse] or movable
+        step = tuple(2 if a in halve else 1 for a in range(3))
+        factors.append((step[0], step[1], step[2]))
+        size = [s * f for s, f in zip(size, step, strict=True)]
+        shape = [-(-n // f) for n, f in zip(shape, step, strict=True)]
+    return factors
+
+
+def downsample_labels(labels: NDArray[np.uint8], factors: Factors) -> NDArray[np.uint8]:
+    """Return the mode of every ``fz x fy x fx`` block of `labels`, ties to the smallest.
+
+    Parameters
+    ----------
+    labels : (Z, Y, X) uint8
+    factors : (3,) int
+        Block size ``(fz, fy, fx)``; blocks at the far edges hold what is left.
+
+    Returns
+    -------
+    (ceil(Z / fz), ceil(Y / fy), ceil(X / fx)) uint8
+
+    Examples
+    --------
+    >>> downsample_labels(np.array([[[1, 2, 2, 0]]], np.uint8), (1, 1, 2)).tolist()
+    [[[1, 0]]]
+    """
+    labels = np.ascontiguousarray(labels, dtype=np.uint8)
+    out = np.empty(_shape(labels.shape, factors), dtype=np.uint8)
+    _mode_kernel(labels, factors[0], factors[1], factors[2], out)
+    return out
+
+
+def downsample_colour(
+    colour: NDArray[np.uint8], weight: NDArray[np.uint8] | NDArray[np.float32], factors: Factors
+) -> tuple[NDArray[np.uint8], NDArray[np.float32]]:
+    """Return the weighted mean in linear light of every block of `colour`, and its weight.
+
+    Parameters
+    ----------
+    colour : (C, Z, Y, X) uint8
+        sRGB codes (``C = 3``) and straight alpha (``C = 4``).
+    weight : (Z, Y, X) uint8 or float32
+        Colour-layer voxels of level 0 each voxel stands for (0: no colour there; level 0
+        itself: 1 in the colour layers).
+    factors : (3,) int
+        Block size ``(fz, fy, fx)``.
+
+    Returns
+    -------
+    colour : (C, Zk, Yk, Xk) uint8
+        0 where a block has no weight.
+    weight : (Zk, Yk, Xk) float32
+        The blocks' total weight.
+    """
+    colour = np.ascontiguousarray(colour, dtype=np.uint8)
+    weight = np.ascontiguousarray(weight)  # type: ignore[assignment]
+    shape = _shape(weight.shape, factors)
+    linear = np.empty((len(colour), *shape), dtype=np.float32)
+    total = np.empty(shape, dtype=np.float32)
+    _mean_kernel(colour, weight, DECODE_LUT_F32, factors[0], factors[1], factors[2], linear, total)
+    out = np.zeros(linear.shape, dtype=np.uint8)
+    for z in range(shape[0]):  # one output row at a time, its colour voxels only
+        where = total[z] > 0
+        values = linear[:, z][:, where]
+        encoded = np.empty(values.shape, dtype=np.float64)
+        encoded[:3] = linear_to_srgb(values[:3])
+        encoded[3:] = np.clip(values[3:], 0.0, 1.0)
+        out[:, z][:, where] = np.rint(encoded * 255.0)
+    return out, total
+
+
+def _shape(shape: Sequence[int], factors: Factors) -> tuple[int, int, int]:
+    z, y, x = (-(-int(n) // f) for n, f in zip(shape, factors, strict=True))
+    return z, y, x
+
+
+@numba.njit(cache=True, nogil=True)
+def _mode_kernel(
+    labels: NDArray[np.uint8], fz: int, fy: int, fx: int, out: NDArray[np.uint8]
+) -> None:  # pragma: no cover - compiled
+    n_z, n_y, n_x = labels.shape
+    values = np.empty(fz * fy * fx, dtype=np.uint8)
+    for oz in range(out.shape[0]):
+        z0, z1 = oz * fz, min(n_z, oz * fz + fz)
+        for oy in range(out.shape[1]):
+            y0, y1 = oy * fy, min(n_y, oy * fy + fy)
+            for ox in range(out.shape[2]):
+                x0, x1 = ox * fx, min(n_x, ox * fx + fx)
+                first = labels[z0, y0, x0]
+                uniform = True
+                for z in range(z0, z1):  # most blocks hold one value: no counting
+                    for y in range(y0, y1):
+                        for x in range(x0, x1):
+                            if labels[z, y, x] != first:
+                                uniform = False
+                if uniform:
+                    out[oz, oy, ox] = first
+                    continue
+                n = 0
+                for z in range(z0, z1):
+                    for y in range(y0, y1):
+                        for x in range(x0, x1):
+                            values[n] = labels[z, y, x]
+                            n += 1
+                best, best_count = values[0], 0
+                for i in range(n):
+                    count = 0
+                    for j in range(n):
+                        if values[j] == values[i]:
+                            count += 1
+                    if count > best_count or (count == best_count and values[i] < best):
+                        best, best_count = values[i], count
+                out[oz, oy, ox] = best
+
+
+@numba.njit(cache=True, nogil=True)
+def _mean_kernel(
+    colour: NDArray[np.uint8],
+    weight: NDArray[np.uint8] | NDArray[np.float32],
+    lut: NDArray[np.float32],
+    fz: int,
+    fy: int,
+    fx: int,
+    linear: NDArray[np.float32],
+    total: NDArray[np.float32],
+) -> None:  # pragma: no cover - compiled
+    n_c = colour.shape[0]
+    n_z, n_y, n_x = weight.shape
+    linear[:] = 0.0
+    total[:] = 0.0
+    for z in range(n_z):  # the voxels in order, each added to its block
+        oz = z // fz
+        for y in range(n_y):
+            oy = y // fy
+            for x in range(n_x):
+                w = np.float32(weight[z, y, x])
+                if w == 0:
+                    continue
+                ox = x // fx
+                total[oz, oy, ox] += w
+                for c in range(min(n_c, 3)):
+                    linear[c, oz, oy, ox] += w * lut[colour[c, z, y, x]]
+                if n_c == 4:
+                    linear[3, oz, oy, ox] += w * np.float32(colour[3, z, y, x] / 255.0)
+    for oz in range(total.shape[0]):
+        for oy in range(total.shape[1]):
+            for ox in range(total.shape[2]):
+                t = total[oz, oy, ox]
+                if t > 0:
+                    for c in range(n_c):
+                        linear[c, oz, oy, ox] /= t

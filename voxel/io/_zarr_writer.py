@@ -1,0 +1,335 @@
+"""The stack as an OME-Zarr 0.5 store (Zarr v3), written slab by slab with ``zarr``.
+
+``stack.ome.zarr/`` holds the colour image ``(c, z, y, x)`` uint8 (RGB or RGBA) at the
+root and the label images ``labels/materials`` and ``labels/layers`` ``(z, y, x)`` uint8,
+each as the levels ``0, 1, ...`` of a pyramid (:mod:`voxel.io._pyramid`), with the
+metadata of :mod:`voxel.io._ome_metadata`.
+
+Layout: every array is sharded, one shard file holding the whole ``y, x`` extent of
+``slab_rows`` z rows (a build's slab at level 0, so each slab writes whole shards and
+nothing is read back); the shards hold inner chunks of up to ``64 x 64 x 64`` voxels
+(z, y, x; all channels together; z divides the shard's rows), each zstd-compressed.
+Inner chunks of void (all 0, the fill value) are not stored, nor shards of void only
+(and zarr is handed only the box of chunks around the solid voxels). The levels above 0
+are made in the writer thread as the slabs come: each level keeps the rows it has not
+written (at most a shard's) and the rows the next level has not yet reduced (fewer than
+its z factor). The bytes depend only on the voxels and the grid, never on timing.
+
+The store appears whole or not at all: it is written into a temporary folder beside it
+(``.NAME.*.partial``) and renamed by :meth:`OmeZarrWriter.close`.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zarr
+from numpy.typing import NDArray
+
+from voxel.grid import GridSpec
+from voxel.io._ome_metadata import (
+    LabelValue,
+    image_attributes,
+    label_attributes,
+    level_transforms,
+)
+from voxel.io._png_slices import _replace_folder
+from voxel.io._pyramid import Factors, downsample_colour, downsample_labels, level_factors
+from voxel.io._slab_thread import ClosingWriter, SlabThread
+from voxel.io._zarr_shards import level_array, write_solid
+
+
+@dataclass
+class _Rows:
+    """Consecutive z rows of one level: colour ``(C, n, Y, X)``, weights, labels."""
+
+    z: int
+    colour: NDArray[np.uint8]
+    weight: NDArray[Any]
+    labels: dict[str, NDArray[np.uint8]] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.weight.shape[0])
+
+    def split(self, n: int) -> tuple[_Rows, _Rows | None]:
+        """Return the first `n` rows and the rest (None: no rows, nor the slab they are of)."""
+        head = _Rows(
+            self.z,
+            self.colour[:, :n],
+            self.weight[:n],
+            {k: v[:n] for k, v in self.labels.items()},
+        )
+        if n >= len(self):
+            return head, None
+        tail = _Rows(
+            self.z + n,
+            self.colour[:, n:],
+            self.weight[n:],
+            {k: v[n:] for k, v in self.labels.items()},
+        )
+        return head, tail
+
+    @staticmethod
+    def join(first: _Rows | None, second: _Rows) -> _Rows:
+        """Return `first` followed by `second` (`first` may be None)."""
+        if first is None or len(first) == 0:
+            return second
+        return _Rows(
+            first.z,
+            np.concatenate([first.colour, second.colour], axis=1),
+            np.concatenate([first.weight.astype(np.float32), second.weight.astype(np.float32)]),
+            {k: np.concatenate([v, second.labels[k]]) for k, v in first.labels.items()},
+        )
+
+
+class _Level:
+    """One level's arrays, its rows waiting for a whole shard and those waiting to reduce."""
+
+    def __init__(
+        self, arrays: dict[str, Any], shard_rows: int, factors: Factors | None, n_z: int
+    ) -> None:
+        self.arrays = arrays  # "colour" and the label names -> zarr.Array
+        self.shard_rows = shard_rows
+        self.factors = factors  # to the next level (None: the last)
+        self.n_z = n_z
+        self.unwritten: _Rows | None = None
+        self.unreduced: _Rows | None = None
+
+    def add(self, rows: _Rows, *, written: bool = False) -> _Rows | None:
+        """Take rows (in z order); write whole shards; return rows for the next level.
+
+        `written`: the rows' shards are stored already (encoded where the slab was made).
+        """
+        if not written:
+            self.unwritten = _Rows.join(self.unwritten, rows)
+            self._write(final=False)
+        if self.factors is None:
+            return None
+        self.unreduced = _Rows.join(self.unreduced, rows)
+        n = len(self.unreduced) - len(self.unreduced) % self.factors[0]
+        if n == 0:
+            return None
+        ready, self.unreduced = self.unreduced.split(n)
+        return _reduce(ready, self.factors)
+
+    def flush(self) -> _Rows | None:
+        """Write what is left; return the last (partial) block of rows for the next level."""
+        self._write(final=True)
+        if self.factors is None or self.unreduced is None or len(self.unreduced) == 0:
+            return None
+        rest, self.unreduced = self.unreduced, None
+        return _reduce(rest, self.factors)
+
+    def _write(self, *, final: bool) -> None:
+        rows = self.unwritten
+        while rows is not None and len(rows) and (len(rows) >= self.shard_rows or final):
+            shard, rows = rows.split(min(self.shard_rows, len(rows)))
+            write_solid(self.arrays["colour"], shard.z, shard.colour)
+            for name, labels in shard.labels.items():
+                write_solid(self.arrays[name], shard.z, labels)
+        self.unwritten = rows
+
+
+def _reduce(rows: _Rows, factors: Factors) -> _Rows:
+    """Return the next level's rows of `rows` (which start on a block boundary)."""
+    colour, weight = downsample_colour(rows.colour, rows.weight, factors)
+    labels = {k: downsample_labels(v, factors) for k, v in rows.labels.items()}
+    return _Rows(rows.z // factors[0], colour, weight, labels)
+
+
+class OmeZarrWriter(ClosingWriter):
+    """Write a stack's colour and labels to ``path`` (an OME-Zarr store) slab by slab.
+
+    Parameters
+    ----------
+    path : Path
+        The store (a folder, replaced if it exists).
+    grid : GridSpec
+        Shape, voxel size and origin (the levels' scale and translation).
+    samples : int
+        3 (RGB) or 4 (RGBA) colour channels.
+    slab_rows : int
+        Rows of a slab (the shards' z extent; the last slab may be shorter).
+    labels : mapping of str to sequence of LabelValue
+        The label images (``materials``, ``layers``) and the values each may hold.
+    queue_slabs : int
+        Slabs that may wait for the writer thread.
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        grid: GridSpec,
+        *,
+        samples: int,
+        slab_rows: int,
+        labels: Mapping[str, Sequence[LabelValue]],
+        queue_slabs: int = 2,
+    ) -> None:
+        if samples not in (3, 4):
+            raise ValueError(f"samples must be 3 or 4, got {samples}")
+        if slab_rows < 1:
+            raise ValueError(f"slab_rows must be >= 1, got {slab_rows}")
+        self.path = Path(path)
+        self.grid = grid
+        self.samples = samples
+        self.slab_rows = slab_rows
+        self.label_names = tuple(labels)
+        self._next_z = 0
+        self._files: list[Path] | None = None
+        self._temporary: Path | None = Path(
+            tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".partial", dir=self.path.parent)
+        )
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(self._temporary, 0o777 & ~umask)  # mkdtemp makes 0700; the usual mode
+        vx, vy, vz = grid.voxel_mm
+        ox, oy, oz = grid.origin_mm
+        self.factors = level_factors((vz, vy, vx), grid.shape_zyx)
+        transforms = level_transforms((vz, vy, vx), (oz, oy, ox), self.factors)
+        self._levels = self._create(slab_rows, labels, transforms)
+        self._thread: SlabThread[tuple[_Rows, list[bytes] | None]] = SlabThread(
+            str(self.path), self._consume, queue_slabs=queue_slabs
+        )
+
+    def _create(
+        self,
+        slab_rows: int,
+        labels: Mapping[str, Sequence[LabelValue]],
+        transforms: list[tuple[list[float], list[float]]],
+    ) -> list[_Level]:
+        """Create the groups (with their metadata) and every level's empty arrays."""
+        assert self._temporary is not None
+        store = zarr.storage.LocalStore(self._temporary)
+        root = zarr.create_group(
+            store, zarr_format=3, attributes={"ome": image_attributes(transforms, self.samples)}
+        )
+        groups = {"colour": root}
+        if labels:
+            parent = root.create_group(
+                "labels", attributes={"ome": {"version": "0.5", "labels": list(labels)}}
+            )
+            for name, values in labels.items():
+                groups[name] = parent.create_group(
+                    name, attributes={"ome": label_attributes(name, transforms, values)}
+                )
+        shape = tuple(self.grid.shape_zyx)
+        levels = []
+        for k in range(len(transforms)):
+            arrays = {
+                name: level_array(
+                    group, str(k), shape, slab_rows, 0 if name != "colour" else self.samples
+                )
+                for name, group in groups.items()
+            }
+            factors = self.factors[k] if k < len(self.factors) else None
+            levels.append(_Level(arrays, slab_rows, factors, shape[0]))
+            if factors is not None:
+                shape = tuple(-(-n // f) for n, f in zip(shape, factors, strict=True))
+        return levels
+
+    def write_slab(
+        self,
+        colour: NDArray[np.uint8],
+        coloured: NDArray[np.bool_],
+        labels: Mapping[str, NDArray[np.uint8]],
+        shards: list[bytes] | None = None,
+    ) -> None:
+        """Queue the next slab (z rows in order).
+
+        Parameters
+        ----------
+        colour : (Zs, Y, X, S) uint8
+            sRGB (and alpha) of the voxels; at least ``samples`` channels.
+        coloured : (Zs, Y, X) bool
+            The colour-layer voxels (the colour pyramid averages only these).
+        labels : mapping of str to (Zs, Y, X) uint8
+            Every label image named at construction.
+        shards : list of bytes, optional
+            The slab's level-0 shard files already encoded
+            (:meth:`voxel.io._zarr_shards.ShardEncoder.encode`): stored as they are.
+        """
+        n = len(coloured)
+        shape = (n, *self.grid.shape_zyx[1:])
+        if colour.shape[:3] != shape or coloured.shape != shape:
+            raise ValueError(f"slab must be {shape} voxels, got {colour.shape} {coloured.shape}")
+        if set(labels) != set(self.label_names):
+            raise ValueError(f"labels must be {list(self.label_names)}, got {list(labels)}")
+        if self._next_z + n > self.grid.shape_zyx[0]:
+            raise ValueError(f"more than Z={self.grid.shape_zyx[0]} rows written")
+        rows = _Rows(
+            self._next_z,
+            colour[..., : self.samples],  # transposed in the thread
+            coloured,
+            {name: labels[name] for name in self.label_names},
+        )
+        self._thread.put((rows, shards))
+        self._next_z += n
+
+    def _consume(self, item: tuple[_Rows, list[bytes] | None]) -> None:
+        """In the writer thread: level 0, then every level the rows complete."""
+        rows, shards = item
+        if shards is not None:
+            self._store(shards)
+        rows.colour = np.ascontiguousarray(np.moveaxis(rows.colour, -1, 0))
+        rows.weight = rows.weight.view(np.uint8)
+        current = self._levels[0].add(rows, written=shards is not None)
+        for level in self._levels[1:]:
+            if current is None:
+                break
+            current = level.add(current)
+
+    def _store(self, shards: list[bytes]) -> None:
+        """Put shard files (``[key, data, ...]``) of level 0 in place, as zarr made them."""
+        assert self._temporary is not None
+        prefixes = ("0/c/", *(f"labels/{name}/0/c/" for name in self.label_names))
+        for key, data in zip(shards[::2], shards[1::2], strict=True):
+            name = key.decode()
+            parts = name.split("/")
+            if not name.startswith(prefixes) or any(p in ("", ".", "..") for p in parts):
+                raise ValueError(f"{self.path}: {name!r} is no shard of level 0")
+            path = self._temporary.joinpath(*parts)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(data)
+
+    def close(self) -> list[Path]:
+        """Write the last rows of every level, move the store into place; return its files.
+
+        Raises
+        ------
+        ValueError
+            If fewer than ``Z`` rows were written (nothing is left behind).
+        """
+        if self._files is not None:
+            return self._files
+        try:
+            if self._next_z != self.grid.shape_zyx[0]:
+                raise ValueError(f"{self.path}: {self._next_z} of {self.grid.shape_zyx[0]} rows")
+            self._thread.finish()
+            carry: _Rows | None = None
+            for level in self._levels:  # each level's rest completes the next one's
+                forward = level.add(carry) if carry is not None else None
+                last = level.flush()
+                carry = forward if last is None else _Rows.join(forward, last)
+            assert self._temporary is not None
+            _replace_folder(self._temporary, self.path)
+            self._temporary = None
+        except BaseException:
+            self.abort()
+            raise
+        self._files = sorted(p for p in self.path.rglob("*") if p.is_file())
+        return self._files
+
+    def abort(self) -> None:
+        """Stop the writer thread and remove the temporary folder."""
+        self._thread.abort()
+        if self._temporary is not None:
+            shutil.rmtree(self._temporary, ignore_errors=True)
+            self._temporary = None
