@@ -55,6 +55,8 @@ from voxel.geometry import SurfaceIndex, nearest_on_surface
 
 #: CIEDE2000 from the gamut within which a target counts as in gamut.
 IN_GAMUT_DE = 1.0
+#: Material voxels gathered before the report counts them (bytes, one per voxel).
+GATHER_BYTES = 128 << 20
 
 #: A sample lies inside a colour region when the mean CIELAB of the surface colour at
 #: :data:`RING_POINTS` points around it, its lateral reach (the report's disc) and this
@@ -107,6 +109,8 @@ class ColourCheck:
     ) -> None:
         self.mesh, self.config, self.plan = mesh, config, plan
         self.profile, self.materials, self.delta_e = profile, materials, delta_e
+        self._gathered: list[NDArray[np.uint8]] = []
+        self._gathered_start = self._gathered_end = 0
         # Made in a thread while the first slabs are computed; its errors are raised by
         # add_slab.
         pool = ThreadPoolExecutor(1, thread_name_prefix="colour-check")
@@ -144,11 +148,30 @@ class ColourCheck:
         return self._report.result().report
 
     def add_slab(self, z_start: int, materials: NDArray[np.uint8]) -> None:
-        """Take the material indices ``(Zs, Y, X) uint8`` of rows ``z_start..``."""
-        self.report.add_slab(z_start, materials)
+        """Take the material indices ``(Zs, Y, X) uint8`` of rows ``z_start..``.
+
+        Consecutive slabs are gathered up to :data:`GATHER_BYTES` and counted together:
+        every disc whose rays reach a block walks them once per block, so thin slabs
+        (a few rows) would multiply that work; the counts do not depend on the blocks.
+        """
+        if self._gathered and self._gathered_end != z_start:
+            self._count_gathered()
+        if not self._gathered:
+            self._gathered_start = z_start
+        self._gathered.append(np.array(materials, dtype=np.uint8))
+        self._gathered_end = z_start + len(materials)
+        if sum(block.nbytes for block in self._gathered) >= GATHER_BYTES:
+            self._count_gathered()
+
+    def _count_gathered(self) -> None:
+        if self._gathered:
+            block = np.concatenate(self._gathered)
+            self._gathered = []
+            self.report.add_slab(self._gathered_start, block)
 
     def result(self) -> dict[str, Any]:
         """Return the report: errors apart, per region, and what per-face depth buys."""
+        self._count_gathered()
         samples, report, model, shares, reach, surface = self._report.result()
         aim = model.deep_lab(shares)
         white = observer(self.profile.optics.wavelengths_nm).white_xy
