@@ -81,6 +81,27 @@ class SymbolCache:
                 self.used_bytes -= dropped.nbytes
 
 
+#: The axes of a section's rows and columns, for each axis it is cut across.
+PLANE: dict[str, tuple[Axis, Axis]] = {"z": ("y", "x"), "y": ("z", "x"), "x": ("z", "y")}
+
+
+def region_shape(
+    shape_zyx: Sequence[int], samples: int, axis: Axis, index: int, rows: range, cols: range
+) -> tuple[int, ...]:
+    """Return the shape of a region of a section; raise IndexError when it leaves the stack.
+
+    ``(len(rows), len(cols))``, with ``samples`` last when it is not 0.
+    """
+    extent = dict(zip("zyx", shape_zyx, strict=True))
+    row_axis, col_axis = PLANE[axis]
+    if not 0 <= index < extent[axis]:
+        raise IndexError(f"{axis} index {index} is outside 0..{extent[axis] - 1}")
+    for name, r, along in (("rows", rows, row_axis), ("cols", cols, col_axis)):
+        if r.step < 1 or (len(r) and not (r[0] >= 0 and r[-1] < extent[along])):
+            raise IndexError(f"{name} {r} must lie in 0..{extent[along] - 1}, step >= 1")
+    return (len(rows), len(cols), samples) if samples else (len(rows), len(cols))
+
+
 class StackError(ValueError):
     """A TIFF stack cannot be read as a build's stack (shape, type, layout, damage)."""
 
@@ -161,15 +182,7 @@ class TiffStack:
         -------
         (len(rows), len(cols)[, S]) uint8
         """
-        n_z, n_y, n_x = self.shape_zyx
-        extent = {"z": n_z, "y": n_y, "x": n_x}
-        row_axis, col_axis = {"z": ("y", "x"), "y": ("z", "x"), "x": ("z", "y")}[axis]
-        if not 0 <= index < extent[axis]:
-            raise IndexError(f"{axis} index {index} is outside 0..{extent[axis] - 1}")
-        for name, r, along in (("rows", rows, row_axis), ("cols", cols, col_axis)):
-            if r.step < 1 or (len(r) and not (r[0] >= 0 and r[-1] < extent[along])):
-                raise IndexError(f"{name} {r} must lie in 0..{extent[along] - 1}, step >= 1")
-        shape = (len(rows), len(cols), self.samples) if self.samples else (len(rows), len(cols))
+        shape = region_shape(self.shape_zyx, self.samples, axis, index, rows, cols)
         if not len(rows) or not len(cols):
             return np.zeros(shape, dtype=np.uint8)
         if axis == "z":

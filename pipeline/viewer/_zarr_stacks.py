@@ -30,7 +30,7 @@ import numpy as np
 import zarr
 from numpy.typing import NDArray
 
-from pipeline.viewer._stacks import Axis, StackError
+from pipeline.viewer._stacks import PLANE, Axis, StackError, region_shape
 
 #: Memory for the bands kept between requests, bytes.
 CACHE_BYTES = 1 << 30
@@ -38,7 +38,6 @@ CACHE_BYTES = 1 << 30
 BAND_SHARE = 32
 
 #: The axes of a slice's rows and columns (and their positions in ``(z, y, x)``).
-_PLANE = {"z": ("y", "x"), "y": ("z", "x"), "x": ("z", "y")}
 _POSITION = {"z": 0, "y": 1, "x": 2}
 
 #: A band: (image id, level, axis, box (start, stop) along z, y and x).
@@ -142,14 +141,8 @@ class ZarrStack:
         -------
         (len(rows), len(cols)[, S]) uint8
         """
-        extent = dict(zip("zyx", self.shape_zyx, strict=True))
-        row_axis, col_axis = _PLANE[axis]
-        if not 0 <= index < extent[axis]:
-            raise IndexError(f"{axis} index {index} is outside 0..{extent[axis] - 1}")
-        for name, r, along in (("rows", rows, row_axis), ("cols", cols, col_axis)):
-            if r.step < 1 or (len(r) and not (r[0] >= 0 and r[-1] < extent[along])):
-                raise IndexError(f"{name} {r} must lie in 0..{extent[along] - 1}, step >= 1")
-        shape = (len(rows), len(cols), self.samples) if self.samples else (len(rows), len(cols))
+        shape = region_shape(self.shape_zyx, self.samples, axis, index, rows, cols)
+        row_axis, col_axis = PLANE[axis]
         if not len(rows) or not len(cols):
             return np.zeros(shape, dtype=np.uint8)
         level = self._level(axis, rows.step, cols.step)
@@ -192,8 +185,12 @@ class ZarrStack:
 
     def _level(self, axis: Axis, row_step: int, col_step: int) -> int:
         """Return the coarsest level whose voxel fits the steps (see the module)."""
-        row_axis, col_axis = _PLANE[axis]
-        limit = {axis: max(row_step, col_step), row_axis: row_step, col_axis: col_step}
+        row_axis, col_axis = PLANE[axis]
+        limit: dict[str, int] = {
+            axis: max(row_step, col_step),
+            row_axis: row_step,
+            col_axis: col_step,
+        }
         best = 0
         for level, factors in enumerate(self.factors):
             if all(factors[_POSITION[a]] <= limit[a] for a in "zyx"):
