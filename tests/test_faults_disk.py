@@ -70,6 +70,17 @@ def test_out_of_space_refused_up_front(tmp_path, tmpfs):
     assert not out.exists()
 
 
+def test_dry_run_on_a_full_disk_says_the_build_would_stop(tmp_path, tmpfs):
+    # The estimate is the dry run's answer, so the shortfall is printed, not raised.
+    disk = tmpfs("disk", "2m")
+    out = disk / "out"
+    result = run(build_argv(out, "--dry-run"), tmp_path / "run")
+    assert result.status == 0, result.stderr
+    (line,) = [ln for ln in result.stdout.splitlines() if ln.startswith("a build would stop")]
+    assert "disk has" in line and str(out) in line and "--force" in line
+    assert not out.exists()
+
+
 def test_out_of_space_while_replacing_an_old_build(tmp_path, tmpfs):
     # A rebuild that cannot fit fails cleanly: the folder then holds no build (the old
     # one went when the new one started), never a mix.

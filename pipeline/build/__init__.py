@@ -10,7 +10,12 @@
 from __future__ import annotations
 
 from pipeline.build._colour_check import ColourCheck, report_line, uniform_surroundings
-from pipeline.build._estimate import BuildEstimate, check_resources, estimate_build
+from pipeline.build._estimate import (
+    BuildEstimate,
+    check_resources,
+    estimate_build,
+    resource_shortfall,
+)
 from pipeline.build._plan import BuildPlan, check_depth, grid_for, slab_rows_for
 from pipeline.build._running import run_job, settle_running
 from pipeline.build._stack import build_stack, stack_model
@@ -25,6 +30,7 @@ __all__ = [
     "estimate_build",
     "grid_for",
     "report_line",
+    "resource_shortfall",
     "run_job",
     "settle_running",
     "slab_rows_for",

@@ -5,7 +5,8 @@ arrays) and, for the compressed file sizes and the time, from the model's surfac
 with rates measured on this project's benchmarks (``benchmarks/results/bench_build.json``):
 they are estimates, good to a factor of about two. :func:`check_resources` refuses a build
 that cannot fit (memory, disk, index range) with the numbers and the options that change
-them; ``--force`` skips the refusal.
+them; ``--force`` skips the refusal, and ``--dry-run`` prints it
+(:func:`resource_shortfall`) instead of stopping.
 """
 
 from __future__ import annotations
@@ -183,6 +184,18 @@ def check_resources(estimate: BuildEstimate, out_dir: Path, *, force: bool) -> N
         )
     if force:
         return
+    shortfall = resource_shortfall(estimate, out_dir)
+    if shortfall is not None:
+        raise shortfall
+
+
+def resource_shortfall(estimate: BuildEstimate, out_dir: Path) -> ResourceError | None:
+    """Return why the memory or the disk of this machine would not hold the build, or None.
+
+    The memory needed is compared with ``MemAvailable`` now, the disk needed with the free
+    space of `out_dir`'s file system (its nearest existing parent).
+    """
+    z, y, x = estimate.shape_zyx
     available = available_memory_bytes()
     if available is not None and estimate.memory_bytes > available:
         rows = estimate.slab_rows
@@ -192,12 +205,12 @@ def check_resources(estimate: BuildEstimate, out_dir: Path, *, force: bool) -> N
             f"{y:,} x {x:,} voxels) but {_size(available)} is available"
         )
         if rows == 1:  # no --slab-mb makes a slab thinner than one row: the grid is too fine
-            raise ResourceError(
+            return ResourceError(
                 "--voxel-size",
                 needs,
                 "use a larger --voxel-size (or a smaller --scale); --force to try anyway",
             )
-        raise ResourceError(
+        return ResourceError(
             "--slab-mb",
             needs,
             "use a smaller --slab-mb, fewer --workers or a larger --voxel-size "
@@ -205,13 +218,14 @@ def check_resources(estimate: BuildEstimate, out_dir: Path, *, force: bool) -> N
         )
     free = shutil.disk_usage(_existing(out_dir)).free
     if estimate.disk_bytes > free:
-        raise ResourceError(
+        return ResourceError(
             out_dir,
             f"the outputs need about {_size(estimate.disk_bytes)} but the disk has "
             f"{_size(free)} free",
             "free some space, choose another -o DIR, use a larger --voxel-size or --no-vdb "
             "(--force to try anyway)",
         )
+    return None
 
 
 def available_memory_bytes() -> int | None:

@@ -13,7 +13,7 @@ from typing import Any, get_args
 
 import numpy as np
 
-from pipeline.build import build_stack, report_line
+from pipeline.build import build_stack, report_line, resource_shortfall
 from pipeline.cli.loadargs import add_load_arguments, load_options
 from pipeline.cli.runargs import add_running_arguments, running_from_args
 from pipeline.cli.thicknessargs import ThicknessChoice, add_rule_arguments, choose_thickness
@@ -69,7 +69,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--dry-run",
         action="store_true",
-        help="print the layout and the estimate (grid, voxels, memory, disk, time); build nothing",
+        help="print the layout and the estimate (grid, voxels, memory, disk, time) and whether "
+        "this machine would hold it; build nothing",
     )
     parser.add_argument(
         "--printer",
@@ -359,11 +360,14 @@ def run_tray(args: argparse.Namespace) -> int:
     plan = plan_tray(
         spec, options, base, out, tray_mm=profile.tray_mm, mode=mode, gap_mm=args.gap,
         default_thickness=ThicknessSource(constant, args.thickness_rule),
-        colour_layers=colour_layers, force=args.force,
+        colour_layers=colour_layers, force=args.force or args.dry_run,
     )  # fmt: skip
     if args.dry_run:
         print("\n".join(plan.lines()))
         print(f"estimate: {plan.estimate.line()}")
+        shortfall = None if args.force else resource_shortfall(plan.estimate, out)
+        if shortfall is not None:
+            print(f"a build would stop here: {shortfall}")
         print(f"planned in {time.perf_counter() - started:.1f} s; dry run: nothing built")
         return 0
     print("\n".join(plan.lines()), file=sys.stderr)
