@@ -195,7 +195,7 @@ def resource_shortfall(estimate: BuildEstimate, out_dir: Path) -> ResourceError 
     The memory needed is compared with ``MemAvailable`` now, the disk needed with the free
     space of `out_dir`'s file system (its nearest existing parent).
     """
-    z, y, x = estimate.shape_zyx
+    _, y, x = estimate.shape_zyx
     available = available_memory_bytes()
     if available is not None and estimate.memory_bytes > available:
         rows = estimate.slab_rows
