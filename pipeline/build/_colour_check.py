@@ -236,20 +236,29 @@ def uniform_surroundings(
 
 
 def report_line(report: dict[str, Any] | None) -> str | None:
-    """Return the colour report's line for the user (None without a report)."""
+    """Return the colour report's line for the user (None without a report).
+
+    The errors apart: the prediction against in-gamut targets inside colour regions and
+    near colour edges, the reproduction (the prediction against the separation's aim,
+    measurable where no target is in gamut) and the gamut error.
+    """
     if not report or report["ciede2000"]["median"] is None:
         return None
     inside, gamut = report["in_gamut"], report["gamut"]
-    reached = (
-        "none" if inside["median"] is None
-        else f"median {inside['median']:.2f}, p95 {inside['p95']:.2f}"
-    )  # fmt: skip
     edges = report["near_colour_edges"]
     edge = edges["in_gamut"]["median"]
+    aim = report["reproduction_inside_colour_regions"]
     return (
         f"predicted colour vs target, CIEDE2000 ({report['optics']} optics, "
         f"{report['samples_seen']:,} surface samples): in gamut, inside colour regions "
-        f"({report['in_gamut_samples']:,}) {reached}; near colour edges "
+        f"({report['in_gamut_samples']:,}) {_median_p95(inside)}; near colour edges "
         f"({edges['samples']:,}) median {'-' if edge is None else format(edge, '.2f')}; "
+        f"vs the separation's aim inside colour regions {_median_p95(aim)}; "
         f"gamut error median {gamut['median']:.2f}, p95 {gamut['p95']:.2f}"
     )
+
+
+def _median_p95(statistics: dict[str, Any]) -> str:
+    if statistics["median"] is None:
+        return "none"
+    return f"median {statistics['median']:.2f}, p95 {statistics['p95']:.2f}"

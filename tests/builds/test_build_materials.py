@@ -216,6 +216,12 @@ def test_default_model_job(tmp_path, capsys):
         assert int(np.count_nonzero(materials == index[name])) == voxels
     report = manifest["colour_report"]
     assert report["samples_seen"] == report["samples"]
+    # the user's line gives the manifest's errors apart
+    (line,) = [ln for ln in capsys.readouterr().out.splitlines() if "predicted colour" in ln]
+    aim, gamut = report["reproduction_inside_colour_regions"], report["gamut"]
+    assert f"({report['in_gamut_samples']:,}) median {report['in_gamut']['median']:.2f}" in line
+    assert f"separation's aim inside colour regions median {aim['median']:.2f}" in line
+    assert line.endswith(f"gamut error median {gamut['median']:.2f}, p95 {gamut['p95']:.2f}")
     # the optics the report used, as written: every printed material of materials.tif
     optics = json.loads((out / "manifest.json").read_text())["optics"]
     assert optics["assumed"] is True and report["optics"] == "assumed"
