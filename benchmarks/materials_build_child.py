@@ -20,7 +20,7 @@ from typing import Any
 from bench_build import MODELS, ROOT, _TreeRss, scaled_model
 
 from pipeline.build import build_stack
-from pipeline.cli.build import add_arguments, config_from_args
+from pipeline.cli.buildargs import add_build_arguments, config_from_args
 from pipeline.cli.thicknessargs import choose_thickness
 from pipeline.cli.values import parse_lengths
 from pipeline.config import LoadOptions
@@ -124,7 +124,7 @@ def child(args: argparse.Namespace) -> dict[str, Any]:
         if args.thickness != "rule":
             argv += ["--thickness", args.thickness]
         parser = argparse.ArgumentParser()
-        add_arguments(parser)
+        add_build_arguments(parser)
         cli = parser.parse_args(argv)
         profile = load_profile(cli.printer)
         constant = None if cli.thickness is None else parse_lengths("--thickness", cli.thickness)

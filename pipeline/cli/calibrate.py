@@ -24,9 +24,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "ArgyllCMS SPEC_400 ...; percent or fraction; d/8, specular included)",
     )
     parser.add_argument(
-        "-o", "--output", type=Path, required=True, metavar="PROFILE.toml",
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        metavar="PROFILE.toml",
         help="the printer profile to write, with [optics] and each material's K and S",
-    )  # fmt: skip
+    )
     parser.add_argument(
         "--folds", type=int, default=5, help="cross-validation folds (held-out patches)"
     )

@@ -133,9 +133,11 @@ def choose_thickness(
     if rule.rule == "optical":
         layers = rule.layers
         plan = build_material_plan(
-            profile, settings or MaterialSettings(), colour_layers=layers.colour,
+            profile,
+            settings or MaterialSettings(),
+            colour_layers=layers.colour,
             n_bands=layers.n_layers,
-        )  # fmt: skip
+        )
         model = layer_model(profile, plan, layers.backing_mm)
     faces = face_thickness(mesh, rule, colour=colour, model=model)
     return ThicknessChoice(mesh, faces.thickness_mm, faces, source)

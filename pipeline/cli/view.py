@@ -38,9 +38,10 @@ def run(args: argparse.Namespace) -> int:
         folder.close()
         if error.errno in (errno.EADDRINUSE, errno.EACCES):
             raise InputError(
-                "--port", f"port {args.port} cannot be used ({error.strerror})",
+                "--port",
+                f"port {args.port} cannot be used ({error.strerror})",
                 "give another --port, or none for a free one",
-            ) from None  # fmt: skip
+            ) from None
         raise
     print(f"shellvox view: {folder.root} at {server.url} (Ctrl-C stops)", flush=True)
     if args.open:

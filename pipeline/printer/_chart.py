@@ -189,8 +189,9 @@ def chart_slab(layout: ChartLayout, z_start: int, z_stop: int) -> NDArray[np.uin
                 continue
             cumulative = np.cumsum(fractions)
             cumulative[-1] = np.inf  # rounding never leaves a voxel without material
-            thresholds = tile[np.ix_(np.arange(lo, hi) % s, np.arange(y0, y1) % s,
-                                     np.arange(x0, x1) % s)]  # fmt: skip
+            thresholds = tile[
+                np.ix_(np.arange(lo, hi) % s, np.arange(y0, y1) % s, np.arange(x0, x1) % s)
+            ]
             pick = np.searchsorted(cumulative, thresholds, side="right")
             target[...] = layout.material_indices[pick]
     plate = max(1, round(LABEL_PLATE_MM / layout.grid.voxel_mm[2]))

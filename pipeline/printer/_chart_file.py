@@ -117,9 +117,15 @@ def _optics(raw: Any, fail: Callable[[str], NoReturn]) -> Optics:
     if not (_number(k1) and _number(k2) and 0 <= k1 < 1 and 0 <= k2 < 1):
         fail(f"optics.k1 and k2 must be in [0, 1), got {k1!r}, {k2!r}")
     return Optics(
-        tuple(names), tuple(roles), np.asarray(bands, np.float64), float(k1), float(k2),
-        np.asarray(k, np.float64), np.asarray(s, np.float64), bool(raw.get("assumed", True)),
-    )  # fmt: skip
+        names=tuple(names),
+        roles=tuple(roles),
+        wavelengths_nm=np.asarray(bands, np.float64),
+        k1=float(k1),
+        k2=float(k2),
+        k_per_mm=np.asarray(k, np.float64),
+        s_per_mm=np.asarray(s, np.float64),
+        assumed=bool(raw.get("assumed", True)),
+    )
 
 
 def _patch(entry: Any, n: int, names: tuple[str, ...], fail: Callable[[str], NoReturn]) -> Patch:

@@ -130,11 +130,7 @@ class PrinterProfile:
     def __post_init__(self) -> None:
         _validate(self)
         if cast("Optics | None", self.optics) is None:  # not given: assumed
-            printed = self.materials[1:]
-            optics = assumed_optics(
-                [m.name for m in printed], [m.role for m in printed],
-                [m.display_srgb for m in printed],
-            )  # fmt: skip
+            optics = assumed_optics(*_printed(self.materials))
             object.__setattr__(self, "optics", optics)
         elif len(self.optics.names) != len(self.materials) - 1:
             raise InputError(
@@ -210,6 +206,14 @@ def load_profile(name_or_path: str | Path) -> PrinterProfile:
     return parse_profile(shipped.read_text(encoding="utf-8"), source=f"profiles/{shipped.name}")
 
 
+def _printed(
+    materials: tuple[PrinterMaterial, ...],
+) -> tuple[list[str], list[Role], list[tuple[int, int, int]]]:
+    """Return the names, roles and display colours of the printed materials (not the void)."""
+    printed = materials[1:]
+    return [m.name for m in printed], [m.role for m in printed], [m.display_srgb for m in printed]
+
+
 def parse_profile(text: str, *, source: str) -> PrinterProfile:
     """Return the profile in TOML ``text``; ``source`` names it in error messages."""
     try:
@@ -224,11 +228,9 @@ def parse_profile(text: str, *, source: str) -> PrinterProfile:
     if not isinstance(raw_materials, list) or not raw_materials:
         reader.fail("materials", "is missing or empty", "add [[materials]] tables, void first")
     materials = tuple(reader.material(index, entry) for index, entry in enumerate(raw_materials))
-    printed = materials[1:]
     optics = profile_optics(
-        OpticsReader(reader.fail), data, raw_materials[1:], [m.name for m in printed],
-        [m.role for m in printed], [m.display_srgb for m in printed],
-    )  # fmt: skip
+        OpticsReader(reader.fail), data, raw_materials[1:], *_printed(materials)
+    )
     dpi = reader.numbers(data, "dpi", 2)
     return PrinterProfile(
         name=reader.string(data, "name"),
@@ -315,9 +317,10 @@ class _Reader:
             self.fail(prefix + "role", f"must be one of {list(_ROLES)}, got {role!r}", "fix it")
         attenuation = entry.get("attenuation_per_mm")
         if attenuation is not None and not (
-            isinstance(attenuation, int | float) and not isinstance(attenuation, bool)
+            isinstance(attenuation, int | float)
+            and not isinstance(attenuation, bool)
             and attenuation > 0
-        ):  # fmt: skip
+        ):
             self.fail(prefix + "attenuation_per_mm", f"must be > 0, got {attenuation!r}", "fix it")
         key = self.codes(entry, "rgba_key", 4, prefix)
         srgb = self.codes(entry, "display_srgb", 3, prefix)

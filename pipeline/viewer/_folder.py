@@ -39,8 +39,11 @@ STACKS = {
 }
 
 #: The OME-Zarr store's images: name -> (group in the store, colour).
-ZARR_IMAGES = {"layers": ("labels/layers", False), "colour": (".", True),
-               "materials": ("labels/materials", False)}  # fmt: skip
+ZARR_IMAGES = {
+    "layers": ("labels/layers", False),
+    "colour": (".", True),
+    "materials": ("labels/materials", False),
+}
 ZARR_STORE = "stack.ome.zarr"
 
 #: Where the stacks are read: the store when the build has one ("auto"), or as named.

@@ -29,6 +29,9 @@ from voxel.geometry._marching_tets import (
     TABLE,
     TETS,
     TRIANGLES_PER_CASE,
+    MarchOutputs,
+    NodeField,
+    VertexIds,
     count_triangles,
     march_slab,
 )
@@ -117,9 +120,11 @@ def field_surfaces(
     regions = voronoi_regions(vertices, faces)
     origin = np.asarray(grid.origin_mm, dtype=np.float64)
     step = np.asarray(grid.voxel_mm, dtype=np.float64)
-    plane_ids = np.full((2, n_levels, n_y, n_x, 3), -1, dtype=np.int64)
-    between_ids = np.full((n_levels, n_y, n_x, 4), -1, dtype=np.int64)
-    state = np.zeros((2, n_levels), dtype=np.int64)
+    ids = VertexIds(
+        plane_ids=np.full((2, n_levels, n_y, n_x, 3), -1, dtype=np.int64),
+        between_ids=np.full((n_levels, n_y, n_x, 4), -1, dtype=np.int64),
+        state=np.zeros((2, n_levels), dtype=np.int64),
+    )
     tables = (EDGES, TETS, TABLE)
     out_v: list[list[NDArray[np.float64]]] = [[] for _ in range(n_levels)]
     out_f: list[list[NDArray[np.int64]]] = [[] for _ in range(n_levels)]
@@ -137,9 +142,16 @@ def field_surfaces(
         inside, n_bad = inside_slab(vertices, faces, grid, z_start, z_stop)
         unbalanced += n_bad
         near = nearest_in_reach(
-            vertices, faces, grid, z_start, z_stop, reach, inside=inside,
-            outside_reach_mm=0.0, regions=regions,
-        )  # fmt: skip
+            vertices,
+            faces,
+            grid,
+            z_start,
+            z_stop,
+            reach,
+            inside=inside,
+            outside_reach_mm=0.0,
+            regions=regions,
+        )
         bits = np.empty(inside.shape, dtype=np.uint8)
         _layer_bits(inside, near.squared_mm2, near.face, depth, bits)
         inside = np.concatenate([carry[0], inside])
@@ -155,10 +167,9 @@ def field_surfaces(
         v_start = 3 * f_start
         new_vertices = np.empty((int(v_start[-1]), 3))
         new_faces = np.empty((int(f_start[-1]), 3), dtype=np.int64)
-        made = march_slab(
-            bits, inside, squared, face, depth, far, step_mm, origin, step, z_base,
-            plane_ids, between_ids, state, tables, new_vertices, v_start, new_faces, f_start,
-        )  # fmt: skip
+        field = NodeField(bits, inside, squared, face, depth, far, step_mm, origin, step, z_base)
+        out = MarchOutputs(new_vertices, v_start, new_faces, f_start)
+        made = march_slab(field, ids, tables, out)
         for k in range(n_levels):
             out_v[k].append(new_vertices[v_start[k] : v_start[k] + made[k]])
             out_f[k].append(new_faces[f_start[k] : f_start[k + 1]])

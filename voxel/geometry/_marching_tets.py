@@ -36,6 +36,7 @@ References
 from __future__ import annotations
 
 import itertools
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -155,85 +156,122 @@ def count_triangles(
     return counts
 
 
+class NodeField(NamedTuple):
+    """The levels' field at a slab of node planes, as :func:`march_slab` reads it.
+
+    Attributes
+    ----------
+    bits : (P, Y, X) uint8
+        Bit ``k`` set where the node is inside level ``k`` (its value ``<= 0``).
+    inside : (P, Y, X) bool
+        Nodes inside the surface.
+    squared : (P, Y, X) float64, mm^2
+        Squared distance to the nearest face where ``face >= 0``.
+    face : (P, Y, X) int32
+        Nearest face, -1 beyond the reach.
+    depth : (K, F) float64, mm
+        Depth of each level per face: the value of level ``k`` is
+        ``depth[k, face] - sqrt(squared)`` inside within reach.
+    far : (K,) float64, mm
+        Value of level ``k`` inside beyond the reach.
+    outside : float, mm
+        Value of every level outside.
+    origin, step : (3,) float64, mm
+        Position ``(x, y, z)`` of node ``(0, 0, 0)`` and the node spacing.
+    z_base : int
+        Global plane of ``bits[0]``.
+    """
+
+    bits: NDArray[np.uint8]
+    inside: NDArray[np.bool_]
+    squared: NDArray[np.float64]
+    face: NDArray[np.int32]
+    depth: NDArray[np.float64]
+    far: NDArray[np.float64]
+    outside: float
+    origin: NDArray[np.float64]
+    step: NDArray[np.float64]
+    z_base: int
+
+
+class VertexIds(NamedTuple):
+    """Vertex ids of the crossed edges, kept from slab to slab (updated in place).
+
+    Attributes
+    ----------
+    plane_ids : (2, K, Y, X, 3) int64
+        Vertex ids of the in-plane edges of the planes of parity 0 and 1 (-1 at first).
+    between_ids : (K, Y, X, 4) int64
+        Vertex ids of the edges leaving a plane upwards (scratch, -1 at first).
+    state : (2, K) int64
+        Row 0: the next vertex id of each level; row 1: the first id made in the last cube
+        layer.
+    """
+
+    plane_ids: NDArray[np.int64]
+    between_ids: NDArray[np.int64]
+    state: NDArray[np.int64]
+
+
+class MarchOutputs(NamedTuple):
+    """Where :func:`march_slab` writes a slab's new vertices and triangles.
+
+    Attributes
+    ----------
+    vertices : (sum V_k, 3) float64, mm
+        Output: the new vertices of level ``k`` from row ``v_start[k]`` on.
+    v_start : (K,) int64
+        First row of each level in ``vertices``.
+    faces : (sum T_k, 3) int64
+        Output: level ``k``'s triangles from row ``f_start[k]`` on (ids per level).
+    f_start : (K,) int64
+        First row of each level in ``faces``.
+    """
+
+    vertices: NDArray[np.float64]
+    v_start: NDArray[np.int64]
+    faces: NDArray[np.int64]
+    f_start: NDArray[np.int64]
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _node_value(
-    inside: NDArray[np.bool_],
-    squared: NDArray[np.float64],
-    face: NDArray[np.int32],
-    depth: NDArray[np.float64],
-    far: NDArray[np.float64],
-    outside: float,
-    k: int,
-    z: int,
-    y: int,
-    x: int,
-) -> float:
-    """Layer field ``D_k(f) - d`` of one node (see :func:`march_slab`)."""
-    if not inside[z, y, x]:
-        return outside
-    f = face[z, y, x]
+def _node_value(field: NodeField, k: int, z: int, y: int, x: int) -> float:
+    """Layer field ``D_k(f) - d`` of one node (see :class:`NodeField`)."""
+    if not field.inside[z, y, x]:
+        return field.outside
+    f = field.face[z, y, x]
     if f < 0:
-        return float(far[k])
-    return float(depth[k, f] - np.sqrt(squared[z, y, x]))
+        return float(field.far[k])
+    return float(field.depth[k, f] - np.sqrt(field.squared[z, y, x]))
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def march_slab(
-    bits: NDArray[np.uint8],
-    inside: NDArray[np.bool_],
-    squared: NDArray[np.float64],
-    face: NDArray[np.int32],
-    depth: NDArray[np.float64],
-    far: NDArray[np.float64],
-    outside: float,
-    origin: NDArray[np.float64],
-    step: NDArray[np.float64],
-    z_base: int,
-    plane_ids: NDArray[np.int64],
-    between_ids: NDArray[np.int64],
-    state: NDArray[np.int64],
+    field: NodeField,
+    ids: VertexIds,
     tables: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]],
-    vertices: NDArray[np.float64],
-    v_start: NDArray[np.int64],
-    faces: NDArray[np.int64],
-    f_start: NDArray[np.int64],
+    out: MarchOutputs,
 ) -> NDArray[np.int64]:
     """Mesh the zero sets of ``K`` levels in the cubes of a slab of node planes.
 
     Parameters
     ----------
-    bits : (P, Y, X) uint8
-        Bit ``k`` set where the node is inside level ``k`` (its value ``<= 0``).
-    inside, squared, face : (P, Y, X) bool, float64 mm^2, int32
-        The nodes' inside test, squared distance to and index of the nearest face (-1
-        beyond the reach); the value of level ``k`` is ``depth[k, face] - sqrt(squared)``
-        inside within reach, ``far[k]`` beyond it and ``outside`` outside.
-    depth : (K, F) float64, mm
-    far : (K,) float64, mm
-    outside : float, mm
-    origin, step : (3,) float64, mm
-        Position ``(x, y, z)`` of node ``(0, 0, 0)`` and the node spacing.
-    z_base : int
-        Global plane of ``bits[0]``.
-    plane_ids : (2, K, Y, X, 3) int64
-        Vertex ids of the in-plane edges of the planes of parity 0 and 1 (state kept from
-        slab to slab; -1 at first).
-    between_ids : (K, Y, X, 4) int64
-        Vertex ids of the edges leaving a plane upwards (scratch, -1 at first).
-    state : (2, K) int64
-        Row 0: the next vertex id of each level; row 1: the first id made in the last cube
-        layer (updated).
+    field : NodeField
+        The nodes' sign bits and what their values are computed from.
+    ids : VertexIds
+        The vertex ids of crossed edges (updated).
     tables : the module's ``(EDGES, TETS, TABLE)``.
-    vertices : (sum V_k, 3) float64, mm
-        Output: the new vertices of level ``k`` from row ``v_start[k]`` on.
-    faces : (sum T_k, 3) int64
-        Output: level ``k``'s triangles from row ``f_start[k]`` on (ids per level).
+    out : MarchOutputs
+        The slab's new vertices and triangles, filled in place.
 
     Returns
     -------
     (K,) int64
         New vertices of each level.
     """
+    bits, depth, origin, step = field.bits, field.depth, field.origin, field.step
+    plane_ids, between_ids, state = ids
+    vertices, v_start, faces, f_start = out
     edges, tets, table = tables
     n_p, n_y, n_x = bits.shape
     n_levels = depth.shape[0]
@@ -241,7 +279,7 @@ def march_slab(
     n_faces = np.zeros(n_levels, dtype=np.int64)
     corner = np.zeros(8, dtype=np.uint8)
     for z in range(n_p - 1):
-        g = z_base + z
+        g = field.z_base + z
         previous = state[1].copy()
         current = state[0].copy()
         for y in range(n_y - 1):
@@ -292,32 +330,19 @@ def march_slab(
                                     bx = ax + DIRECTIONS_NB[d, 0]
                                     by = ay + DIRECTIONS_NB[d, 1]
                                     bz = z + az + DIRECTIONS_NB[d, 2]
-                                    va = _node_value(
-                                        inside,
-                                        squared,
-                                        face,
-                                        depth,
-                                        far,
-                                        outside,
-                                        k,
-                                        z + az,
-                                        ay,
-                                        ax,
-                                    )
-                                    vb = _node_value(
-                                        inside, squared, face, depth, far, outside, k, bz, by, bx
-                                    )
+                                    va = _node_value(field, k, z + az, ay, ax)
+                                    vb = _node_value(field, k, bz, by, bx)
                                     share = va / (va - vb)
                                     share = min(max(share, EDGE_MARGIN), 1.0 - EDGE_MARGIN)
-                                    out = v_start[k] + made[k]
+                                    v_row = v_start[k] + made[k]
                                     made[k] += 1
-                                    vertices[out, 0] = origin[0] + step[0] * (
+                                    vertices[v_row, 0] = origin[0] + step[0] * (
                                         ax + share * (bx - ax)
                                     )
-                                    vertices[out, 1] = origin[1] + step[1] * (
+                                    vertices[v_row, 1] = origin[1] + step[1] * (
                                         ay + share * (by - ay)
                                     )
-                                    vertices[out, 2] = origin[2] + step[2] * (
+                                    vertices[v_row, 2] = origin[2] + step[2] * (
                                         g + az + share * (bz - z - az)
                                     )
                                 faces[row, v] = vid
