@@ -116,11 +116,12 @@ class ShellJob:
         Their ``shells`` are None when there are none or they failed; the seconds are
         those of the shells computed beside the slabs and of the wait for them. The files'
         shells are cleaned and jittered (:func:`offset.for_file.shell_for_file`); with the
-        "shells" rule :attr:`shells` stays as computed (the voxels' shells).
+        "shells" rule :attr:`shells` stays as computed (the voxels' shells), and without
+        shell meshes to write those are what is returned.
         """
         if self._pending is None:
-            if self.shells is None:
-                return ShellsDone(None, {})
+            if self.shells is None or not self.config.shell_meshes:
+                return ShellsDone(self.shells, {})  # no files: the voxels' shells as computed
             return ShellsDone(
                 [ready_for_file(s, self.config.shell_method).shell for s in self.shells], {}
             )

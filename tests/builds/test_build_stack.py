@@ -10,6 +10,7 @@ from openvdb_module import load_openvdb
 from skimage import measure
 from vdb_checks import describe_grids
 
+from offset import offset_shells
 from pipeline.build import build_stack
 from pipeline.config import BuildConfig
 from pipeline.errors import SlabWorkerDied
@@ -225,7 +226,7 @@ def test_distance_layers_agree_with_the_shells(built):
 
 @pytest.mark.parametrize(
     ("rule", "meshes", "expect_shells"),
-    [("shells", True, True), ("distance", False, False)],
+    [("shells", True, True), ("shells", False, False), ("distance", False, False)],
 )
 def test_layer_rules_and_shell_meshes(tmp_path, rule, meshes, expect_shells):
     config = BuildConfig(
@@ -242,3 +243,7 @@ def test_layer_rules_and_shell_meshes(tmp_path, rule, meshes, expect_shells):
     expected = (depth > 0).astype(int) + (depth > 0.5)
     clear = np.min(np.abs(depth[..., None] - np.array([0.0, 0.5])), axis=-1) > 0.08
     assert (layers == expected)[clear].mean() > 0.999
+    if rule == "shells" and not meshes:  # the manifest counts the shells the voxels used
+        ball = _ball()
+        (shell,) = offset_shells(ball.vertices, ball.faces, [0.5])
+        assert manifest["layers"][1]["shell_faces"] == len(shell.faces)
