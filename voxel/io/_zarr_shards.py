@@ -18,8 +18,11 @@ from numpy.typing import NDArray
 from zarr.codecs import ZstdCodec
 
 #: Inner chunk ``(z, y, x)`` of every array, at most: z is the largest divisor of the
-#: shard's rows up to this (zarr's cost is per chunk: about 0.2 ms each to write).
+#: shard's rows up to this (zarr's cost is per chunk: about 0.2 ms each to write or read).
 CHUNK_ZYX = (64, 64, 64)
+#: Rows of a shard of the levels above 0 (made in the writer, not bound to the slabs): a
+#: chunk as deep as it is wide, so a y or x section reads as few chunks as a z section.
+COARSE_SHARD_ROWS = CHUNK_ZYX[0]
 #: zstd level of the chunks.
 ZSTD_LEVEL = 1
 
