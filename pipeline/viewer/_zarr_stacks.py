@@ -35,7 +35,7 @@ from pipeline.viewer._stacks import PLANE, Axis, StackError, region_shape
 #: Memory for the bands kept between requests, bytes.
 CACHE_BYTES = 1 << 30
 #: A band larger than the budget over this is not kept: the slice is read alone.
-BAND_SHARE = 16
+BAND_SHARE = 32
 
 #: The axes of a slice's rows and columns (and their positions in ``(z, y, x)``).
 _POSITION = {"z": 0, "y": 1, "x": 2}

@@ -150,8 +150,8 @@ class _Level:
             for name, labels in shard.labels.items():
                 write_solid(self.arrays[name], shard.z, labels)
             if rest is not None:  # copied, so that the shard's rows are let go
-                labels = {k: v.copy() for k, v in rest.labels.items()}
-                self.unwritten = [_Rows(rest.z, rest.colour.copy(), rest.weight, labels)]
+                kept = {k: v.copy() for k, v in rest.labels.items()}
+                self.unwritten = [_Rows(rest.z, rest.colour.copy(), rest.weight, kept)]
             waiting -= n
 
 
