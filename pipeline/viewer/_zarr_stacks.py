@@ -163,19 +163,14 @@ class ZarrStack:
             selection = tuple(slice(lo, hi, st) for (lo, hi), st in zip(box, steps, strict=True))
             lead = (slice(None),) if self.samples else ()
             values = np.asarray(self.levels[level][(*lead, *selection)])
-            if self.samples:
-                values = np.moveaxis(values, 0, -1)
-            return np.ascontiguousarray(values.reshape(shape))
+            return _interleaved(values, self.samples).reshape(shape)
         band, origin = self._band(level, axis, box)
         picks: list[Any] = [None, None, None]
         picks[ni] = np.array([at - origin[ni]])
         picks[ri] = row_at - origin[ri]
         picks[ci] = col_at - origin[ci]
-        z, y, x = picks
-        values = band[np.ix_(z, y, x)] if self.samples == 0 else band[:, *np.ix_(z, y, x)]
-        if self.samples:
-            values = np.moveaxis(values, 0, -1)
-        return np.ascontiguousarray(values.reshape(shape))
+        values = _pick(band, picks, lead=1 if self.samples else 0)
+        return _interleaved(values, self.samples).reshape(shape)
 
     def voxel(self, z: int, y: int, x: int) -> NDArray[np.uint8]:
         """Return voxel ``(z, y, x)`` of level 0: ``(S,)`` uint8 (``(1,)`` for labels)."""
@@ -225,6 +220,34 @@ class ZarrStack:
         band = np.asarray(array[(slice(None), *selection) if self.samples else selection])
         self.cache.put((id(self), level, axis, aligned), band)
         return band, (aligned[0][0], aligned[1][0], aligned[2][0])
+
+
+def _pick(band: NDArray[np.uint8], picks: Sequence[NDArray[np.int64]], lead: int) -> Any:
+    """Return ``band``'s voxels at the ``(z, y, x)`` index arrays ``picks`` (increasing).
+
+    Evenly spaced indices are taken as slices (views), the others axis by axis; `lead`
+    axes (the channels) come first and are kept whole.
+    """
+    values: Any = band
+    for k, at in enumerate(picks):
+        where: list[Any] = [slice(None)] * (lead + k)
+        gaps = np.diff(at)
+        if len(at) == 1 or (gaps[0] > 0 and np.all(gaps == gaps[0])):
+            step = int(gaps[0]) if len(at) > 1 else 1
+            values = values[(*where, slice(int(at[0]), int(at[-1]) + 1, step))]
+        else:
+            values = np.take(values, at, axis=lead + k)
+    return values
+
+
+def _interleaved(values: NDArray[np.uint8], samples: int) -> NDArray[np.uint8]:
+    """Return ``(S, ...)`` channels as one contiguous ``(..., S)`` array (labels as they are).
+
+    Channel by channel: a few times quicker than copying the moved axis.
+    """
+    if not samples:
+        return np.ascontiguousarray(values)
+    return np.stack(list(values), axis=-1)
 
 
 def _open_levels(

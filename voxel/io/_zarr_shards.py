@@ -17,9 +17,16 @@ import zarr
 from numpy.typing import NDArray
 from zarr.codecs import ZstdCodec
 
-#: Inner chunk ``(z, y, x)`` of every array, at most: z is the largest divisor of the
-#: shard's rows up to this (zarr's cost is per chunk: about 0.2 ms each to write).
+#: Inner chunk ``(z, y, x)`` of every array, z at most, y and x at least: z is the
+#: largest divisor of the shard's rows up to this, y and x the power of two that keeps
+#: the chunk within :data:`CHUNK_VOXELS` (zarr's cost is per chunk, about 0.2 ms each to
+#: write or read: a thin slab's chunks are wider, ``8 x 256 x 256`` for slabs of 8 rows).
 CHUNK_ZYX = (64, 64, 64)
+#: Voxels of an inner chunk, at most (y and x widened while they fit).
+CHUNK_VOXELS = 2 * 64**3
+#: Rows of a shard of the levels above 0 (made in the writer, not bound to the slabs): a
+#: chunk as deep as it is wide, so a y or x section reads as few chunks as a z section.
+COARSE_SHARD_ROWS = CHUNK_ZYX[0]
 #: zstd level of the chunks.
 ZSTD_LEVEL = 1
 
@@ -28,7 +35,10 @@ def level_array(group: Any, name: str, shape_zyx: Sequence[int], rows: int, samp
     """Create one level's array: ``(C, Z, Y, X)`` (``samples > 0``) or ``(Z, Y, X)`` uint8."""
     n_z, n_y, n_x = (int(n) for n in shape_zyx)
     cz = max(d for d in range(1, min(rows, CHUNK_ZYX[0]) + 1) if rows % d == 0)
-    cy, cx = min(CHUNK_ZYX[1], n_y), min(CHUNK_ZYX[2], n_x)
+    widen = 1
+    while cz * (2 * widen) ** 2 * CHUNK_ZYX[1] * CHUNK_ZYX[2] <= CHUNK_VOXELS:
+        widen *= 2
+    cy, cx = min(CHUNK_ZYX[1] * widen, n_y), min(CHUNK_ZYX[2] * widen, n_x)
     chunks = (cz, cy, cx)
     shards = (rows, -(-n_y // cy) * cy, -(-n_x // cx) * cx)
     lead = (samples,) if samples else ()

@@ -5,15 +5,19 @@ root and the label images ``labels/materials`` and ``labels/layers`` ``(z, y, x)
 each as the levels ``0, 1, ...`` of a pyramid (:mod:`voxel.io._pyramid`), with the
 metadata of :mod:`voxel.io._ome_metadata`.
 
-Layout: every array is sharded, one shard file holding the whole ``y, x`` extent of
-``slab_rows`` z rows (a build's slab at level 0, so each slab writes whole shards and
-nothing is read back); the shards hold inner chunks of up to ``64 x 64 x 64`` voxels
-(z, y, x; all channels together; z divides the shard's rows), each zstd-compressed.
-Inner chunks of void (all 0, the fill value) are not stored, nor shards of void only
-(and zarr is handed only the box of chunks around the solid voxels). The levels above 0
-are made in the writer thread as the slabs come: each level keeps the rows it has not
-written (at most a shard's) and the rows the next level has not yet reduced (fewer than
-its z factor). The bytes depend only on the voxels and the grid, never on timing.
+Layout: every array is sharded, one shard file holding the whole ``y, x`` extent of a
+run of z rows: at level 0 ``slab_rows`` (a build's slab, so each slab writes whole shards
+and nothing is read back), above it 64 (:data:`~voxel.io._zarr_shards.COARSE_SHARD_ROWS`).
+The shards hold inner chunks of up to ``64 x 64 x 64`` voxels (z, y, x; all channels
+together; z divides the shard's rows), each zstd-compressed: above level 0 the chunks are
+cubes, so a y or x section through a tall build crosses a few dozen chunks along z, not
+one per slab (zarr's cost is per chunk). Inner chunks of void (all 0, the fill value) are
+not stored, nor shards of void only (and zarr is handed only the box of chunks around the
+solid voxels). The levels above 0 are made in the writer thread as the slabs come: each
+level keeps the rows it has not written (less than a shard's: colour and labels, about
+64 x 5 bytes per voxel of a level's row) and the rows the next level has not yet reduced
+(fewer than its z factor). The bytes depend only on the voxels and the grid, never on
+timing.
 
 The store appears whole or not at all: it is written into a temporary folder beside it
 (``.NAME.*.partial``) and renamed by :meth:`OmeZarrWriter.close`.
@@ -43,7 +47,7 @@ from voxel.io._ome_metadata import (
 from voxel.io._png_slices import _replace_folder
 from voxel.io._pyramid import Factors, downsample_colour, downsample_labels, level_factors
 from voxel.io._slab_thread import ClosingWriter, SlabThread
-from voxel.io._zarr_shards import level_array, write_solid
+from voxel.io._zarr_shards import COARSE_SHARD_ROWS, level_array, write_solid
 
 
 @dataclass
@@ -81,11 +85,19 @@ class _Rows:
         """Return `first` followed by `second` (`first` may be None)."""
         if first is None or len(first) == 0:
             return second
+        return _Rows.concatenate([first, second])
+
+    @staticmethod
+    def concatenate(pieces: Sequence[_Rows]) -> _Rows:
+        """Return consecutive `pieces` (at least one) as one, each row copied once."""
+        if len(pieces) == 1:
+            return pieces[0]
+        first = pieces[0]
         return _Rows(
             first.z,
-            np.concatenate([first.colour, second.colour], axis=1),
-            np.concatenate([first.weight.astype(np.float32), second.weight.astype(np.float32)]),
-            {k: np.concatenate([v, second.labels[k]]) for k, v in first.labels.items()},
+            np.concatenate([p.colour for p in pieces], axis=1),
+            np.concatenate([p.weight.astype(np.float32) for p in pieces]),
+            {k: np.concatenate([p.labels[k] for p in pieces]) for k in first.labels},
         )
 
 
@@ -99,7 +111,7 @@ class _Level:
         self.shard_rows = shard_rows
         self.factors = factors  # to the next level (None: the last)
         self.n_z = n_z
-        self.unwritten: _Rows | None = None
+        self.unwritten: list[_Rows] = []  # in z order, without their weights
         self.unreduced: _Rows | None = None
 
     def add(self, rows: _Rows, *, written: bool = False) -> _Rows | None:
@@ -108,7 +120,7 @@ class _Level:
         `written`: the rows' shards are stored already (encoded where the slab was made).
         """
         if not written:
-            self.unwritten = _Rows.join(self.unwritten, rows)
+            self.unwritten.append(_Rows(rows.z, rows.colour, rows.weight[:, :0, :0], rows.labels))
             self._write(final=False)
         if self.factors is None:
             return None
@@ -128,13 +140,19 @@ class _Level:
         return _reduce(rest, self.factors)
 
     def _write(self, *, final: bool) -> None:
-        rows = self.unwritten
-        while rows is not None and len(rows) and (len(rows) >= self.shard_rows or final):
-            shard, rows = rows.split(min(self.shard_rows, len(rows)))
+        """Write each whole shard of the waiting rows (and, if `final`, the last part)."""
+        waiting = sum(len(rows) for rows in self.unwritten)
+        while waiting and (waiting >= self.shard_rows or final):
+            pieces, self.unwritten = self.unwritten, []
+            n = min(self.shard_rows, waiting)
+            shard, rest = _Rows.concatenate(pieces).split(n)
             write_solid(self.arrays["colour"], shard.z, shard.colour)
             for name, labels in shard.labels.items():
                 write_solid(self.arrays[name], shard.z, labels)
-        self.unwritten = rows
+            if rest is not None:  # copied, so that the shard's rows are let go
+                kept = {k: v.copy() for k, v in rest.labels.items()}
+                self.unwritten = [_Rows(rest.z, rest.colour.copy(), rest.weight, kept)]
+            waiting -= n
 
 
 def _reduce(rows: _Rows, factors: Factors) -> _Rows:
@@ -156,7 +174,7 @@ class OmeZarrWriter(ClosingWriter):
     samples : int
         3 (RGB) or 4 (RGBA) colour channels.
     slab_rows : int
-        Rows of a slab (the shards' z extent; the last slab may be shorter).
+        Rows of a slab (the z extent of level 0's shards; the last slab may be shorter).
     labels : mapping of str to sequence of LabelValue
         The label images (``materials``, ``layers``) and the values each may hold.
     queue_slabs : int
@@ -223,14 +241,15 @@ class OmeZarrWriter(ClosingWriter):
         shape = tuple(self.grid.shape_zyx)
         levels = []
         for k in range(len(transforms)):
+            rows = slab_rows if k == 0 else COARSE_SHARD_ROWS
             arrays = {
                 name: level_array(
-                    group, str(k), shape, slab_rows, 0 if name != "colour" else self.samples
+                    group, str(k), shape, rows, 0 if name != "colour" else self.samples
                 )
                 for name, group in groups.items()
             }
             factors = self.factors[k] if k < len(self.factors) else None
-            levels.append(_Level(arrays, slab_rows, factors, shape[0]))
+            levels.append(_Level(arrays, rows, factors, shape[0]))
             if factors is not None:
                 shape = tuple(-(-n // f) for n, f in zip(shape, factors, strict=True))
         return levels

@@ -1,0 +1,103 @@
+"""The store's levels above 0: cubic chunks in 64-row shards, however the slabs come.
+
+Independent truth: the arrays read back with ``zarr`` alone, and each level's labels
+against the mode of the level below's blocks computed with :func:`scipy.stats.mode`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import zarr
+from scipy import stats
+
+from voxel.grid import GridSpec
+from voxel.io import LabelValue, OmeZarrWriter
+
+#: A J750-like grid (voxel x, y, z mm): levels 1 and 2 span several 64-row shards.
+GRID = GridSpec((0.0, 0.0, 0.0), (0.042, 0.085, 0.027), (300, 40, 70))
+LABELS = {"layers": [LabelValue(v, (v, v, v, 255)) for v in range(4)]}
+
+
+def _volume() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Colour ``(Z, Y, X, 3)``, colour-layer mask and layers ``(Z, Y, X)``: a ball."""
+    z, y, x = np.indices(GRID.shape_zyx, dtype=np.float64)
+    r = np.sqrt(((z - 150) / 140) ** 2 + ((y - 20) / 18) ** 2 + ((x - 35) / 30) ** 2)
+    layers = np.select([r < 0.6, r < 0.8, r < 1.0], [3, 2, 1], 0).astype(np.uint8)
+    rng = np.random.default_rng(4)
+    colour = rng.integers(0, 256, (*GRID.shape_zyx, 3), dtype=np.uint8)
+    colour[layers == 0] = 0
+    return colour, layers == 1, layers
+
+
+def _write(path: Path, slab_rows: int) -> Path:
+    colour, coloured, layers = _volume()
+    writer = OmeZarrWriter(path, GRID, samples=3, slab_rows=slab_rows, labels=LABELS)
+    for z0 in range(0, GRID.shape_zyx[0], slab_rows):
+        rows = slice(z0, z0 + slab_rows)
+        writer.write_slab(colour[rows], coloured[rows], {"layers": layers[rows]})
+    writer.close()
+    return path
+
+
+@pytest.fixture(scope="module")
+def stores(tmp_path_factory):
+    """The same volume in slabs of 7 rows and in one slab."""
+    root = tmp_path_factory.mktemp("zarr_levels")
+    return _write(root / "thin.ome.zarr", 7), _write(root / "whole.ome.zarr", GRID.shape_zyx[0])
+
+
+def _mode(labels: np.ndarray, factors: tuple[int, int, int]) -> np.ndarray:
+    """The most frequent value of every block (ties to the smallest), edge blocks padded
+    with a value no block holds and left out of the count."""
+    shape = [-(-n // f) * f for n, f in zip(labels.shape, factors, strict=True)]
+    padded = np.full(shape, 255, np.uint8)
+    padded[tuple(slice(0, n) for n in labels.shape)] = labels
+    fz, fy, fx = factors
+    blocks = padded.reshape(shape[0] // fz, fz, shape[1] // fy, fy, shape[2] // fx, fx)
+    blocks = blocks.transpose(0, 2, 4, 1, 3, 5).reshape(*blocks.shape[::2], -1).astype(float)
+    blocks[blocks == 255] = np.nan
+    return stats.mode(blocks, axis=-1, nan_policy="omit").mode.astype(np.uint8)
+
+
+def test_levels_above_0_are_cubic_chunks_in_64_row_shards(stores):
+    thin, _ = stores
+    root = zarr.open_group(thin, mode="r")
+    n_levels = len(root.attrs["ome"]["multiscales"][0]["datasets"])
+    assert n_levels >= 3
+    for k in range(1, n_levels):
+        for array in (root[str(k)], root[f"labels/layers/{k}"]):
+            ny, nx = array.shape[-2:]
+            assert array.chunks[-3:] == (64, min(64, ny), min(64, nx))
+            assert array.shards is not None and array.shards[-3] == 64
+    assert root["labels/layers/0"].shards[-3] == 7  # level 0: one shard a slab
+
+
+def test_levels_are_the_same_bytes_however_the_slabs_come(stores):
+    thin, whole = stores
+    for k in range(1, 3):
+        for group in ("", "labels/layers/"):
+            files = sorted(p.relative_to(thin) for p in (thin / f"{group}{k}").rglob("*"))
+            assert len([f for f in files if "/c/" in f"/{f}"]) >= 2  # several shards
+            for name in files:
+                if (thin / name).is_file():
+                    assert (thin / name).read_bytes() == (whole / name).read_bytes(), name
+
+
+def test_each_level_holds_the_mode_of_the_level_below(stores):
+    thin, _ = stores
+    root = zarr.open_group(thin, mode="r")
+    multiscale = root["labels/layers"].attrs["ome"]["multiscales"][0]
+    scales = [d["coordinateTransformations"][0]["scale"] for d in multiscale["datasets"]]
+    below = root["labels/layers/0"][:]
+    assert np.array_equal(below, _volume()[2])
+    for k in range(1, len(scales)):
+        factors = tuple(round(a / b) for a, b in zip(scales[k], scales[k - 1], strict=True))
+        level = root[f"labels/layers/{k}"][:]
+        assert np.array_equal(level, _mode(below, factors)), k
+        below = level
+    meta = json.loads((thin / "labels/layers/1/zarr.json").read_text())
+    assert meta["shape"][0] > 64  # level 1 crosses shards
