@@ -53,8 +53,7 @@ def main() -> None:
     tree = cKDTree(reachable)
     white = observer(profile.optics.wavelengths_nm).white_xy  # the separation's white
     results: dict[str, Any] = {}
-    for name, (path, size_mm) in MODELS.items():
-        del size_mm  # colours do not depend on the size
+    for name, (path, _) in MODELS.items():  # the colours do not depend on the size
         mesh = load_model(path)
         points = sample_surface(mesh.vertices, mesh.faces, mesh.colour_at, SAMPLES, seed=0)
         rgba = points.target_rgba
