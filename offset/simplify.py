@@ -33,26 +33,16 @@ when every try fails the unsimplified shells are kept (they are valid by constru
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
-import manifold3d
 import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from offset._validate import FloatArray, IntArray
-from offset.intersections import intersecting_pairs
-from offset.jitter import JITTER_FRACTION
+from offset.simplify_passes import LOG, TIDY, Mesh, crossing_free
 from voxel.geometry._nearest import SurfaceIndex, nearest_faces
-
-Mesh = tuple[FloatArray, IntArray]
-
-LOG = logging.getLogger(__name__)
-
-#: Tolerance of the tidy pass over a simplification, as a share of the first one's.
-TIDY = 0.25
 
 #: Triangles per chunk of a pass over an unsimplified shell.
 CHUNK = 1 << 20
@@ -147,7 +137,7 @@ def simplify_shells(
     tolerance = limits.tolerance_mm
     for attempt in range(limits.tries):
         record["tries"] = attempt + 1
-        candidate, locked, crossings = _crossing_free(meshes, tolerance, limits.lock_rounds)
+        candidate, locked, crossings = crossing_free(meshes, tolerance, limits.lock_rounds)
         errors = [_depth_error(surface, depth_mm[k], v, f) for k, (v, f) in enumerate(candidate)]
         moved = (1.0 + TIDY) * tolerance
         within = all(
@@ -250,162 +240,6 @@ def _rows_in(rows: IntArray, wanted: IntArray) -> npt.NDArray[np.bool_]:
     return np.isin(code(rows), code(wanted))
 
 
-class _Locks(NamedTuple):
-    """The unsimplified triangles locked per shell ((T,) bool) and the rounds that did it."""
-
-    faces: list[npt.NDArray[np.bool_]]
-    rounds: int
-
-
-def _crossing_free(
-    meshes: list[Mesh], tolerance_mm: float, rounds: int
-) -> tuple[list[Mesh], _Locks, int]:
-    """Simplify the shells, locking the triangles near crossings until none cross.
-
-    Returns the shells (jittered unless the jitter makes a crossing), the locks and the
-    crossing pairs left after the last round (0 when the shells are accepted).
-    """
-    locks = [np.zeros(len(f), dtype=bool) for _, f in meshes]
-    plain = [_simplified(v, f, tolerance_mm) for v, f in meshes]
-    done = 0
-    while True:
-        candidate, pairs, owner = _jittered(plain)
-        LOG.debug("tolerance %g, lock round %d: %d crossing pairs", tolerance_mm, done, len(pairs))
-        if len(pairs) == 0 or done == rounds:
-            return candidate, _Locks(locks, done), len(pairs)
-        for k in np.unique(owner[pairs]):
-            near = _near_crossings(candidate, pairs, owner, meshes[int(k)], 2.0**done)
-            if (near & ~locks[k]).any():
-                locks[k] |= near
-                v, f = meshes[int(k)]
-                plain[k] = _simplified(v, f, tolerance_mm, locked=locks[k])
-        done += 1
-
-
-def _jittered(plain: list[Mesh]) -> tuple[list[Mesh], IntArray, IntArray]:
-    """Return the shells jittered where the jitter makes no crossing, and their crossings.
-
-    The vertices of triangles that cross after the jitter go back to their places and the
-    shells are checked again; if they still cross, the unjittered shells are checked
-    (a fold of the simplification crosses either way).
-    """
-    moved = [_jitter(v, f) for v, f in plain]
-    pairs, owner = _crossings(moved)
-    if len(pairs) == 0:
-        return moved, pairs, owner
-    start = np.cumsum([0] + [len(f) for _, f in plain])
-    for k in np.unique(owner[pairs]):
-        faces = np.unique(pairs)
-        local = faces[owner[faces] == k] - start[k]
-        back = np.unique(plain[k][1][local])
-        v = moved[k][0].copy()
-        v[back] = plain[k][0][back]
-        moved[k] = (v, plain[k][1])
-    pairs, owner = _crossings(moved)
-    if len(pairs) == 0:
-        return moved, pairs, owner
-    pairs, owner = _crossings(plain)
-    return plain, pairs, owner
-
-
-def _near_crossings(
-    shells: list[Mesh],
-    pairs: IntArray,
-    owner: IntArray,
-    original: Mesh,
-    scale: float,
-) -> npt.NDArray[np.bool_]:
-    """Mark the triangles of `original` near the crossing triangles of `pairs`.
-
-    A triangle is near when its centroid lies within ``2 * scale`` times the longest edge of
-    the crossing triangles from one of their corners.
-    """
-    vertices = np.concatenate([v for v, _ in shells])
-    offsets = np.cumsum([0] + [len(v) for v, _ in shells])
-    faces = np.concatenate([f + offsets[k] for k, (_, f) in enumerate(shells)])
-    corners = vertices[faces[np.unique(pairs)]]
-    longest = float(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max())
-    radius = 2.0 * scale * longest
-    points = corners.reshape(-1, 3)
-    v, f = original
-    lo, hi = points.min(axis=0) - radius, points.max(axis=0) + radius
-    # A centroid in the box needs a corner on either side of each of its planes.
-    below = np.zeros((len(f), 3), dtype=bool)
-    above = np.zeros((len(f), 3), dtype=bool)
-    for j in range(3):
-        corner = v[f[:, j]]
-        below |= corner <= hi
-        above |= corner >= lo
-    box = np.all(below & above, axis=1)
-    near = np.zeros(len(f), dtype=bool)
-    candidates = np.flatnonzero(box)
-    distance, _ = cKDTree(points).query(v[f[candidates]].mean(axis=1))
-    near[candidates] = distance <= radius
-    return near
-
-
-def _simplified(
-    vertices: FloatArray,
-    faces: IntArray,
-    tolerance_mm: float,
-    *,
-    locked: npt.NDArray[np.bool_] | None = None,
-) -> Mesh:
-    """Return Manifold's simplification of a closed mesh, then a tidy pass over the result.
-
-    The tidy pass (a new Manifold of the result, simplified at ``TIDY`` of the tolerance)
-    swaps and collapses the slivers the first one leaves, and with them most of its folds
-    (on the faceted spot at 100 mm: 49 crossing pairs before, 2 after); the surface moves
-    by less than ``(1 + TIDY)`` times the tolerance in all.
-    """
-    once = _manifold_simplify(vertices, faces, tolerance_mm, locked=locked)
-    return _manifold_simplify(*once, TIDY * tolerance_mm)
-
-
-def _manifold_simplify(
-    vertices: FloatArray,
-    faces: IntArray,
-    tolerance_mm: float,
-    *,
-    locked: npt.NDArray[np.bool_] | None = None,
-) -> Mesh:
-    """Return Manifold's simplification of a closed mesh (an empty mesh stays empty).
-
-    Each `locked` triangle ((T,) bool) gets a ``face_id`` of its own, so every edge
-    between two of them stays and they come out unsimplified.
-    """
-    if len(faces) == 0:
-        return vertices, faces
-    ids = {}
-    if locked is not None and locked.any():
-        ids["face_id"] = np.where(locked, np.arange(1, len(faces) + 1), 0).astype(np.uint64)
-    mesh = manifold3d.Mesh64(
-        vert_properties=np.ascontiguousarray(vertices, dtype=np.float64),
-        tri_verts=np.ascontiguousarray(faces, dtype=np.uint64),
-        **ids,
-    )
-    solid = manifold3d.Manifold(mesh)
-    if solid.status() != manifold3d.Error.NoError:
-        raise ValueError(f"the shell is not a closed 2-manifold: Manifold says {solid.status()}")
-    out = solid.simplify(tolerance_mm).to_mesh64()
-    v = np.array(np.asarray(out.vert_properties)[:, :3], dtype=np.float64, order="C")
-    return v, np.ascontiguousarray(np.asarray(out.tri_verts), dtype=np.int64)
-
-
-def _jitter(vertices: FloatArray, faces: IntArray) -> Mesh:
-    """Move every vertex by at most ``JITTER_FRACTION`` of the extent (seed 0).
-
-    The simplification leaves exactly coplanar neighbours on flat parts, which a triangle
-    test without a coplanar tolerance (MeshLab's) reads as crossings at random; the
-    crossing check runs on the moved vertices.
-    """
-    if len(vertices) == 0:
-        return vertices, faces
-    amplitude = JITTER_FRACTION * float(np.ptp(vertices, axis=0).max())
-    move = np.random.default_rng(0).uniform(-amplitude, amplitude, vertices.shape)
-    return vertices + move, faces
-
-
 class _Error(NamedTuple):
     """A shell's ``|d - D(f)|``: summaries (mm, or a share of ``D``) and where it was taken."""
 
@@ -451,22 +285,3 @@ def _depth_error(
         points,
         error,
     )
-
-
-def _crossings(meshes: list[Mesh]) -> tuple[IntArray, IntArray]:
-    """Return the crossing triangle pairs of the shells, all together, and each face's shell.
-
-    Returns
-    -------
-    pairs : (P, 2) int64
-        Indices into the shells' faces, concatenated outside in.
-    owner : (T,) int64
-        The shell of every concatenated face.
-    """
-    offsets = np.cumsum([0] + [len(v) for v, _ in meshes])
-    vertices = np.concatenate([v for v, _ in meshes])
-    faces = np.concatenate([f + offsets[k] for k, (_, f) in enumerate(meshes)])
-    owner = np.repeat(np.arange(len(meshes)), [len(f) for _, f in meshes])
-    if len(faces) == 0:
-        return np.zeros((0, 2), dtype=np.int64), owner
-    return intersecting_pairs(vertices, faces), owner

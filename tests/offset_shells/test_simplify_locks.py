@@ -14,8 +14,9 @@ import trimesh
 from meshlab_process import meshlab_crossing_faces, needs_meshlab
 from scipy.spatial import cKDTree
 
-from offset import simplify
-from offset.simplify import GuardLimits, _manifold_simplify, simplify_shells
+from offset import simplify_passes
+from offset.simplify import GuardLimits, simplify_shells
+from offset.simplify_passes import manifold_simplify
 from voxel.geometry._layer_field import field_surfaces
 from voxel.geometry._nearest import SurfaceIndex
 
@@ -45,12 +46,12 @@ def _unchanged(vertices: np.ndarray, faces: np.ndarray, before: tuple) -> int:
 @needs_meshlab
 def test_a_folded_simplification_is_simplified_again_with_the_fold_locked(shared_mesh, monkeypatch):
     # Without the tidy pass (which removes this fold too), so that the lock is what does it.
-    monkeypatch.setattr(simplify, "_simplified", simplify._manifold_simplify)
+    monkeypatch.setattr(simplify_passes, "simplified", simplify_passes.manifold_simplify)
     spot = _spot(shared_mesh, 30.0)
     v0, f0 = np.asarray(spot.vertices), np.asarray(spot.faces, dtype=np.int64)
     depth = np.full((1, len(f0)), 0.5)
     ((v, f),) = field_surfaces(v0, f0, depth, 0.1).surfaces
-    folded = _manifold_simplify(v, f, ONE_TRY.tolerance_mm)
+    folded = manifold_simplify(v, f, ONE_TRY.tolerance_mm)
     assert meshlab_crossing_faces(*folded) > 0  # the case under test: Manifold folds here
 
     out = simplify_shells([(v, f)], SurfaceIndex.build(v0, f0), depth, limits=ONE_TRY)
@@ -73,7 +74,7 @@ def test_the_tidy_pass_removes_the_fold(shared_mesh):
     v0, f0 = np.asarray(spot.vertices), np.asarray(spot.faces, dtype=np.int64)
     depth = np.full((1, len(f0)), 0.5)
     ((v, f),) = field_surfaces(v0, f0, depth, 0.1).surfaces
-    assert meshlab_crossing_faces(*_manifold_simplify(v, f, ONE_TRY.tolerance_mm)) > 0
+    assert meshlab_crossing_faces(*manifold_simplify(v, f, ONE_TRY.tolerance_mm)) > 0
     out = simplify_shells([(v, f)], SurfaceIndex.build(v0, f0), depth, limits=ONE_TRY)
     assert out.record["tolerance_mm"] == ONE_TRY.tolerance_mm
     assert meshlab_crossing_faces(*out.meshes[0]) == 0
