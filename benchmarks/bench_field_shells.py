@@ -1,7 +1,7 @@
 """Field shells (``shellvox shells --method field``): speed against OpenVDB, validity.
 
 Usage: .venv/bin/python benchmarks/bench_field_shells.py [--part speed|meshes|both]
-       [--out benchmarks/results/bench_field_shells.json]
+       [--out benchmarks/results/bench_field_shells.json] [--only NAME,...]
 
 speed: ../shared/meshes/spot with two Loop subdivisions (93,696 faces) at 100 mm, layers
 0.5 + 1.0 mm: the whole ``shellvox shells MODEL -o DIR --thickness 0.5,1.0 --no-baselines``
@@ -28,6 +28,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +36,7 @@ import numpy as np
 import trimesh
 
 from offset.intersections import intersecting_pairs
+from pipeline.loading import load_model
 from voxel.geometry._nearest import SurfaceIndex, distance_to_surface, winding_numbers
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -143,17 +145,28 @@ def speed(work: Path) -> dict[str, Any]:
     return result
 
 
-def meshes(work: Path) -> dict[str, Any]:
-    """Shells of every shared mesh, each one command."""
-    results = {}
+def meshes(
+    work: Path,
+    save: Callable[[dict[str, Any]], None] | None = None,
+    *,
+    only: set[str] | None = None,
+    results: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Shells of every shared mesh (or those in `only`), each one command.
+
+    `results` holds earlier results to add to; `save` gets the results so far.
+    """
+    results = dict(results or {})
     for name, (relative, size) in MESHES.items():
+        if only is not None and name not in only:
+            continue
         source = SHARED / relative
         if not source.is_file():
             continue
-        if size is None:
+        if size is None:  # a 3MF as it is, read by the project's loader (trimesh needs lxml)
             model, extra = source, []
-            raw = trimesh.load(source, force="mesh")
-            mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
+            loaded = load_model(source)
+            mesh = trimesh.Trimesh(loaded.vertices, loaded.faces, process=False)
         else:
             mesh = load_shared(relative, size)
             model, extra = work / f"{name}.ply", []
@@ -162,6 +175,8 @@ def meshes(work: Path) -> dict[str, Any]:
         seconds = run_shells(model, out, extra)
         results[name] = {"seconds": seconds, "n_faces": len(mesh.faces), **validity(mesh, out)}
         print(name, f"{seconds:.1f} s", flush=True)
+        if save is not None:
+            save(results)
     return results
 
 
@@ -172,6 +187,7 @@ def main() -> None:
     parser.add_argument(
         "--out", type=Path, default=ROOT / "benchmarks/results/bench_field_shells.json"
     )
+    parser.add_argument("--only", help="comma-separated mesh names of the meshes part")
     args = parser.parse_args()
     results = json.loads(args.out.read_text()) if args.out.is_file() else {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -180,8 +196,14 @@ def main() -> None:
             results["speed"] = speed(work)
             args.out.write_text(json.dumps(results, indent=1))
         if args.part in ("meshes", "both"):
-            results["meshes"] = meshes(work)
-            args.out.write_text(json.dumps(results, indent=1))
+
+            def save(so_far: dict[str, Any]) -> None:
+                results["meshes"] = so_far
+                args.out.write_text(json.dumps(results, indent=1))
+
+            only = None if args.only is None else set(args.only.split(","))
+            earlier = results.get("meshes", {}) if only is not None else {}
+            save(meshes(work, save, only=only, results=earlier))
 
 
 if __name__ == "__main__":
