@@ -94,15 +94,16 @@ class ShellConfig:
         empty when a thickness rule sets it per face.
     method : {"field", "robust", "paper"}
         Offset construction (see :mod:`pipeline.output._shell_methods`).
-    step_mm : float, mm
-        Grid step of the ``field`` method.
+    step_mm : float or None, mm
+        Grid step of the ``field`` method (None: automatic, see
+        :func:`pipeline.output._shell_methods.automatic_step`).
     layer_height_mm : float
         Printer layer height used by the slicer baseline of the report.
     """
 
     thickness_mm: tuple[float, ...] = (0.5, 0.5)
-    method: Literal["field", "robust", "paper"] = "robust"
-    step_mm: float = 0.1
+    method: Literal["field", "robust", "paper"] = "field"
+    step_mm: float | None = None
     layer_height_mm: float = 0.027
 
 
@@ -171,9 +172,8 @@ class BuildConfig:
         anyway; with the ``"distance"`` rule they run beside the voxels, in another
         process, and the manifest reports how well the two realisations agree).
     shell_method : {"field", "robust", "paper"}
-        Offset construction (see :mod:`pipeline.output._shell_methods`; ``field`` on its
-        default grid step, ``--shell-step`` of ``shellvox shells``; ``robust`` by default
-        until the field method's simplification holds on large meshes).
+        Offset construction (see :mod:`pipeline.output._shell_methods`; ``field``, the
+        default, on its default grid step, ``--shell-step`` of ``shellvox shells``).
     margin_mm : float, mm
         Empty space around the model in the grid (at least the level-set half width).
     sdf_half_width_voxels : float
@@ -209,7 +209,7 @@ class BuildConfig:
     colour_layers: tuple[int, ...] = (1,)
     layer_rule: LayerRule = "distance"
     shell_meshes: bool = False
-    shell_method: Literal["field", "robust", "paper"] = "robust"
+    shell_method: Literal["field", "robust", "paper"] = "field"
     margin_mm: float = 0.5
     sdf_half_width_voxels: float = 3.0
     slab_mb: float = 1024.0

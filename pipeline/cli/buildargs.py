@@ -134,14 +134,14 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
         "--shell-meshes",
         action=argparse.BooleanOptionalAction,
         default=False,
-        help="also write the offset shells to DIR/shells/ (the robust shells of a large "
-        "model take minutes, as the estimate says; `shellvox shells` makes them alone)",
+        help="also write the offset shells to DIR/shells/ (the shells of a large model take "
+        "minutes, as the estimate says; `shellvox shells` makes them alone)",
     )
     parser.add_argument(
         "--method",
         choices=SHELL_METHODS,
-        default="robust",
-        help="offset construction of the shells (default robust; see `shellvox shells`)",
+        default="field",
+        help="offset construction of the shells (default field; see `shellvox shells`)",
     )
     parser.add_argument(
         "--alpha",

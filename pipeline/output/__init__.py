@@ -18,6 +18,7 @@ from pipeline.output._manifest import Tally, stack_manifest
 from pipeline.output._outdir import LOCK_NAME, SHELL_OUTPUTS, OutputFolder, remove_leftovers, sha256
 from pipeline.output._ply import read_face_ply, write_ply, write_thickness_ply
 from pipeline.output._shell_methods import (
+    MAX_FIELD_TRIANGLES,
     SHELL_METHODS,
     SHELL_STEP_MM,
     method_shells,
@@ -28,6 +29,7 @@ from pipeline.output._streams import StackOutputs, gcvf_slices, gcvf_writer, zar
 
 __all__ = [
     "LOCK_NAME",
+    "MAX_FIELD_TRIANGLES",
     "SHELL_METHODS",
     "SHELL_OUTPUTS",
     "SHELL_STEP_MM",

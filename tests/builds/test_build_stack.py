@@ -10,11 +10,11 @@ from openvdb_module import load_openvdb
 from skimage import measure
 from vdb_checks import describe_grids
 
-from offset import offset_shells
 from pipeline.build import build_stack
 from pipeline.config import BuildConfig
 from pipeline.errors import SlabWorkerDied
 from pipeline.model import ColouredMesh
+from pipeline.output._shell_methods import method_shells
 
 
 def _ball(radius: float = 3.0) -> ColouredMesh:
@@ -245,5 +245,5 @@ def test_layer_rules_and_shell_meshes(tmp_path, rule, meshes, expect_shells):
     assert (layers == expected)[clear].mean() > 0.999
     if rule == "shells" and not meshes:  # the manifest counts the shells the voxels used
         ball = _ball()
-        (shell,) = offset_shells(ball.vertices, ball.faces, [0.5])
-        assert manifest["layers"][1]["shell_faces"] == len(shell.faces)
+        made = method_shells(ball.vertices, ball.faces, [0.5], method=config.shell_method)
+        assert manifest["layers"][1]["shell_faces"] == len(made.shells[0].faces)

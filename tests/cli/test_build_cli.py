@@ -7,6 +7,7 @@ import pytest
 import trimesh
 from PIL import Image
 
+from pipeline.build._estimate import SECONDS_PER_SHELL_FACE
 from pipeline.cli import main
 
 
@@ -96,8 +97,10 @@ def test_shell_meshes_only_when_asked_and_estimated(tmp_path, model, capsys):
     manifest = json.loads((out / "manifest.json").read_text())
     assert {"shells/shell_1.ply", "shells/shell_2.ply"} <= set(manifest["files"])
     n_faces = len(trimesh.load(model, process=False).faces)
-    # the estimate counts every face of both layers at the robust method's rate (the default)
-    assert manifest["estimate"]["shell_seconds"] == pytest.approx(n_faces * 2 * 1e-2)
+    # the estimate counts every face of both layers at the field method's rate (the default)
+    rate = SECONDS_PER_SHELL_FACE[manifest["config"]["shell_method"]]
+    assert manifest["config"]["shell_method"] == "field"
+    assert manifest["estimate"]["shell_seconds"] == pytest.approx(n_faces * 2 * rate)
     err = capsys.readouterr().err
     assert "for the shell meshes" in err  # the up-front estimate line
     assert "shell meshes:" in err  # the progress bar
