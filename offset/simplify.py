@@ -19,9 +19,11 @@ most slivers and folds the first leaves), and the result is accepted only when
 Manifold's edge collapse can fold a few triangles over a neighbour around a sliver (4 pairs
 in 15 M triangles of spot at 100 mm). Where the shells cross, the unsimplified triangles
 near the crossing are locked (each its own ``face_id``: Manifold keeps every edge between
-triangles of different ids) and the shell is simplified again, so the folded region keeps
-its unsimplified triangles, which cross nothing by construction; the lock's radius is twice
-the longest edge of the crossing triangles, doubled on each of ``GuardLimits.lock_rounds``.
+triangles of different ids) and the shell is simplified again, so the first pass keeps
+the unsimplified triangles there, which cross nothing by construction (the tidy pass that
+follows is free to simplify them, and the crossing check covers its result); the lock's
+radius is twice the longest edge of the crossing triangles, doubled on each of
+``GuardLimits.lock_rounds``.
 
 The simplified vertices are then moved by at most 1e-8 of the part's size (seed 0), which
 breaks the exact coplanarity of flat parts that MeshLab's triangle test misreads (see
