@@ -92,7 +92,7 @@ class Simplified(NamedTuple):
     record : dict
         ``tolerance_mm`` used (0: kept unsimplified), ``tries``, ``faces_before``,
         ``faces_after``, ``raw_error_mm`` and ``error_mm`` (p99 and max of ``|d - D|`` per
-        shell, before and after), ``crossing_pairs`` of the last try (-1: not counted),
+        shell, before and after), ``crossing_pairs`` of the last try,
         ``lock_rounds`` of the last try and ``locked_faces`` per shell (unsimplified
         triangles kept around crossings); ``attempts``: the tolerance, crossing pairs, lock
         rounds and error of every try.

@@ -52,7 +52,7 @@ def crossing_free(
         if len(pairs) == 0 or done == rounds:
             return candidate, Locks(locks, done), len(pairs)
         for k in np.unique(owner[pairs]):
-            near = _nearcrossings(candidate, pairs, owner, meshes[int(k)], 2.0**done)
+            near = _near_crossings(candidate, pairs, owner, meshes[int(k)], 2.0**done)
             if (near & ~locks[k]).any():
                 locks[k] |= near
                 v, f = meshes[int(k)]
@@ -72,8 +72,8 @@ def _jittered(plain: list[Mesh]) -> tuple[list[Mesh], IntArray, IntArray]:
     if len(pairs) == 0:
         return moved, pairs, owner
     start = np.cumsum([0] + [len(f) for _, f in plain])
-    for k in np.unique(owner[pairs]):
-        faces = np.unique(pairs)
+    faces = np.unique(pairs)
+    for k in np.unique(owner[faces]):
         local = faces[owner[faces] == k] - start[k]
         back = np.unique(plain[k][1][local])
         v = moved[k][0].copy()
@@ -86,7 +86,7 @@ def _jittered(plain: list[Mesh]) -> tuple[list[Mesh], IntArray, IntArray]:
     return plain, pairs, owner
 
 
-def _nearcrossings(
+def _near_crossings(
     shells: list[Mesh],
     pairs: IntArray,
     owner: IntArray,
@@ -98,9 +98,7 @@ def _nearcrossings(
     A triangle is near when its centroid lies within ``2 * scale`` times the longest edge of
     the crossing triangles from one of their corners.
     """
-    vertices = np.concatenate([v for v, _ in shells])
-    offsets = np.cumsum([0] + [len(v) for v, _ in shells])
-    faces = np.concatenate([f + offsets[k] for k, (_, f) in enumerate(shells)])
+    vertices, faces = _concatenated(shells)
     corners = vertices[faces[np.unique(pairs)]]
     longest = float(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max())
     radius = 2.0 * scale * longest
@@ -194,10 +192,16 @@ def crossings(meshes: list[Mesh]) -> tuple[IntArray, IntArray]:
     owner : (T,) int64
         The shell of every concatenated face.
     """
-    offsets = np.cumsum([0] + [len(v) for v, _ in meshes])
-    vertices = np.concatenate([v for v, _ in meshes])
-    faces = np.concatenate([f + offsets[k] for k, (_, f) in enumerate(meshes)])
+    vertices, faces = _concatenated(meshes)
     owner = np.repeat(np.arange(len(meshes)), [len(f) for _, f in meshes])
     if len(faces) == 0:
         return np.zeros((0, 2), dtype=np.int64), owner
     return intersecting_pairs(vertices, faces), owner
+
+
+def _concatenated(meshes: list[Mesh]) -> Mesh:
+    """Return the shells as one mesh, their faces concatenated outside in."""
+    offsets = np.cumsum([0] + [len(v) for v, _ in meshes])
+    vertices = np.concatenate([v for v, _ in meshes])
+    faces = np.concatenate([f + offsets[k] for k, (_, f) in enumerate(meshes)])
+    return vertices, faces

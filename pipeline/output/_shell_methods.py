@@ -24,6 +24,7 @@ from offset.adjacency import edge_adjacency
 from offset.for_file import ShellForFile, shell_for_file
 from offset.shells import Shell
 from offset.simplify import DEFAULT_LIMITS, GuardLimits, simplify_shells
+from pipeline.model import face_areas
 from voxel.geometry import field_surfaces
 from voxel.geometry._nearest import SurfaceIndex
 
@@ -120,9 +121,7 @@ def method_shells(
     v, f = check_mesh(vertices, faces)
     t = check_thickness(thickness, f.shape[0])
     if step_mm is None:
-        tri = v[f]
-        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-        step_mm = automatic_step(float(area.sum()), t.shape[0])
+        step_mm = automatic_step(float(face_areas(v, f).sum()), t.shape[0])
     edge_adjacency(f)  # raises ValueError unless closed and consistently oriented
     depth = np.cumsum(t, axis=0)
     tick = time.perf_counter()

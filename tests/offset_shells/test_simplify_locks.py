@@ -77,4 +77,5 @@ def test_the_tidy_pass_removes_the_fold(shared_mesh):
     assert meshlab_crossing_faces(*manifold_simplify(v, f, ONE_TRY.tolerance_mm)) > 0
     out = simplify_shells([(v, f)], SurfaceIndex.build(v0, f0), depth, limits=ONE_TRY)
     assert out.record["tolerance_mm"] == ONE_TRY.tolerance_mm
+    assert out.record["lock_rounds"] == 0  # no lock was needed: the tidy pass removed it
     assert meshlab_crossing_faces(*out.meshes[0]) == 0
