@@ -204,9 +204,7 @@ class _Job:
             )
         )
         shell_job.start_beside(stack)
-        outputs = StackOutputs(
-            folder, plan.grid, config, self._profile(), self.materials, slab_rows=plan.rows
-        )
+        outputs = StackOutputs(folder, plan.grid, config, self._profile(), self.materials)
         sampler = None  # the voxels compared with the shell meshes, when there are any
         if shell_job.writes_meshes:
             n_slabs = math.ceil(plan.grid.shape_zyx[0] / plan.rows)

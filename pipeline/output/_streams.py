@@ -35,6 +35,7 @@ from voxel.io import (
     PngSliceWriter,
     ShardEncoder,
     TiffStackWriter,
+    encoded_by_slabs,
     key_rgba,
     material_table,
 )
@@ -58,8 +59,6 @@ class StackOutputs:
         Materials (names, keys, display colours); None: no material outputs.
     plan : MaterialPlan or None
         Which material indices the voxels may hold (with `profile`).
-    slab_rows : int, optional
-        Rows of the slabs (the OME-Zarr store's shards); default the whole grid.
     """
 
     #: The OME-Zarr store's folder name.
@@ -72,8 +71,6 @@ class StackOutputs:
         config: BuildConfig,
         profile: PrinterProfile | None,
         plan: MaterialPlan | None,
-        *,
-        slab_rows: int | None = None,
     ) -> None:
         self.folder = folder
         self.grid = grid
@@ -126,7 +123,6 @@ class StackOutputs:
                     folder.path / self.ZARR_NAME,
                     grid,
                     samples=self.samples,
-                    slab_rows=slab_rows or grid.shape_zyx[0],
                     labels=labels,
                 )
             )
@@ -262,12 +258,13 @@ def zarr_labels(config: BuildConfig, profile: PrinterProfile | None) -> dict[str
 def zarr_shards(
     grid: GridSpec, config: BuildConfig, slab_rows: int, profile: PrinterProfile | None
 ) -> ShardEncoder | None:
-    """Return the slab workers' encoder of the store's level-0 shards (None: no store).
+    """Return the slab workers' encoder of the store's level-0 shards.
 
-    The same arrays as :class:`StackOutputs` makes with `slab_rows` (and `profile` when the
-    voxels have materials).
+    None where there is no store or slabs of `slab_rows` do not hold whole shards (the
+    store's writer then makes them). The same arrays as :class:`StackOutputs` makes (with
+    `profile` when the voxels have materials).
     """
-    if "zarr" not in config.formats:
+    if "zarr" not in config.formats or not encoded_by_slabs(slab_rows):
         return None
     labels = tuple(zarr_labels(config, profile))
     return ShardEncoder(grid.shape_zyx, 4 if config.alpha else 3, slab_rows, labels)

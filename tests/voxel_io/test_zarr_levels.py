@@ -1,4 +1,4 @@
-"""The store's levels above 0: cubic chunks in 64-row shards, however the slabs come.
+"""The store's levels: cubic chunks in 64-row shards, the same bytes however the slabs come.
 
 Independent truth: the arrays read back with ``zarr`` alone, and each level's labels
 against the mode of the level below's blocks computed with :func:`scipy.stats.mode`.
@@ -35,7 +35,7 @@ def _volume() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _write(path: Path, slab_rows: int) -> Path:
     colour, coloured, layers = _volume()
-    writer = OmeZarrWriter(path, GRID, samples=3, slab_rows=slab_rows, labels=LABELS)
+    writer = OmeZarrWriter(path, GRID, samples=3, labels=LABELS)
     for z0 in range(0, GRID.shape_zyx[0], slab_rows):
         rows = slice(z0, z0 + slab_rows)
         writer.write_slab(colour[rows], coloured[rows], {"layers": layers[rows]})
@@ -63,22 +63,21 @@ def _mode(labels: np.ndarray, factors: tuple[int, int, int]) -> np.ndarray:
     return stats.mode(blocks, axis=-1, nan_policy="omit").mode.astype(np.uint8)
 
 
-def test_levels_above_0_are_cubic_chunks_in_64_row_shards(stores):
+def test_levels_are_cubic_chunks_in_64_row_shards(stores):
     thin, _ = stores
     root = zarr.open_group(thin, mode="r")
     n_levels = len(root.attrs["ome"]["multiscales"][0]["datasets"])
     assert n_levels >= 3
-    for k in range(1, n_levels):
+    for k in range(n_levels):
         for array in (root[str(k)], root[f"labels/layers/{k}"]):
             ny, nx = array.shape[-2:]
             assert array.chunks[-3:] == (64, min(64, ny), min(64, nx))
             assert array.shards is not None and array.shards[-3] == 64
-    assert root["labels/layers/0"].shards[-3] == 7  # level 0: one shard a slab
 
 
 def test_levels_are_the_same_bytes_however_the_slabs_come(stores):
     thin, whole = stores
-    for k in range(1, 3):
+    for k in range(3):
         for group in ("", "labels/layers/"):
             files = sorted(p.relative_to(thin) for p in (thin / f"{group}{k}").rglob("*"))
             assert len([f for f in files if "/c/" in f"/{f}"]) >= 2  # several shards
@@ -101,3 +100,35 @@ def test_each_level_holds_the_mode_of_the_level_below(stores):
         below = level
     meta = json.loads((thin / "labels/layers/1/zarr.json").read_text())
     assert meta["shape"][0] > 64  # level 1 crosses shards
+
+
+def _stored_inner_chunks(shard: bytes, n_chunks: int) -> np.ndarray:
+    """Which inner chunks a shard stores: its index (at the end, before a CRC32C) holds an
+    (offset, nbytes) uint64 pair per chunk, both 2**64 - 1 for a chunk not stored."""
+    index = np.frombuffer(shard[-(16 * n_chunks + 4) : -4], dtype="<u8").reshape(-1, 2)
+    return ~np.all(index == np.iinfo(np.uint64).max, axis=1)
+
+
+def test_void_chunks_and_shards_are_not_stored(tmp_path):
+    grid = GridSpec((0.0, 0.0, 0.0), (0.042, 0.085, 0.027), (200, 130, 70))
+    layers = np.zeros(grid.shape_zyx, np.uint8)
+    layers[70:90, 10:20, 66:69] = 2  # in shard 1 only; y chunk 0, x chunk 1
+    colour = np.zeros((*grid.shape_zyx, 3), np.uint8)
+    writer = OmeZarrWriter(tmp_path / "s.ome.zarr", grid, samples=3, labels=LABELS)
+    for z0 in range(0, grid.shape_zyx[0], 16):
+        rows = slice(z0, z0 + 16)
+        writer.write_slab(colour[rows], layers[rows] == 1, {"layers": layers[rows]})
+    writer.close()
+    shards = sorted((tmp_path / "s.ome.zarr/labels/layers/0/c").rglob("*"))
+    files = [p for p in shards if p.is_file()]
+    assert [p.relative_to(tmp_path / "s.ome.zarr/labels/layers/0/c").parts for p in files] == [
+        ("1", "0", "0")
+    ]
+    # the shard's 3 x 2 (y, x) chunks of 64: only (0, 1) holds solid voxels
+    expected = np.zeros((1, 3, 2), bool)
+    expected[0, 0, 1] = True
+    assert np.array_equal(_stored_inner_chunks(files[0].read_bytes(), 6), expected.ravel())
+    colour_files = (tmp_path / "s.ome.zarr/0").rglob("*")
+    assert [p.name for p in colour_files if p.is_file()] == ["zarr.json"]  # colour all void
+    read = zarr.open_group(tmp_path / "s.ome.zarr", mode="r")["labels/layers/0"][:]
+    assert np.array_equal(read, layers)

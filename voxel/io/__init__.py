@@ -39,7 +39,7 @@ from voxel.io._preview import (
 from voxel.io._pyramid import downsample_colour, downsample_labels, level_factors
 from voxel.io._tiff_pages import PageEncoder
 from voxel.io._tiff_writer import TiffStackWriter
-from voxel.io._zarr_shards import ShardEncoder
+from voxel.io._zarr_shards import ShardEncoder, encoded_by_slabs
 from voxel.io._zarr_writer import OmeZarrWriter
 
 __all__ = [
@@ -65,6 +65,7 @@ __all__ = [
     "downsample_colour",
     "downsample_labels",
     "encode_png",
+    "encoded_by_slabs",
     "halftone_image",
     "histogram_image",
     "key_rgba",

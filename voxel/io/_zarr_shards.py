@@ -1,5 +1,7 @@
-"""The level-0 shards of a slab, encoded with ``zarr`` where the slab is computed.
+"""The store's array layout, and level-0 shards encoded with ``zarr`` where a slab is computed.
 
+Every level's arrays (:func:`level_array`) are in shards of :data:`SHARD_ROWS` rows,
+whatever the slabs. Where slabs hold whole shards (:func:`encoded_by_slabs`),
 :class:`ShardEncoder` writes one slab's rows into in-memory arrays with the store's own
 metadata (:func:`level_array`, as :class:`voxel.io._zarr_writer.OmeZarrWriter` creates
 them) and returns the shard files zarr made, which the writer then stores as they are:
@@ -17,30 +19,23 @@ import zarr
 from numpy.typing import NDArray
 from zarr.codecs import ZstdCodec
 
-#: Inner chunk ``(z, y, x)`` of every array, z at most, y and x at least: z is the
-#: largest divisor of the shard's rows up to this, y and x the power of two that keeps
-#: the chunk within :data:`CHUNK_VOXELS` (zarr's cost is per chunk, about 0.2 ms each to
-#: write or read: a thin slab's chunks are wider, ``8 x 256 x 256`` for slabs of 8 rows).
+#: Inner chunk ``(z, y, x)`` of every array (y and x at most the grid's): cubes, so a y or
+#: x section through a tall build crosses a few dozen chunks along z, not one per slab
+#: (zarr 3.1 reads a shard's chunks one by one, about 0.2 ms each: an x section of spot at
+#: 100 mm on a J750 took 0.41 s in chunks of 8 x 256 x 256).
 CHUNK_ZYX = (64, 64, 64)
-#: Voxels of an inner chunk, at most (y and x widened while they fit).
-CHUNK_VOXELS = 2 * 64**3
-#: Rows of a shard of the levels above 0 (made in the writer, not bound to the slabs): a
-#: chunk as deep as it is wide, so a y or x section reads as few chunks as a z section.
-COARSE_SHARD_ROWS = CHUNK_ZYX[0]
+#: Rows of a shard of every level (a shard holds the whole ``y, x`` extent of its rows).
+SHARD_ROWS = CHUNK_ZYX[0]
 #: zstd level of the chunks.
 ZSTD_LEVEL = 1
 
 
-def level_array(group: Any, name: str, shape_zyx: Sequence[int], rows: int, samples: int) -> Any:
+def level_array(group: Any, name: str, shape_zyx: Sequence[int], samples: int) -> Any:
     """Create one level's array: ``(C, Z, Y, X)`` (``samples > 0``) or ``(Z, Y, X)`` uint8."""
     n_z, n_y, n_x = (int(n) for n in shape_zyx)
-    cz = max(d for d in range(1, min(rows, CHUNK_ZYX[0]) + 1) if rows % d == 0)
-    widen = 1
-    while cz * (2 * widen) ** 2 * CHUNK_ZYX[1] * CHUNK_ZYX[2] <= CHUNK_VOXELS:
-        widen *= 2
-    cy, cx = min(CHUNK_ZYX[1] * widen, n_y), min(CHUNK_ZYX[2] * widen, n_x)
-    chunks = (cz, cy, cx)
-    shards = (rows, -(-n_y // cy) * cy, -(-n_x // cx) * cx)
+    cy, cx = min(CHUNK_ZYX[1], n_y), min(CHUNK_ZYX[2], n_x)
+    chunks = (CHUNK_ZYX[0], cy, cx)
+    shards = (SHARD_ROWS, -(-n_y // cy) * cy, -(-n_x // cx) * cx)
     lead = (samples,) if samples else ()
     return group.create_array(
         name,
@@ -53,6 +48,15 @@ def level_array(group: Any, name: str, shape_zyx: Sequence[int], rows: int, samp
         config={"write_empty_chunks": False},
         dimension_names=(*(("c",) if samples else ()), "z", "y", "x"),
     )
+
+
+def encoded_by_slabs(slab_rows: int) -> bool:
+    """Whether slabs of `slab_rows` rows hold whole shards (their workers then encode them).
+
+    >>> encoded_by_slabs(128), encoded_by_slabs(8)
+    (True, False)
+    """
+    return slab_rows % SHARD_ROWS == 0
 
 
 def write_solid(array: Any, z0: int, rows: NDArray[np.uint8]) -> None:
@@ -84,7 +88,7 @@ class ShardEncoder:
     samples : int
         Colour channels (3 or 4).
     slab_rows : int
-        Rows of a slab (a shard's).
+        Rows of a slab (a multiple of :data:`SHARD_ROWS`, :func:`encoded_by_slabs`).
     label_names : tuple of str
         The label images (``materials``, ``layers``).
     """
@@ -93,6 +97,10 @@ class ShardEncoder:
     samples: int
     slab_rows: int
     label_names: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        if not encoded_by_slabs(self.slab_rows):
+            raise ValueError(f"slab_rows must be a multiple of {SHARD_ROWS}, got {self.slab_rows}")
 
     def encode(
         self, z0: int, colour: NDArray[np.uint8], labels: Mapping[str, NDArray[np.uint8]]
@@ -117,12 +125,10 @@ class ShardEncoder:
         files: dict[str, Any] = {}
         root = zarr.create_group(zarr.storage.MemoryStore(files), zarr_format=3)
         planar = np.moveaxis(colour[..., : self.samples], -1, 0)
-        write_solid(
-            level_array(root, "0", self.shape_zyx, self.slab_rows, self.samples), z0, planar
-        )
+        write_solid(level_array(root, "0", self.shape_zyx, self.samples), z0, planar)
         for name in self.label_names:
             group = root.require_group(f"labels/{name}")
-            array = level_array(group, "0", self.shape_zyx, self.slab_rows, 0)
+            array = level_array(group, "0", self.shape_zyx, 0)
             write_solid(array, z0, labels[name])
         out: list[bytes] = []
         for key in sorted(files):

@@ -5,19 +5,16 @@ root and the label images ``labels/materials`` and ``labels/layers`` ``(z, y, x)
 each as the levels ``0, 1, ...`` of a pyramid (:mod:`voxel.io._pyramid`), with the
 metadata of :mod:`voxel.io._ome_metadata`.
 
-Layout: every array is sharded, one shard file holding the whole ``y, x`` extent of a
-run of z rows: at level 0 ``slab_rows`` (a build's slab, so each slab writes whole shards
-and nothing is read back), above it 64 (:data:`~voxel.io._zarr_shards.COARSE_SHARD_ROWS`).
-The shards hold inner chunks of up to ``64 x 64 x 64`` voxels (z, y, x; all channels
-together; z divides the shard's rows), each zstd-compressed: above level 0 the chunks are
-cubes, so a y or x section through a tall build crosses a few dozen chunks along z, not
-one per slab (zarr's cost is per chunk). Inner chunks of void (all 0, the fill value) are
-not stored, nor shards of void only (and zarr is handed only the box of chunks around the
-solid voxels). The levels above 0 are made in the writer thread as the slabs come: each
-level keeps the rows it has not written (less than a shard's: colour and labels, about
-64 x 5 bytes per voxel of a level's row) and the rows the next level has not yet reduced
-(fewer than its z factor). The bytes depend only on the voxels and the grid, never on
-timing.
+Layout (:mod:`voxel.io._zarr_shards`): every array is sharded, one shard file holding the
+whole ``y, x`` extent of 64 z rows, in inner chunks of ``64 x 64 x 64`` voxels (z, y, x;
+all channels together), each zstd-compressed. Inner chunks of void (all 0, the fill
+value) are not stored, nor shards of void only (and zarr is handed only the box of chunks
+around the solid voxels). Level 0's shards come encoded from the slab workers where the
+slabs hold whole shards, else they are made here; the levels above 0 are made in the
+writer thread as the slabs come. Each level keeps the rows it has not written (less than
+a shard's: colour, labels and weights, about 64 x 6 bytes per voxel of a level's row) and
+the rows the next level has not yet reduced (fewer than its z factor). The bytes depend
+only on the voxels and the grid, never on the slabs or timing.
 
 The store appears whole or not at all: it is written into a temporary folder beside it
 (``.NAME.*.partial``) and renamed by :meth:`OmeZarrWriter.close`.
@@ -47,7 +44,7 @@ from voxel.io._ome_metadata import (
 from voxel.io._png_slices import _replace_folder
 from voxel.io._pyramid import Factors, downsample_colour, downsample_labels, level_factors
 from voxel.io._slab_thread import ClosingWriter, SlabThread
-from voxel.io._zarr_shards import COARSE_SHARD_ROWS, level_array, write_solid
+from voxel.io._zarr_shards import SHARD_ROWS, level_array, write_solid
 
 
 @dataclass
@@ -173,8 +170,6 @@ class OmeZarrWriter(ClosingWriter):
         Shape, voxel size and origin (the levels' scale and translation).
     samples : int
         3 (RGB) or 4 (RGBA) colour channels.
-    slab_rows : int
-        Rows of a slab (the z extent of level 0's shards; the last slab may be shorter).
     labels : mapping of str to sequence of LabelValue
         The label images (``materials``, ``layers``) and the values each may hold.
     queue_slabs : int
@@ -187,18 +182,14 @@ class OmeZarrWriter(ClosingWriter):
         grid: GridSpec,
         *,
         samples: int,
-        slab_rows: int,
         labels: Mapping[str, Sequence[LabelValue]],
         queue_slabs: int = 2,
     ) -> None:
         if samples not in (3, 4):
             raise ValueError(f"samples must be 3 or 4, got {samples}")
-        if slab_rows < 1:
-            raise ValueError(f"slab_rows must be >= 1, got {slab_rows}")
         self.path = Path(path)
         self.grid = grid
         self.samples = samples
-        self.slab_rows = slab_rows
         self.label_names = tuple(labels)
         self._next_z = 0
         self._files: list[Path] | None = None
@@ -212,14 +203,13 @@ class OmeZarrWriter(ClosingWriter):
         ox, oy, oz = grid.origin_mm
         self.factors = level_factors((vz, vy, vx), grid.shape_zyx)
         transforms = level_transforms((vz, vy, vx), (oz, oy, ox), self.factors)
-        self._levels = self._create(slab_rows, labels, transforms)
+        self._levels = self._create(labels, transforms)
         self._thread: SlabThread[tuple[_Rows, list[bytes] | None]] = SlabThread(
             str(self.path), self._consume, queue_slabs=queue_slabs
         )
 
     def _create(
         self,
-        slab_rows: int,
         labels: Mapping[str, Sequence[LabelValue]],
         transforms: list[tuple[list[float], list[float]]],
     ) -> list[_Level]:
@@ -241,15 +231,12 @@ class OmeZarrWriter(ClosingWriter):
         shape = tuple(self.grid.shape_zyx)
         levels = []
         for k in range(len(transforms)):
-            rows = slab_rows if k == 0 else COARSE_SHARD_ROWS
             arrays = {
-                name: level_array(
-                    group, str(k), shape, rows, 0 if name != "colour" else self.samples
-                )
+                name: level_array(group, str(k), shape, 0 if name != "colour" else self.samples)
                 for name, group in groups.items()
             }
             factors = self.factors[k] if k < len(self.factors) else None
-            levels.append(_Level(arrays, rows, factors, shape[0]))
+            levels.append(_Level(arrays, SHARD_ROWS, factors, shape[0]))
             if factors is not None:
                 shape = tuple(-(-n // f) for n, f in zip(shape, factors, strict=True))
         return levels
@@ -297,8 +284,11 @@ class OmeZarrWriter(ClosingWriter):
         rows, shards = item
         if shards is not None:
             self._store(shards)
-        rows.colour = np.ascontiguousarray(np.moveaxis(rows.colour, -1, 0))
-        rows.weight = rows.weight.view(np.uint8)
+        # copies: the rows may wait here for a whole shard, and the slab's arrays may be
+        # views of a shared slot its producer reuses once they are let go
+        rows.colour = np.moveaxis(rows.colour, -1, 0).copy()
+        rows.weight = rows.weight.view(np.uint8).copy()
+        rows.labels = {name: labels.copy() for name, labels in rows.labels.items()}
         current = self._levels[0].add(rows, written=shards is not None)
         for level in self._levels[1:]:
             if current is None:

@@ -1,0 +1,110 @@
+"""Build time and bytes on disk with the OME-Zarr store in place of the TIFFs.
+
+Usage (from the repository root; meshes from ../shared/meshes)::
+
+    .venv/bin/python benchmarks/bench_zarr_build.py [--size-mm 100] [--rounds 1] \
+        [--keep DIR] [--out benchmarks/results/bench_zarr_build.json]
+
+``shellvox build`` of spot (largest extent ``--size-mm``, the J750 default grid) with the
+default formats (``tiff,vdb,gcvf``) and with the store in their place (``zarr,vdb,gcvf``),
+alternating in one run, each a child process under ``/usr/bin/time -v``: wall time, the
+manifest's seconds (``slabs`` among them), peak RSS, bytes and files on disk (the store's
+and the TIFFs' apart). ``--keep DIR`` keeps the last build with the store as
+``DIR`` (for ``bench_viewer.py``). The load average before and after each build is
+recorded: the machine may be shared. A benchmark, not a test.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import trimesh
+
+ROOT = Path(__file__).resolve().parents[1]
+SPOT = ROOT.parent / "shared" / "meshes" / "spot" / "spot_triangulated.obj"
+FORMATS = ("zarr,vdb,gcvf", "tiff,vdb,gcvf")
+
+
+def _size(folder: Path, pattern: str) -> tuple[int, int]:
+    """Bytes and number of the files under `folder` matching `pattern` (a glob)."""
+    files = [p for p in folder.glob(pattern) if p.is_file()]
+    return sum(p.stat().st_size for p in files), len(files)
+
+
+def build(model: Path, scale: float, formats: str, out: Path) -> dict[str, Any]:
+    """Run one build as a child process and return its measurements."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    command = [
+        "/usr/bin/time", "-v", sys.executable, "-m", "pipeline.cli", "build", str(model),
+        "-o", str(out), "--scale", repr(scale), "--format", formats, "--no-progress",
+    ]  # fmt: skip
+    load_before = os.getloadavg()[0]
+    start = time.perf_counter()
+    done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
+    wall = time.perf_counter() - start
+    peak = re.search(r"Maximum resident set size \(kbytes\): (\d+)", done.stderr)
+    manifest = json.loads((out / "manifest.json").read_text())
+    everything = _size(out, "**/*")
+    store = _size(out, "stack.ome.zarr/**/*")
+    tiffs = _size(out, "*.tif")
+    return {
+        "formats": formats,
+        "wall_s": round(wall, 1),
+        "seconds": {k: round(float(v), 1) for k, v in manifest["seconds"].items()},
+        "peak_rss_mb_largest_process": int(peak.group(1)) // 1024 if peak else None,
+        "bytes_on_disk": everything[0],
+        "files": everything[1],
+        "store_bytes": store[0],
+        "store_files": store[1],
+        "tiff_bytes": tiffs[0],
+        "tiff_files": tiffs[1],
+        "grid_zyx": manifest["grid"]["shape_zyx"],
+        "slab_rows": manifest["slab_rows"],
+        "load_average": [round(load_before, 1), round(os.getloadavg()[0], 1)],
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size-mm", type=float, default=100.0)
+    parser.add_argument("--rounds", type=int, default=1)
+    parser.add_argument("--keep", type=Path)
+    parser.add_argument(
+        "--out", type=Path, default=ROOT / "benchmarks/results/bench_zarr_build.json"
+    )
+    args = parser.parse_args()
+    scale = args.size_mm / float(max(trimesh.load(SPOT, process=False).extents))
+    runs = []
+    with tempfile.TemporaryDirectory(dir=args.keep.parent if args.keep else None) as work:
+        for round_ in range(args.rounds):
+            for formats in FORMATS:
+                out = Path(work) / f"{round_}_{formats.split(',')[0]}"
+                runs.append(build(SPOT, scale, formats, out))
+                print(json.dumps(runs[-1]), flush=True)
+                if args.keep and formats.startswith("zarr"):
+                    shutil.rmtree(args.keep, ignore_errors=True)
+                    out.rename(args.keep)
+                else:
+                    shutil.rmtree(out)
+    results = json.loads(args.out.read_text()) if args.out.exists() else {}
+    results[f"spot_{args.size_mm:g}mm_j750_{time.strftime('%Y-%m-%d')}"] = {
+        "command": f"shellvox build spot_triangulated.obj --scale {scale!r} --format F "
+        "--no-progress, under /usr/bin/time -v, alternating",
+        "store_layout": "every level in 64^3 chunks, 64-row shards",
+        "runs": runs,
+    }
+    args.out.write_text(json.dumps(results, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
