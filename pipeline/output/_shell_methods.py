@@ -1,4 +1,4 @@
-"""The offset shells by method: ``robust`` (the default), ``field`` or ``paper``.
+"""The offset shells by method: ``field`` (the default), ``robust`` or ``paper``.
 
 ``field`` meshes the zero set of each layer's field, the exact distance to the nearest face
 minus that face's cumulative depth (the rule of the voxel layers, :mod:`voxel.slab`), sampled

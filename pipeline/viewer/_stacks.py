@@ -196,6 +196,14 @@ class TiffStack:
             xs = np.array([index], dtype=np.int64)
         return self._across_pages(pages, ys, xs).reshape(shape)
 
+    #: Pages :meth:`pages` reads at a time to no advantage (a page decodes alone).
+    page_block = 1
+
+    def pages(self, z0: int, z1: int) -> NDArray[np.uint8]:
+        """Return the whole pages ``z0 <= z < z1``: ``(n, Y, X[, S])`` uint8."""
+        rows, cols = range(self.shape_zyx[1]), range(self.shape_zyx[2])
+        return np.stack([self.region("z", z, rows, cols) for z in range(z0, z1)])
+
     def voxel(self, z: int, y: int, x: int) -> NDArray[np.uint8]:
         """Return voxel ``(z, y, x)``: ``(S,)`` uint8 (``(1,)`` for a grey stack)."""
         value = self.region("y", y, range(z, z + 1), range(x, x + 1))

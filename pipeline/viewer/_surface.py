@@ -36,7 +36,6 @@ from numpy.typing import NDArray
 from pipeline.viewer._depth import Surface
 from pipeline.viewer._folder import BuildFolder
 from pipeline.viewer._sections import SectionCounts
-from pipeline.viewer._slices import SliceRegion, read_region
 
 #: Faces sent to the browser at most (about 44 bytes each: 18 MB).
 MAX_FACES = 400_000
@@ -254,15 +253,18 @@ class Overview:
         if folder.surface is not None:
             mesh = self._mesh(folder.surface, colour_layers)
             samples = _Samples(folder, mesh[0], mesh[1])
-        rows, cols = range(n_y), range(n_x)
-        for z in range(n_z):
+        layer_stack, colour_stack = folder.stacks["layers"], folder.stacks["colour"]
+        block = max(layer_stack.page_block, colour_stack.page_block)  # chunks decoded once
+        for z0 in range(0, n_z, block):
             if self._stop.is_set():
                 return
-            layers = read_region(folder, "layers", SliceRegion("z", z, rows, cols))
-            rgb = read_region(folder, "colour", SliceRegion("z", z, rows, cols))
-            counts.add_page(z, layers, rgb)
-            if samples is not None:
-                samples.take(z, layers, rgb)
+            z1 = min(n_z, z0 + block)
+            layer_pages, colour_pages = layer_stack.pages(z0, z1), colour_stack.pages(z0, z1)
+            for z in range(z0, z1):
+                layers, rgb = layer_pages[z - z0], colour_pages[z - z0]
+                counts.add_page(z, layers, rgb)
+                if samples is not None:
+                    samples.take(z, layers, rgb)
         self.opening = counts.chosen()
         self.vivid = {axis: int(counts.vivid[axis][i]) for axis, i in self.opening.items()}
         if samples is not None and mesh is not None:

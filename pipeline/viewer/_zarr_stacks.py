@@ -172,6 +172,17 @@ class ZarrStack:
         values = _pick(band, picks, lead=1 if self.samples else 0)
         return _interleaved(values, self.samples).reshape(shape)
 
+    @property
+    def page_block(self) -> int:
+        """Rows of level 0's chunks: :meth:`pages` of a whole block decode each chunk once."""
+        return int(self.levels[0].chunks[-3])
+
+    def pages(self, z0: int, z1: int) -> NDArray[np.uint8]:
+        """Return the whole z pages ``z0 <= z < z1``: ``(n, Y, X[, S])`` uint8 (a view)."""
+        array = self.levels[0]
+        values = np.asarray(array[:, z0:z1] if self.samples else array[z0:z1])
+        return np.moveaxis(values, 0, -1) if self.samples else values
+
     def voxel(self, z: int, y: int, x: int) -> NDArray[np.uint8]:
         """Return voxel ``(z, y, x)`` of level 0: ``(S,)`` uint8 (``(1,)`` for labels)."""
         array = self.levels[0]

@@ -17,6 +17,7 @@ import zarr
 
 from pipeline.viewer import BuildFolder
 from pipeline.viewer._slices import probe
+from pipeline.viewer._surface import Overview
 from pipeline.viewer._zarr_stacks import BlockCache, ZarrStack
 
 PLANE = {"z": ("y", "x"), "y": ("z", "x"), "x": ("z", "y")}
@@ -123,3 +124,27 @@ def test_a_build_with_only_the_store_opens_and_reads_out_voxels(small_zarr_build
     assert result["material"]["index"] == truth["materials"][z, y, x]
     with BuildFolder.open(small_zarr_build, source="tiff") as tiff:
         assert probe(tiff, z, y, x) == result
+
+
+@pytest.mark.parametrize("source", ["zarr", "tiff"])
+def test_whole_pages_in_blocks_are_the_tiff_pages(small_zarr_build, truth, source):
+    with BuildFolder.open(small_zarr_build, source=source) as opened:
+        for kind, stack in opened.stacks.items():
+            n_z = truth[kind].shape[0]
+            block = stack.page_block
+            assert block == (64 if source == "zarr" else 1)
+            pages = np.concatenate([stack.pages(z, min(n_z, z + 7)) for z in range(0, n_z, 7)])
+            assert np.array_equal(pages, truth[kind]), kind
+
+
+def test_the_overview_opens_on_the_same_slices_from_the_store_and_the_tiffs(small_zarr_build):
+    found = []
+    for source in ("zarr", "tiff"):
+        with BuildFolder.open(small_zarr_build, source=source) as opened:
+            overview = Overview(opened)
+            overview.start()
+            assert overview.done.wait(120)
+            overview.close()
+            assert overview.error is None
+            found.append((overview.opening, overview.vivid))
+    assert found[0] == found[1]
