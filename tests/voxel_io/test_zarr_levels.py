@@ -15,7 +15,7 @@ import zarr
 from scipy import stats
 
 from voxel.grid import GridSpec
-from voxel.io import LabelValue, OmeZarrWriter
+from voxel.io import LabelValue, OmeZarrWriter, downsample_labels
 
 #: A J750-like grid (voxel x, y, z mm): levels 1 and 2 span several 64-row shards.
 GRID = GridSpec((0.0, 0.0, 0.0), (0.042, 0.085, 0.027), (300, 40, 70))
@@ -100,6 +100,15 @@ def test_each_level_holds_the_mode_of_the_level_below(stores):
         below = level
     meta = json.loads((thin / "labels/layers/1/zarr.json").read_text())
     assert meta["shape"][0] > 64  # level 1 crosses shards
+
+
+@pytest.mark.parametrize("factors", [(2, 1, 2), (2, 1, 1), (2, 2, 2), (1, 3, 2), (3, 2, 4)])
+def test_downsampled_labels_are_the_mode_of_every_block(factors):
+    rng = np.random.default_rng(sum(factors))
+    labels = rng.integers(0, 3, (9, 7, 13), dtype=np.uint8)  # many mixed blocks and ties
+    labels[:, :3] = 2  # and uniform ones
+    labels[4:, :, 6:] = 0
+    assert np.array_equal(downsample_labels(labels, factors), _mode(labels, factors))
 
 
 def _stored_inner_chunks(shard: bytes, n_chunks: int) -> np.ndarray:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numba
 import numpy as np
@@ -99,8 +100,8 @@ def downsample_colour(
 
     Parameters
     ----------
-    colour : (C, Z, Y, X) uint8
-        sRGB codes (``C = 3``) and straight alpha (``C = 4``).
+    colour : (Z, Y, X, C) uint8
+        sRGB codes (``C = 3``) and straight alpha (``C = 4``); any strides.
     weight : (Z, Y, X) uint8 or float32
         Colour-layer voxels of level 0 each voxel stands for (0: no colour there; level 0
         itself: 1 in the colour layers).
@@ -109,25 +110,22 @@ def downsample_colour(
 
     Returns
     -------
-    colour : (C, Zk, Yk, Xk) uint8
+    colour : (Zk, Yk, Xk, C) uint8
         0 where a block has no weight.
     weight : (Zk, Yk, Xk) float32
         The blocks' total weight.
     """
-    colour = np.ascontiguousarray(colour, dtype=np.uint8)
-    weight = np.ascontiguousarray(weight)  # type: ignore[assignment]
     shape = _shape(weight.shape, factors)
-    linear = np.empty((len(colour), *shape), dtype=np.float32)
-    total = np.empty(shape, dtype=np.float32)
+    linear = np.zeros((*shape, colour.shape[-1]), dtype=np.float32)
+    total = np.zeros(shape, dtype=np.float32)
     _mean_kernel(colour, weight, DECODE_LUT_F32, factors[0], factors[1], factors[2], linear, total)
     out = np.zeros(linear.shape, dtype=np.uint8)
-    for z in range(shape[0]):  # one output row at a time, its colour voxels only
-        where = total[z] > 0
-        values = linear[:, z][:, where]
-        encoded = np.empty(values.shape, dtype=np.float64)
-        encoded[:3] = linear_to_srgb(values[:3])
-        encoded[3:] = np.clip(values[3:], 0.0, 1.0)
-        out[:, z][:, where] = np.rint(encoded * 255.0)
+    where = total > 0  # the colour voxels only
+    values = linear[where]
+    encoded = np.empty(values.shape, dtype=np.float64)
+    encoded[:, :3] = linear_to_srgb(values[:, :3])
+    encoded[:, 3:] = np.clip(values[:, 3:], 0.0, 1.0)
+    out[where] = np.rint(encoded * 255.0)
     return out, total
 
 
@@ -137,42 +135,67 @@ def _shape(shape: Sequence[int], factors: Factors) -> tuple[int, int, int]:
 
 
 @numba.njit(cache=True, nogil=True)
+def _block_mode(
+    labels: NDArray[np.uint8],
+    z0: int,
+    z1: int,
+    y0: int,
+    y1: int,
+    x0: int,
+    x1: int,
+    values: NDArray[np.uint8],
+) -> Any:  # pragma: no cover - compiled
+    """Return the most frequent value of one block of `labels`, ties to the smallest."""
+    n = 0
+    for z in range(z0, z1):
+        for y in range(y0, y1):
+            for x in range(x0, x1):
+                values[n] = labels[z, y, x]
+                n += 1
+    best, best_count = values[0], 0
+    for i in range(n):
+        count = 0
+        for j in range(n):
+            if values[j] == values[i]:
+                count += 1
+        if count > best_count or (count == best_count and values[i] < best):
+            best, best_count = values[i], count
+    return best
+
+
+@numba.njit(cache=True, nogil=True)
 def _mode_kernel(
     labels: NDArray[np.uint8], fz: int, fy: int, fx: int, out: NDArray[np.uint8]
 ) -> None:  # pragma: no cover - compiled
     n_z, n_y, n_x = labels.shape
+    n_ox = out.shape[2]
+    first = np.empty(n_x, dtype=np.uint8)  # the block row's first input row
+    same = np.empty(n_x, dtype=np.bool_)  # whether every row of the block row agrees
+    uniform = np.empty(n_ox, dtype=np.bool_)
     values = np.empty(fz * fy * fx, dtype=np.uint8)
     for oz in range(out.shape[0]):
         z0, z1 = oz * fz, min(n_z, oz * fz + fz)
         for oy in range(out.shape[1]):
             y0, y1 = oy * fy, min(n_y, oy * fy + fy)
-            for ox in range(out.shape[2]):
-                x0, x1 = ox * fx, min(n_x, ox * fx + fx)
-                first = labels[z0, y0, x0]
-                uniform = True
-                for z in range(z0, z1):  # most blocks hold one value: no counting
-                    for y in range(y0, y1):
-                        for x in range(x0, x1):
-                            if labels[z, y, x] != first:
-                                uniform = False
-                if uniform:
-                    out[oz, oy, ox] = first
-                    continue
-                n = 0
-                for z in range(z0, z1):
-                    for y in range(y0, y1):
-                        for x in range(x0, x1):
-                            values[n] = labels[z, y, x]
-                            n += 1
-                best, best_count = values[0], 0
-                for i in range(n):
-                    count = 0
-                    for j in range(n):
-                        if values[j] == values[i]:
-                            count += 1
-                    if count > best_count or (count == best_count and values[i] < best):
-                        best, best_count = values[i], count
-                out[oz, oy, ox] = best
+            first[:] = labels[z0, y0]
+            same[:] = True
+            for z in range(z0, z1):  # whole rows at a time (vectorised)
+                for y in range(y0, y1):
+                    row = labels[z, y]
+                    for x in range(n_x):
+                        same[x] &= row[x] == first[x]
+            line = out[oz, oy]
+            for ox in range(n_ox):
+                line[ox] = first[ox * fx]
+                uniform[ox] = True
+            for k in range(fx):
+                for ox in range(n_ox):
+                    x = min(n_x - 1, ox * fx + k)
+                    uniform[ox] &= same[x] & (first[x] == line[ox])
+            for ox in range(n_ox):  # most blocks hold one value: only the others counted
+                if not uniform[ox]:
+                    x0, x1 = ox * fx, min(n_x, ox * fx + fx)
+                    line[ox] = _block_mode(labels, z0, z1, y0, y1, x0, x1, values)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -186,28 +209,27 @@ def _mean_kernel(
     linear: NDArray[np.float32],
     total: NDArray[np.float32],
 ) -> None:  # pragma: no cover - compiled
-    n_c = colour.shape[0]
+    n_c = colour.shape[3]
     n_z, n_y, n_x = weight.shape
-    linear[:] = 0.0
-    total[:] = 0.0
     for z in range(n_z):  # the voxels in order, each added to its block
         oz = z // fz
         for y in range(n_y):
             oy = y // fy
+            row = weight[z, y]
             for x in range(n_x):
-                w = np.float32(weight[z, y, x])
+                w = np.float32(row[x])
                 if w == 0:
                     continue
                 ox = x // fx
                 total[oz, oy, ox] += w
                 for c in range(min(n_c, 3)):
-                    linear[c, oz, oy, ox] += w * lut[colour[c, z, y, x]]
+                    linear[oz, oy, ox, c] += w * lut[colour[z, y, x, c]]
                 if n_c == 4:
-                    linear[3, oz, oy, ox] += w * np.float32(colour[3, z, y, x] / 255.0)
+                    linear[oz, oy, ox, 3] += w * np.float32(colour[z, y, x, 3] / 255.0)
     for oz in range(total.shape[0]):
         for oy in range(total.shape[1]):
             for ox in range(total.shape[2]):
                 t = total[oz, oy, ox]
                 if t > 0:
                     for c in range(n_c):
-                        linear[c, oz, oy, ox] /= t
+                        linear[oz, oy, ox, c] /= t

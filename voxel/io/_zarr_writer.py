@@ -11,10 +11,10 @@ all channels together), each zstd-compressed. Inner chunks of void (all 0, the f
 value) are not stored, nor shards of void only (and zarr is handed only the box of chunks
 around the solid voxels). Level 0's shards come encoded from the slab workers where the
 slabs hold whole shards, else they are made here; the levels above 0 are made in the
-writer thread as the slabs come. Each level keeps the rows it has not written (less than
-a shard's: colour, labels and weights, about 64 x 6 bytes per voxel of a level's row) and
-the rows the next level has not yet reduced (fewer than its z factor). The bytes depend
-only on the voxels and the grid, never on the slabs or timing.
+writer thread as the slabs come. Each level fills its shard in buffers of its own
+(colour and labels, 64 x 5 bytes per voxel of a level's row with RGB and two label
+images) and keeps the rows the next level has not yet reduced (fewer than its z factor).
+The bytes depend only on the voxels and the grid, never on the slabs or timing.
 
 The store appears whole or not at all: it is written into a temporary folder beside it
 (``.NAME.*.partial``) and renamed by :meth:`OmeZarrWriter.close`.
@@ -49,7 +49,7 @@ from voxel.io._zarr_shards import SHARD_ROWS, level_array, write_solid
 
 @dataclass
 class _Rows:
-    """Consecutive z rows of one level: colour ``(C, n, Y, X)``, weights, labels."""
+    """Consecutive z rows of one level: colour ``(n, Y, X, C)``, weights, labels ``(n, Y, X)``."""
 
     z: int
     colour: NDArray[np.uint8]
@@ -62,94 +62,107 @@ class _Rows:
     def split(self, n: int) -> tuple[_Rows, _Rows | None]:
         """Return the first `n` rows and the rest (None: no rows, nor the slab they are of)."""
         head = _Rows(
-            self.z,
-            self.colour[:, :n],
-            self.weight[:n],
-            {k: v[:n] for k, v in self.labels.items()},
+            self.z, self.colour[:n], self.weight[:n], {k: v[:n] for k, v in self.labels.items()}
         )
         if n >= len(self):
             return head, None
         tail = _Rows(
-            self.z + n,
-            self.colour[:, n:],
-            self.weight[n:],
-            {k: v[n:] for k, v in self.labels.items()},
+            self.z + n, self.colour[n:], self.weight[n:], {k: v[n:] for k, v in self.labels.items()}
         )
         return head, tail
 
-    @staticmethod
-    def join(first: _Rows | None, second: _Rows) -> _Rows:
-        """Return `first` followed by `second` (`first` may be None)."""
-        if first is None or len(first) == 0:
-            return second
-        return _Rows.concatenate([first, second])
+    def copy(self) -> _Rows:
+        """Return the rows in arrays of their own."""
+        return _Rows(
+            self.z,
+            self.colour.copy(),
+            self.weight.copy(),
+            {k: v.copy() for k, v in self.labels.items()},
+        )
 
     @staticmethod
-    def concatenate(pieces: Sequence[_Rows]) -> _Rows:
-        """Return consecutive `pieces` (at least one) as one, each row copied once."""
-        if len(pieces) == 1:
-            return pieces[0]
-        first = pieces[0]
+    def join(first: _Rows | None, second: _Rows) -> _Rows:
+        """Return `first` followed by `second` (`first` may be None), copied once if both."""
+        if first is None or len(first) == 0:
+            return second
         return _Rows(
             first.z,
-            np.concatenate([p.colour for p in pieces], axis=1),
-            np.concatenate([p.weight.astype(np.float32) for p in pieces]),
-            {k: np.concatenate([p.labels[k] for p in pieces]) for k in first.labels},
+            np.concatenate([first.colour, second.colour]),
+            np.concatenate([first.weight.astype(np.float32), second.weight.astype(np.float32)]),
+            {k: np.concatenate([first.labels[k], second.labels[k]]) for k in first.labels},
         )
 
 
 class _Level:
-    """One level's arrays, its rows waiting for a whole shard and those waiting to reduce."""
+    """One level's arrays, the shard being filled, and the rows waiting to be reduced.
 
-    def __init__(
-        self, arrays: dict[str, Any], shard_rows: int, factors: Factors | None, n_z: int
-    ) -> None:
+    The shard is filled in buffers of its own (colour ``(C, R, Y, X)`` as the store holds it,
+    labels ``(R, Y, X)``, ``R`` the shard's rows), reused from shard to shard.
+    """
+
+    def __init__(self, arrays: dict[str, Any], factors: Factors | None) -> None:
         self.arrays = arrays  # "colour" and the label names -> zarr.Array
-        self.shard_rows = shard_rows
         self.factors = factors  # to the next level (None: the last)
-        self.n_z = n_z
-        self.unwritten: list[_Rows] = []  # in z order, without their weights
+        colour = arrays["colour"]
+        rows = min(SHARD_ROWS, colour.shape[1])
+        self._colour = np.zeros((colour.shape[0], rows, *colour.shape[2:]), dtype=np.uint8)
+        self._labels = {
+            name: np.zeros((rows, *colour.shape[2:]), dtype=np.uint8)
+            for name in arrays
+            if name != "colour"
+        }
+        self._shard_z = 0  # first row of the shard being filled
+        self._filled = 0  # its rows so far
         self.unreduced: _Rows | None = None
 
     def add(self, rows: _Rows, *, written: bool = False) -> _Rows | None:
         """Take rows (in z order); write whole shards; return rows for the next level.
 
         `written`: the rows' shards are stored already (encoded where the slab was made).
+        The rows may be views of memory reused once this returns: what is kept is copied.
         """
         if not written:
-            self.unwritten.append(_Rows(rows.z, rows.colour, rows.weight[:, :0, :0], rows.labels))
-            self._write(final=False)
+            self._buffer(rows)
         if self.factors is None:
             return None
-        self.unreduced = _Rows.join(self.unreduced, rows)
-        n = len(self.unreduced) - len(self.unreduced) % self.factors[0]
-        if n == 0:
-            return None
-        ready, self.unreduced = self.unreduced.split(n)
-        return _reduce(ready, self.factors)
+        pending = _Rows.join(self.unreduced, rows)
+        n = len(pending) - len(pending) % self.factors[0]
+        ready, rest = pending.split(n)
+        self.unreduced = rest.copy() if rest is not None else None
+        return _reduce(ready, self.factors) if n else None
 
     def flush(self) -> _Rows | None:
         """Write what is left; return the last (partial) block of rows for the next level."""
-        self._write(final=True)
+        self._write()
         if self.factors is None or self.unreduced is None or len(self.unreduced) == 0:
             return None
         rest, self.unreduced = self.unreduced, None
         return _reduce(rest, self.factors)
 
-    def _write(self, *, final: bool) -> None:
-        """Write each whole shard of the waiting rows (and, if `final`, the last part)."""
-        waiting = sum(len(rows) for rows in self.unwritten)
-        while waiting and (waiting >= self.shard_rows or final):
-            pieces, self.unwritten = self.unwritten, []
-            n = min(self.shard_rows, waiting)
-            shard, rest = _Rows.concatenate(pieces).split(n)
-            write_solid(self.arrays["colour"], shard.z, shard.colour)
-            for name, labels in shard.labels.items():
-                write_solid(self.arrays[name], shard.z, labels)
-            if rest is not None:  # copied, so that the shard's rows are let go
-                kept = {k: v.copy() for k, v in rest.labels.items()}
-                self.unwritten = [_Rows(rest.z, rest.colour.copy(), rest.weight, kept)]
-            waiting -= n
+    def _buffer(self, rows: _Rows) -> None:
+        """Copy rows into the shard's buffers, writing each shard as it fills."""
+        at = 0
+        while at < len(rows):
+            n = min(len(self._colour[0]) - self._filled, len(rows) - at)
+            into = slice(self._filled, self._filled + n)
+            for c in range(len(self._colour)):  # channel by channel: quicker than one move
+                self._colour[c, into] = rows.colour[at : at + n, ..., c]
+            for name, buffer in self._labels.items():
+                buffer[into] = rows.labels[name][at : at + n]
+            self._filled += n
+            at += n
+            if self._filled == len(self._colour[0]):
+                self._write()
+
+    def _write(self) -> None:
+        """Write the shard filled so far (its solid chunks), and start the next one."""
+        n = self._filled
+        if n:
+            write_solid(self.arrays["colour"], self._shard_z, self._colour[:, :n])
+            for name, buffer in self._labels.items():
+                write_solid(self.arrays[name], self._shard_z, buffer[:n])
+        self._shard_z += n
+        self._filled = 0
 
 
 def _reduce(rows: _Rows, factors: Factors) -> _Rows:
@@ -236,7 +249,7 @@ class OmeZarrWriter(ClosingWriter):
                 for name, group in groups.items()
             }
             factors = self.factors[k] if k < len(self.factors) else None
-            levels.append(_Level(arrays, SHARD_ROWS, factors, shape[0]))
+            levels.append(_Level(arrays, factors))
             if factors is not None:
                 shape = tuple(-(-n // f) for n, f in zip(shape, factors, strict=True))
         return levels
@@ -272,7 +285,7 @@ class OmeZarrWriter(ClosingWriter):
             raise ValueError(f"more than Z={self.grid.shape_zyx[0]} rows written")
         rows = _Rows(
             self._next_z,
-            colour[..., : self.samples],  # transposed in the thread
+            colour[..., : self.samples],
             coloured,
             {name: labels[name] for name in self.label_names},
         )
@@ -284,11 +297,7 @@ class OmeZarrWriter(ClosingWriter):
         rows, shards = item
         if shards is not None:
             self._store(shards)
-        # copies: the rows may wait here for a whole shard, and the slab's arrays may be
-        # views of a shared slot its producer reuses once they are let go
-        rows.colour = np.moveaxis(rows.colour, -1, 0).copy()
-        rows.weight = rows.weight.view(np.uint8).copy()
-        rows.labels = {name: labels.copy() for name, labels in rows.labels.items()}
+        rows.weight = rows.weight.view(np.uint8)
         current = self._levels[0].add(rows, written=shards is not None)
         for level in self._levels[1:]:
             if current is None:
