@@ -20,6 +20,10 @@ once (colour: layers + colour; depth: layers + depth; ...), timed until the last
 - ``warmed``: after the server's background decoding of the whole-model pages
   (``BuildFolder.warm_in_background``, timed), every axis and mode at several slices.
 - ``zoomed``: one voxel per pixel around the model's centre (a page range at step 1).
+  ``warmed`` and ``zoomed`` run while the server's overview pass (the opening slices and
+  the surface's colours, one pass over the pages) may still be reading.
+- ``settled``: the same once that pass has ended, and eight consecutive colour slices on
+  each axis (a scroll).
 
 Writes ``benchmarks/results/bench_viewer.json``.
 """
@@ -210,6 +214,37 @@ def main() -> None:
         "note": f"{width} x {height} voxels at step 1 around the centre: pages not among "
         "the warmed ones are decoded on the first slice",
         "seconds": zoomed,
+    }
+
+    # settled: once the overview pass (opening slices, surface colours) has ended
+    overview_done = server.overview.done.wait(600)
+    overview_seconds = time.perf_counter() - started
+    settled: dict[str, dict[str, dict[str, float]]] = {}
+    scroll: dict[str, dict[str, float]] = {}
+    for axis in ("z", "y", "x"):
+        extent = {"z": n_z, "y": n_y, "x": n_x}[axis]
+        region = fitted_region(folder, axis, width, height)
+        for mode in MODES:
+            times = [view(pool, server.port, mode, axis, int(extent * f), region)
+                     for f in (0.35, 0.45, 0.55, 0.65)]  # fmt: skip
+            settled.setdefault(axis, {})[mode] = {
+                "median": round(statistics.median(times), 3),
+                "max": round(max(times), 3),
+            }
+            print("settled", axis, mode, settled[axis][mode], flush=True)
+        at = int(extent * 0.42)  # the next slices one by one, as a scroll wheel asks
+        times = [view(pool, server.port, "colour", axis, at + k, region) for k in range(1, 9)]
+        scroll[axis] = {"first": round(times[0], 3), "median_next": round(
+            statistics.median(times[1:]), 3), "max_next": round(max(times[1:]), 3)}  # fmt: skip
+        print("scroll", axis, scroll[axis], flush=True)
+    result["settled"] = {
+        "note": "after the overview pass (opening slices and surface colours) ended, "
+        "seconds after the server started; four slices per axis and mode, and in colour "
+        "mode eight consecutive slices from 0.42 of the axis",
+        "overview_done": overview_done,
+        "overview_seconds": round(overview_seconds, 1),
+        "seconds": settled,
+        "scroll_colour": scroll,
     }
     server.shutdown()
     server.server_close()

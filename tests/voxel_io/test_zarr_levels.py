@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import colour as colour_science
 import numpy as np
 import pytest
 import zarr
@@ -141,3 +142,38 @@ def test_void_chunks_and_shards_are_not_stored(tmp_path):
     assert [p.name for p in colour_files if p.is_file()] == ["zarr.json"]  # colour all void
     read = zarr.open_group(tmp_path / "s.ome.zarr", mode="r")["labels/layers/0"][:]
     assert np.array_equal(read, layers)
+
+
+def test_rgba_levels_hold_the_colour_and_the_linear_mean_of_it(tmp_path):
+    colour, coloured, layers = _volume()
+    alpha = np.random.default_rng(5).integers(0, 256, (*GRID.shape_zyx, 1), dtype=np.uint8)
+    rgba = np.concatenate([colour, alpha], axis=-1)
+    writer = OmeZarrWriter(tmp_path / "a.ome.zarr", GRID, samples=4, labels=LABELS)
+    for z0 in range(0, GRID.shape_zyx[0], 10):
+        rows = slice(z0, z0 + 10)
+        writer.write_slab(rgba[rows], coloured[rows], {"layers": layers[rows]})
+    writer.close()
+    root = zarr.open_group(tmp_path / "a.ome.zarr", mode="r")
+    assert np.array_equal(root["0"][:], np.moveaxis(rgba, -1, 0))
+    scales = [
+        d["coordinateTransformations"][0]["scale"]
+        for d in root.attrs["ome"]["multiscales"][0]["datasets"]
+    ]
+    factors = tuple(round(a / b) for a, b in zip(scales[1][1:], scales[0][1:], strict=True))
+    # the mean of the colour-layer voxels of each block: RGB in linear light, alpha as it is
+    weight = coloured.astype(np.float64)
+    n = _block_sum(weight, factors)
+    linear = colour_science.cctf_decoding(colour / 255.0, function="sRGB")
+    planes = [linear[..., c] for c in range(3)] + [alpha[..., 0] / 255.0]
+    means = [np.divide(_block_sum(p * weight, factors), n, where=n > 0, out=np.zeros_like(n))
+             for p in planes]  # fmt: skip
+    codes = [colour_science.cctf_encoding(m, function="sRGB") for m in means[:3]] + means[3:]
+    expected = np.where(n > 0, np.rint(np.stack(codes) * 255.0), 0)
+    assert np.abs(root["1"][:].astype(int) - expected).max() <= 1
+
+
+def _block_sum(values: np.ndarray, factors: tuple[int, ...]) -> np.ndarray:
+    """Sum of every block (partial ones at the far edges) of a ``(Z, Y, X)`` array."""
+    for axis, f in enumerate(factors):
+        values = np.add.reduceat(values, np.arange(0, values.shape[axis], f), axis=axis)
+    return values

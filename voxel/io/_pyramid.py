@@ -118,7 +118,9 @@ def downsample_colour(
     shape = _shape(weight.shape, factors)
     linear = np.zeros((*shape, colour.shape[-1]), dtype=np.float32)
     total = np.zeros(shape, dtype=np.float32)
-    _mean_kernel(colour, weight, DECODE_LUT_F32, factors[0], factors[1], factors[2], linear, total)
+    coloured_rows = np.asarray(weight).reshape(-1, weight.shape[-1]).any(axis=1)
+    coloured_rows = coloured_rows.reshape(weight.shape[:2])  # (Z, Y): rows with colour
+    _mean_kernel(colour, weight, coloured_rows, DECODE_LUT_F32, *factors, linear, total)
     out = np.zeros(linear.shape, dtype=np.uint8)
     where = total > 0  # the colour voxels only
     values = linear[where]
@@ -202,6 +204,7 @@ def _mode_kernel(
 def _mean_kernel(
     colour: NDArray[np.uint8],
     weight: NDArray[np.uint8] | NDArray[np.float32],
+    coloured_rows: NDArray[np.bool_],
     lut: NDArray[np.float32],
     fz: int,
     fy: int,
@@ -214,6 +217,8 @@ def _mean_kernel(
     for z in range(n_z):  # the voxels in order, each added to its block
         oz = z // fz
         for y in range(n_y):
+            if not coloured_rows[z, y]:  # most rows cross no colour layer
+                continue
             oy = y // fy
             row = weight[z, y]
             for x in range(n_x):

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numba
 import numpy as np
 import zarr
 from numpy.typing import NDArray
@@ -145,8 +146,7 @@ class _Level:
         while at < len(rows):
             n = min(len(self._colour[0]) - self._filled, len(rows) - at)
             into = slice(self._filled, self._filled + n)
-            for c in range(len(self._colour)):  # channel by channel: quicker than one move
-                self._colour[c, into] = rows.colour[at : at + n, ..., c]
+            _to_planar(rows.colour[at : at + n], self._colour[:, into])
             for name, buffer in self._labels.items():
                 buffer[into] = rows.labels[name][at : at + n]
             self._filled += n
@@ -163,6 +163,19 @@ class _Level:
                 write_solid(self.arrays[name], self._shard_z, buffer[:n])
         self._shard_z += n
         self._filled = 0
+
+
+@numba.njit(cache=True, nogil=True)
+def _to_planar(
+    colour: NDArray[np.uint8], out: NDArray[np.uint8]
+) -> None:  # pragma: no cover - compiled
+    """Copy ``(n, Y, X, C)`` colour into ``(C, n, Y, X)`` `out` (the store's order)."""
+    n_z, n_y, n_x, n_c = colour.shape
+    for z in range(n_z):
+        for y in range(n_y):
+            for c in range(n_c):
+                for x in range(n_x):
+                    out[c, z, y, x] = colour[z, y, x, c]
 
 
 def _reduce(rows: _Rows, factors: Factors) -> _Rows:
