@@ -10,12 +10,15 @@ hundred megavoxels); at one voxel per pixel it reads level 0. The level's voxel 
 each asked-for voxel gives its value (the mode of the labels, the colour layers' mean
 colour there).
 
-What a slice reads is a band of whole chunks: along the normal, the chunks holding the
-slice; across it, those holding the region. Small bands (up to 1/32 of the budget) are
-kept in a :class:`BlockCache` shared by the images of a build (least recently used first
-out), so the next slices through the same chunks (a z slice's neighbours, the same region
-panned a little less than a chunk) are picked from memory; from a larger band only the
-slice is copied out (assembling a few hundred megabytes costs more than decoding them).
+What a slice reads is a band: across the slice, the whole chunks holding the region;
+along its normal, the chunks holding the slice when that band is small (up to 1/32 of the
+budget), else the :data:`THIN_PLANES` planes around it (aligned to that many; fewer while
+the band would be larger than that). zarr decodes each chunk the band crosses once either
+way, so a thin band costs little more than the slice alone (assembling a few hundred
+megabytes of whole chunks costs several times more than decoding them). Bands are kept in
+a :class:`BlockCache` shared by the images of a build (least recently used first out), so
+the next slices through them (a slice's neighbours, the same region panned a little less
+than a chunk) are picked from memory.
 """
 
 from __future__ import annotations
@@ -34,8 +37,10 @@ from pipeline.viewer._stacks import PLANE, Axis, StackError, region_shape
 
 #: Memory for the bands kept between requests, bytes.
 CACHE_BYTES = 1 << 30
-#: A band larger than the budget over this is not kept: the slice is read alone.
+#: A band is at most the budget over this.
 BAND_SHARE = 32
+#: Planes along the normal of a thin band (a power of two).
+THIN_PLANES = 8
 
 #: The axes of a slice's rows and columns (and their positions in ``(z, y, x)``).
 _POSITION = {"z": 0, "y": 1, "x": 2}
@@ -156,15 +161,20 @@ class ZarrStack:
         box[ri] = (int(row_at[0]), int(row_at[-1]) + 1)
         box[ci] = (int(col_at[0]), int(col_at[-1]) + 1)
         strided = rows.step % factors[ri] == 0 and cols.step % factors[ci] == 0
-        if strided and self._band_bytes(level, box) > self.cache.budget_bytes // BAND_SHARE:
-            # a large band costs more to assemble than its chunks to decode: read the slice
+        planes = None  # along the normal: whole chunks
+        limit = self.cache.budget_bytes // BAND_SHARE
+        if strided and self._band_bytes(level, box) > limit:
+            planes = THIN_PLANES
+            while planes > 1 and self._band_bytes(level, box, ni, planes) > limit:
+                planes //= 2
+        if planes == 1:  # even one plane of the band is too large: read the slice alone
             steps = [1, 1, 1]
             steps[ri], steps[ci] = rows.step // factors[ri], cols.step // factors[ci]
             selection = tuple(slice(lo, hi, st) for (lo, hi), st in zip(box, steps, strict=True))
             lead = (slice(None),) if self.samples else ()
             values = np.asarray(self.levels[level][(*lead, *selection)])
             return _interleaved(values, self.samples).reshape(shape)
-        band, origin = self._band(level, axis, box)
+        band, origin = self._band(level, axis, box, ni, planes)
         picks: list[Any] = [None, None, None]
         picks[ni] = np.array([at - origin[ni]])
         picks[ri] = row_at - origin[ri]
@@ -203,31 +213,40 @@ class ZarrStack:
                 best = level
         return best
 
-    def _band_bytes(self, level: int, box: list[tuple[int, int]]) -> int:
-        """Bytes of the whole chunks holding `box` at `level`."""
+    def _aligned(
+        self, level: int, box: list[tuple[int, int]], normal: int, planes: int | None
+    ) -> tuple[tuple[int, int], ...]:
+        """Return `box` widened to whole chunks of `level` (along `normal` to `planes`)."""
         array = self.levels[level]
+        aligned = []
+        for k, ((lo, hi), ch, n) in enumerate(
+            zip(box, array.chunks[-3:], array.shape[-3:], strict=True)
+        ):
+            size = planes if k == normal and planes is not None else ch
+            aligned.append((lo // size * size, min(n, -(-hi // size) * size)))
+        return tuple(aligned)
+
+    def _band_bytes(
+        self, level: int, box: list[tuple[int, int]], normal: int = 0, planes: int | None = None
+    ) -> int:
+        """Bytes of the band holding `box` at `level` (see :meth:`_aligned`)."""
         size = self.pixel_bytes
-        for (lo, hi), ch, n in zip(box, array.chunks[-3:], array.shape[-3:], strict=True):
-            size *= min(n, -(-hi // ch) * ch) - lo // ch * ch
+        for lo, hi in self._aligned(level, box, normal, planes):
+            size *= hi - lo
         return size
 
     def _band(
-        self, level: int, axis: Axis, box: list[tuple[int, int]]
+        self, level: int, axis: Axis, box: list[tuple[int, int]], normal: int, planes: int | None
     ) -> tuple[NDArray[np.uint8], tuple[int, int, int]]:
-        """Return the whole chunks holding `box` at `level` (cached) and their first voxel."""
-        array = self.levels[level]
-        chunks = array.chunks[-3:]
-        shape = array.shape[-3:]
-        aligned = tuple(
-            (lo // ch * ch, min(n, -(-hi // ch) * ch))
-            for (lo, hi), ch, n in zip(box, chunks, shape, strict=True)
-        )
+        """Return the band holding `box` at `level` (cached) and its first voxel."""
         key: BandKey = (id(self), level, axis, tuple(box))
         found = self.cache.find(key)
         if found is not None:
             kept, band = found
             return band, (kept[3][0][0], kept[3][1][0], kept[3][2][0])
+        aligned = self._aligned(level, box, normal, planes)
         selection = tuple(slice(lo, hi) for lo, hi in aligned)
+        array = self.levels[level]
         band = np.asarray(array[(slice(None), *selection) if self.samples else selection])
         self.cache.put((id(self), level, axis, aligned), band)
         return band, (aligned[0][0], aligned[1][0], aligned[2][0])

@@ -109,6 +109,25 @@ def test_bands_are_kept_within_the_budget(small_zarr_build, truth):
     assert np.array_equal(again, truth["layers"][:, 0])
 
 
+def test_a_large_band_is_thinned_to_the_planes_around_the_slice(small_zarr_build, truth):
+    shape = truth["layers"].shape
+    assert shape[1] > 16
+    plane = shape[0] * shape[2]  # one y plane of the layers, bytes
+    cache = BlockCache(budget_bytes=32 * 8 * plane)  # 8 planes fit a band, whole chunks not
+    stack = ZarrStack(small_zarr_build / "stack.ome.zarr/labels/layers", shape, samples=0,
+                      cache=cache)  # fmt: skip
+    rows, cols = range(shape[0]), range(shape[2])
+    for index in range(1, 8):  # one band, planes 0-7
+        assert np.array_equal(stack.region("y", index, rows, cols), truth["layers"][:, index])
+        assert cache.used_bytes == 8 * plane
+    assert np.array_equal(stack.region("y", 9, rows, cols), truth["layers"][:, 9])
+    assert cache.used_bytes == 16 * plane  # and planes 8-15
+    half = BlockCache(budget_bytes=32 * 4 * plane)  # room for 4 planes only
+    stack = ZarrStack(stack.path, shape, samples=0, cache=half)
+    assert np.array_equal(stack.region("y", 6, rows, cols), truth["layers"][:, 6])
+    assert half.used_bytes == 4 * plane
+
+
 def test_a_build_with_only_the_store_opens_and_reads_out_voxels(small_zarr_build, tmp_path, truth):
     folder = tmp_path / "build"
     shutil.copytree(small_zarr_build, folder)
