@@ -15,6 +15,7 @@ from pipeline.build._estimate import (
     check_resources,
     estimate_build,
     resource_shortfall,
+    store_buffer_rows,
 )
 from pipeline.build._plan import BuildPlan, check_depth, grid_for, slab_rows_for
 from pipeline.build._running import run_job, settle_running
@@ -35,5 +36,6 @@ __all__ = [
     "settle_running",
     "slab_rows_for",
     "stack_model",
+    "store_buffer_rows",
     "uniform_surroundings",
 ]

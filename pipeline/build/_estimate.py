@@ -20,11 +20,16 @@ from pathlib import Path
 
 from pipeline.errors import ResourceError
 from pipeline.run import EXTRA_SLOTS
+from voxel.io import SHARD_ROWS, encoded_by_slabs
 
 #: Working bytes per voxel of a slab in its worker: the inside test and its crossings (3),
 #: the scan's distance and face (12), layers, colour, signed distance, band and
 #: materials (11), the copy into the shared slot (11), VDB and TIFF encoding temporaries.
 BYTES_PER_VOXEL = 48
+
+#: Bytes per voxel of a level-0 row the OME-Zarr writer holds in its shards' buffers:
+#: RGBA and two label images (6), and the levels above (under half as much again).
+STORE_BYTES_PER_VOXEL = 9
 
 #: Shared bytes per voxel of a slab slot (:mod:`pipeline.run._slots`; there are
 #: :data:`~pipeline.run._slots.EXTRA_SLOTS` beyond one per worker).
@@ -123,6 +128,7 @@ def estimate_build(
     workers: int,
     shell_face_layers: int = 0,
     shell_method: str = "field",
+    store_rows: int = 0,
 ) -> BuildEstimate:
     """Estimate a build's cost from its grid and its models' surfaces.
 
@@ -146,6 +152,9 @@ def estimate_build(
         Faces times layers of the offset shells to compute (0: none).
     shell_method : {"field", "robust", "paper"}
         Their construction.
+    store_rows : int
+        Rows of level 0 the OME-Zarr writer fills its shards with (0: none, or the slabs
+        hold whole shards; :func:`store_buffer_rows`).
     """
     z, y, x = (int(n) for n in shape_zyx)
     voxels = z * y * x
@@ -156,12 +165,24 @@ def estimate_build(
     memory = slab_voxels * (
         BYTES_PER_VOXEL * (workers + 1) + SLOT_BYTES_PER_VOXEL * slots
     ) + n_faces * BYTES_PER_FACE * (workers + 2)
+    memory += min(store_rows, z) * y * x * STORE_BYTES_PER_VOXEL
     disk = int(voxels * DISK_PER_VOXEL + band * DISK_PER_BAND_VOXEL)
     seconds = (voxels * SECONDS_PER_VOXEL + band * SECONDS_PER_BAND_VOXEL) / max(1, workers)
     shell_seconds = shell_face_layers * SECONDS_PER_SHELL_FACE[shell_method]
     return BuildEstimate(
         (z, y, x), voxels, band, slab_rows, workers, memory, disk, seconds, shell_seconds
     )
+
+
+def store_buffer_rows(formats: Sequence[str], slab_rows: int) -> int:
+    """Return the level-0 rows the OME-Zarr writer buffers (0 without it, or whole shards).
+
+    >>> store_buffer_rows(("tiff", "zarr"), 8), store_buffer_rows(("zarr",), 128)
+    (64, 0)
+    """
+    if "zarr" not in formats or encoded_by_slabs(slab_rows):
+        return 0
+    return SHARD_ROWS
 
 
 def check_resources(estimate: BuildEstimate, out_dir: Path, *, force: bool) -> None:

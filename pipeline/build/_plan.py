@@ -15,7 +15,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.build._estimate import BYTES_PER_VOXEL, BuildEstimate, check_resources, estimate_build
+from pipeline.build._estimate import (
+    BYTES_PER_VOXEL,
+    BuildEstimate,
+    check_resources,
+    estimate_build,
+    store_buffer_rows,
+)
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError, ResourceError
 from pipeline.model import ColouredMesh, face_areas
@@ -115,6 +121,7 @@ def plan_build(
             thickness.size if config.shell_meshes or config.layer_rule == "shells" else 0
         ),
         shell_method=config.shell_method,
+        store_rows=store_buffer_rows(config.formats, rows),
     )
     check_resources(estimate, out_dir, force=force)
     return BuildPlan(grid, thickness, depth, rows, workers, estimate)

@@ -47,6 +47,7 @@ from pipeline.output import sha256
 from pipeline.run._chunks import decode_chunk, encode_chunk, save_chunk
 from pipeline.run._task import Rows, StackSlab
 from voxel.grid import GridSpec
+from voxel.io import STORE_LAYOUT
 
 #: The run folder's name inside the output folder.
 RUN_FOLDER = ".shellvox-run"
@@ -171,6 +172,7 @@ def run_key(
         "config": digest(json.dumps(settings, sort_keys=True).encode()),
         "printer": digest(pickle.dumps(extra)),
         "grid": digest(str((grid.shape_zyx, grid.origin_mm, grid.voxel_mm, rows)).encode()),
+        "store": digest(STORE_LAYOUT.encode()),
     }
 
 

@@ -20,7 +20,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.build import BuildEstimate, check_resources, estimate_build, slab_rows_for
+from pipeline.build import (
+    BuildEstimate,
+    check_resources,
+    estimate_build,
+    slab_rows_for,
+    store_buffer_rows,
+)
 from pipeline.config import BuildConfig, LoadOptions
 from pipeline.errors import ResourceError
 from pipeline.loading import load_model
@@ -239,6 +245,7 @@ def plan_tray(
         n_faces=sum(p.mesh.n_faces for p in parts),
         slab_rows=rows,
         workers=min(workers, -(-grid.shape_zyx[0] // rows)),
+        store_rows=store_buffer_rows(config.formats, rows),
     )
     try:
         check_resources(estimate, out_dir, force=force)

@@ -100,17 +100,21 @@ class SectionCounts:
         self.colour_voxels = np.zeros(shape_zyx[0], np.int64)
 
     def add_page(
-        self, z: int, layers: NDArray[np.uint8], rgb: NDArray[np.uint8]
+        self, z: int, layers: NDArray[np.uint8], rgb: NDArray[np.uint8], y0: int = 0
     ) -> NDArray[np.bool_]:
-        """Count page `z` (``(Y, X)`` layers, ``(Y, X, 3+)`` colour); return its colour voxels."""
+        """Count page `z`, or its rows from `y0` on (``(n, X)`` layers, ``(n, X, 3+)`` colour).
+
+        Every row of every page is to be counted once. Returns the colour voxels.
+        """
         coloured, vivid = vivid_voxels(layers, rgb, self.colour_layers)
-        self.colour_voxels[z] = np.count_nonzero(coloured)
-        self.vivid["z"][z] = np.count_nonzero(vivid)
-        self.vivid["y"] += np.count_nonzero(vivid, axis=1)
+        y1 = y0 + len(layers)
+        self.colour_voxels[z] += np.count_nonzero(coloured)
+        self.vivid["z"][z] += np.count_nonzero(vivid)
+        self.vivid["y"][y0:y1] += np.count_nonzero(vivid, axis=1)
         self.vivid["x"] += np.count_nonzero(vivid, axis=0)
         inside = layers > 0
-        self.inside["z"][z] = inside.any()
-        self.inside["y"] |= inside.any(axis=1)
+        self.inside["z"][z] |= inside.any()
+        self.inside["y"][y0:y1] |= inside.any(axis=1)
         self.inside["x"] |= inside.any(axis=0)
         return coloured
 

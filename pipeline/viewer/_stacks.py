@@ -199,9 +199,18 @@ class TiffStack:
     #: Pages :meth:`pages` reads at a time to no advantage (a page decodes alone).
     page_block = 1
 
-    def pages(self, z0: int, z1: int) -> NDArray[np.uint8]:
-        """Return the whole pages ``z0 <= z < z1``: ``(n, Y, X[, S])`` uint8."""
-        rows, cols = range(self.shape_zyx[1]), range(self.shape_zyx[2])
+    #: Rows of a strip of pages that costs no more to read than its share of whole pages.
+    row_block = 1
+
+    def pages(self, z0: int, z1: int, y0: int = 0, y1: int | None = None) -> NDArray[np.uint8]:
+        """Return rows ``y0 <= y < y1`` (default: all) of the pages ``z0 <= z < z1``.
+
+        Returns
+        -------
+        (z1 - z0, y1 - y0, X[, S]) uint8
+        """
+        rows = range(y0, self.shape_zyx[1] if y1 is None else y1)
+        cols = range(self.shape_zyx[2])
         return np.stack([self.region("z", z, rows, cols) for z in range(z0, z1)])
 
     def voxel(self, z: int, y: int, x: int) -> NDArray[np.uint8]:

@@ -37,9 +37,11 @@ from pipeline.viewer._stacks import PLANE, Axis, StackError, region_shape
 
 #: Memory for the bands kept between requests, bytes.
 CACHE_BYTES = 1 << 30
-#: A band is at most the budget over this.
+#: A band is at most the budget over this (unless the slice's steps do not fit the
+#: level's voxels, which the page never asks for: then its whole chunks are read).
 BAND_SHARE = 32
-#: Planes along the normal of a thin band (a power of two).
+#: Planes along the normal of a thin band, the aligned group holding the slice (a power
+#: of two).
 THIN_PLANES = 8
 
 #: The axes of a slice's rows and columns (and their positions in ``(z, y, x)``).
@@ -187,11 +189,22 @@ class ZarrStack:
         """Rows of level 0's chunks: :meth:`pages` of a whole block decode each chunk once."""
         return int(self.levels[0].chunks[-3])
 
-    def pages(self, z0: int, z1: int) -> NDArray[np.uint8]:
-        """Return the whole z pages ``z0 <= z < z1``: ``(n, Y, X[, S])`` uint8 (a view)."""
+    @property
+    def row_block(self) -> int:
+        """Rows of level 0's chunks: strips of whole chunks decode each chunk once."""
+        return int(self.levels[0].chunks[-2])
+
+    def pages(self, z0: int, z1: int, y0: int = 0, y1: int | None = None) -> NDArray[np.uint8]:
+        """Return rows ``y0 <= y < y1`` (default: all) of the z pages ``z0 <= z < z1``.
+
+        Returns
+        -------
+        (z1 - z0, y1 - y0, X[, S]) uint8
+        """
         array = self.levels[0]
-        values = np.asarray(array[:, z0:z1] if self.samples else array[z0:z1])
-        return np.moveaxis(values, 0, -1) if self.samples else values
+        rows = slice(y0, y1)
+        values = np.asarray(array[:, z0:z1, rows] if self.samples else array[z0:z1, rows])
+        return np.stack(list(values), axis=-1) if self.samples else values
 
     def voxel(self, z: int, y: int, x: int) -> NDArray[np.uint8]:
         """Return voxel ``(z, y, x)`` of level 0: ``(S,)`` uint8 (``(1,)`` for labels)."""

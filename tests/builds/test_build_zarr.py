@@ -248,3 +248,16 @@ def test_store_is_the_same_whether_slab_workers_or_the_writer_encode_level_0(tmp
     store = {name: digest for name, digest in output_digests(whole).items() if "zarr" in name}
     assert len([name for name in store if "/0/c/" in name]) >= 2
     assert store == {n: d for n, d in output_digests(thin).items() if "zarr" in n}
+    # resumed with one slab left, computed here without its shards, the others' loaded
+    resumed = tmp_path / "resumed"
+    checkpointed = [*options, "--slab-mb", "32.5", "--checkpoint"]
+    with pytest.MonkeyPatch.context() as patch:  # as if killed once the manifest was written
+        patch.setattr(RunFolder, "remove", lambda self: None)
+        assert _build(resumed, *checkpointed) == 0
+    chunks = sorted((resumed / RUN_FOLDER).glob("slab_*.npz"))
+    assert len(chunks) >= 3
+    chunks[1].unlink()
+    assert _build(resumed, *checkpointed, "--resume") == 0
+    manifest = json.loads((resumed / "manifest.json").read_text())
+    assert manifest["run"]["resumed_slabs"] == len(chunks) - 1
+    assert store == {n: d for n, d in output_digests(resumed).items() if "zarr" in n}

@@ -16,6 +16,7 @@ import tifffile
 import zarr
 
 from pipeline.viewer import BuildFolder
+from pipeline.viewer import _surface as surface_module
 from pipeline.viewer._slices import probe
 from pipeline.viewer._surface import Overview
 from pipeline.viewer._zarr_stacks import BlockCache, ZarrStack
@@ -156,14 +157,18 @@ def test_whole_pages_in_blocks_are_the_tiff_pages(small_zarr_build, truth, sourc
             assert np.array_equal(pages, truth[kind]), kind
 
 
-def test_the_overview_opens_on_the_same_slices_from_the_store_and_the_tiffs(small_zarr_build):
+def test_the_overview_opens_on_the_same_slices_from_the_store_and_the_tiffs(
+    small_zarr_build, monkeypatch
+):
     found = []
-    for source in ("zarr", "tiff"):
+    for source, pass_bytes in (("zarr", None), ("tiff", None), ("zarr", 1), ("tiff", 1)):
+        if pass_bytes is not None:  # the pages in strips of one chunk's rows (or one row)
+            monkeypatch.setattr(surface_module, "PASS_BYTES", pass_bytes)
         with BuildFolder.open(small_zarr_build, source=source) as opened:
             overview = Overview(opened)
             overview.start()
             assert overview.done.wait(120)
             overview.close()
-            assert overview.error is None
-            found.append((overview.opening, overview.vivid))
-    assert found[0] == found[1]
+            assert overview.error is None and overview.surface is not None
+            found.append((overview.opening, overview.vivid, overview.surface.srgb.tobytes()))
+    assert found[1:] == found[:1] * 3

@@ -39,7 +39,7 @@ from voxel.io._preview import (
 from voxel.io._pyramid import downsample_colour, downsample_labels, level_factors
 from voxel.io._tiff_pages import PageEncoder
 from voxel.io._tiff_writer import TiffStackWriter
-from voxel.io._zarr_shards import ShardEncoder, encoded_by_slabs
+from voxel.io._zarr_shards import SHARD_ROWS, STORE_LAYOUT, ShardEncoder, encoded_by_slabs
 from voxel.io._zarr_writer import OmeZarrWriter
 
 __all__ = [
@@ -48,7 +48,9 @@ __all__ = [
     "FADE",
     "OUTSIDE_RGB",
     "RGBA",
+    "SHARD_ROWS",
     "SIDECAR_NAME",
+    "STORE_LAYOUT",
     "GcvfJobError",
     "GcvfWriter",
     "KeySlices",

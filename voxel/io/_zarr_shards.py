@@ -28,6 +28,11 @@ CHUNK_ZYX = (64, 64, 64)
 SHARD_ROWS = CHUNK_ZYX[0]
 #: zstd level of the chunks.
 ZSTD_LEVEL = 1
+#: What the bytes of a shard depend on beside the voxels (part of a run's key, so that
+#: checkpointed shards of another layout are not reused).
+STORE_LAYOUT = (
+    f"zarr {zarr.__version__}, chunks {CHUNK_ZYX}, shards of {SHARD_ROWS} rows, zstd {ZSTD_LEVEL}"
+)
 
 
 def level_array(group: Any, name: str, shape_zyx: Sequence[int], samples: int) -> Any:

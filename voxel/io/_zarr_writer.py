@@ -50,7 +50,11 @@ from voxel.io._zarr_shards import SHARD_ROWS, level_array, write_solid
 
 @dataclass
 class _Rows:
-    """Consecutive z rows of one level: colour ``(n, Y, X, C)``, weights, labels ``(n, Y, X)``."""
+    """Consecutive z rows of one level.
+
+    ``colour`` ``(n, Y, X, C)`` uint8, ``weight`` ``(n, Y, X)`` uint8 or float32 (the
+    colour-layer voxels of level 0 each voxel stands for), ``labels`` ``(n, Y, X)`` uint8.
+    """
 
     z: int
     colour: NDArray[np.uint8]
@@ -104,25 +108,26 @@ class _Level:
     def __init__(self, arrays: dict[str, Any], factors: Factors | None) -> None:
         self.arrays = arrays  # "colour" and the label names -> zarr.Array
         self.factors = factors  # to the next level (None: the last)
-        colour = arrays["colour"]
-        rows = min(SHARD_ROWS, colour.shape[1])
-        self._colour = np.zeros((colour.shape[0], rows, *colour.shape[2:]), dtype=np.uint8)
-        self._labels = {
-            name: np.zeros((rows, *colour.shape[2:]), dtype=np.uint8)
-            for name in arrays
-            if name != "colour"
-        }
+        self._colour: NDArray[np.uint8] | None = None  # made when first filled
+        self._labels: dict[str, NDArray[np.uint8]] = {}
         self._shard_z = 0  # first row of the shard being filled
         self._filled = 0  # its rows so far
         self.unreduced: _Rows | None = None
 
     def add(self, rows: _Rows, *, written: bool = False) -> _Rows | None:
-        """Take rows (in z order); write whole shards; return rows for the next level.
+        """Take rows (the next in z); write whole shards; return rows for the next level.
 
-        `written`: the rows' shards are stored already (encoded where the slab was made).
-        The rows may be views of memory reused once this returns: what is kept is copied.
+        `written`: the rows' shards are stored already (encoded where the slab was made;
+        they start and end on shard boundaries, or at the grid's end). The rows may be
+        views of memory reused once this returns: what is kept is copied.
         """
-        if not written:
+        if rows.z != self._shard_z + self._filled:
+            raise ValueError(f"rows from z={rows.z}, expected {self._shard_z + self._filled}")
+        if written:
+            if self._filled or rows.z % SHARD_ROWS:
+                raise ValueError(f"encoded rows from z={rows.z} do not start a shard")
+            self._shard_z = rows.z + len(rows)
+        else:
             self._buffer(rows)
         if self.factors is None:
             return None
@@ -142,22 +147,31 @@ class _Level:
 
     def _buffer(self, rows: _Rows) -> None:
         """Copy rows into the shard's buffers, writing each shard as it fills."""
+        array = self.arrays["colour"]
+        if self._colour is None:
+            depth = min(SHARD_ROWS, array.shape[1])
+            self._colour = np.zeros((array.shape[0], depth, *array.shape[2:]), dtype=np.uint8)
+            self._labels = {
+                name: np.zeros((depth, *array.shape[2:]), dtype=np.uint8)
+                for name in self.arrays
+                if name != "colour"
+            }
         at = 0
         while at < len(rows):
-            n = min(len(self._colour[0]) - self._filled, len(rows) - at)
+            n = min(self._colour.shape[1] - self._filled, len(rows) - at)
             into = slice(self._filled, self._filled + n)
             _to_planar(rows.colour[at : at + n], self._colour[:, into])
             for name, buffer in self._labels.items():
                 buffer[into] = rows.labels[name][at : at + n]
             self._filled += n
             at += n
-            if self._filled == len(self._colour[0]):
+            if self._filled == self._colour.shape[1]:
                 self._write()
 
     def _write(self) -> None:
         """Write the shard filled so far (its solid chunks), and start the next one."""
         n = self._filled
-        if n:
+        if n and self._colour is not None:
             write_solid(self.arrays["colour"], self._shard_z, self._colour[:, :n])
             for name, buffer in self._labels.items():
                 write_solid(self.arrays[name], self._shard_z, buffer[:n])
@@ -292,6 +306,8 @@ class OmeZarrWriter(ClosingWriter):
         shape = (n, *self.grid.shape_zyx[1:])
         if colour.shape[:3] != shape or coloured.shape != shape:
             raise ValueError(f"slab must be {shape} voxels, got {colour.shape} {coloured.shape}")
+        if colour.ndim != 4 or colour.shape[3] < self.samples:
+            raise ValueError(f"colour must have {self.samples} channels, got {colour.shape}")
         if set(labels) != set(self.label_names):
             raise ValueError(f"labels must be {list(self.label_names)}, got {list(labels)}")
         if self._next_z + n > self.grid.shape_zyx[0]:
@@ -309,7 +325,7 @@ class OmeZarrWriter(ClosingWriter):
         """In the writer thread: level 0, then every level the rows complete."""
         rows, shards = item
         if shards is not None:
-            self._store(shards)
+            self._store(shards, rows.z, len(rows))
         rows.weight = rows.weight.view(np.uint8)
         current = self._levels[0].add(rows, written=shards is not None)
         for level in self._levels[1:]:
@@ -317,15 +333,22 @@ class OmeZarrWriter(ClosingWriter):
                 break
             current = level.add(current)
 
-    def _store(self, shards: list[bytes]) -> None:
-        """Put shard files (``[key, data, ...]``) of level 0 in place, as zarr made them."""
+    def _store(self, shards: list[bytes], z: int, n: int) -> None:
+        """Put shard files (``[key, data, ...]``) of level 0 in place, as zarr made them.
+
+        Each must be a shard of rows ``z`` to ``z + n`` (``z`` a shard's first row).
+        """
         assert self._temporary is not None
         prefixes = ("0/c/", *(f"labels/{name}/0/c/" for name in self.label_names))
+        first, last = z // SHARD_ROWS, -(-(z + n) // SHARD_ROWS)
         for key, data in zip(shards[::2], shards[1::2], strict=True):
             name = key.decode()
             parts = name.split("/")
             if not name.startswith(prefixes) or any(p in ("", ".", "..") for p in parts):
                 raise ValueError(f"{self.path}: {name!r} is no shard of level 0")
+            index = parts[parts.index("c") + (2 if name.startswith("0/") else 1)]  # its z
+            if not index.isdigit() or not first <= int(index) < last:
+                raise ValueError(f"{self.path}: {name!r} is no shard of rows {z}-{z + n}")
             path = self._temporary.joinpath(*parts)
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_bytes(data)
