@@ -204,7 +204,7 @@ class ZarrStack:
         array = self.levels[0]
         rows = slice(y0, y1)
         values = np.asarray(array[:, z0:z1, rows] if self.samples else array[z0:z1, rows])
-        return np.stack(list(values), axis=-1) if self.samples else values
+        return _interleaved(values, self.samples)
 
     def voxel(self, z: int, y: int, x: int) -> NDArray[np.uint8]:
         """Return voxel ``(z, y, x)`` of level 0: ``(S,)`` uint8 (``(1,)`` for labels)."""

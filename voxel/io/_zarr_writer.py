@@ -124,7 +124,7 @@ class _Level:
         if rows.z != self._shard_z + self._filled:
             raise ValueError(f"rows from z={rows.z}, expected {self._shard_z + self._filled}")
         if written:
-            if self._filled or rows.z % SHARD_ROWS:
+            if rows.z % SHARD_ROWS:  # with the check above: no shard partly filled
                 raise ValueError(f"encoded rows from z={rows.z} do not start a shard")
             self._shard_z = rows.z + len(rows)
         else:
