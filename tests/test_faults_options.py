@@ -7,10 +7,13 @@ be killed, not refused. The output folder must not even be created.
 
 from __future__ import annotations
 
+import os
 import signal
+import subprocess
+import sys
 
 import pytest
-from fault_harness import Command, assert_failed, build_argv, run, wait_for
+from fault_harness import REPO, Command, assert_failed, build_argv, run, wait_for
 
 TWO_GB = 2 * 1024**3
 
@@ -81,3 +84,35 @@ def test_long_build_says_what_it_will_cost_first(tmp_path):
     assert " min" in line or " h" in line  # minutes or hours, not seconds
     command.signal(signal.SIGINT)
     assert_failed(command.finish(timeout=60), 130, "interrupted", folder=out)
+
+
+#: A program as ``python -m pipeline.cli``, holding an object whose finaliser fails at
+#: the end of the process (as a library's object left half made by the signal does).
+HALF_MADE = """
+import signal, sys
+signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+from pipeline.cli import main
+class HalfMade:
+    def __del__(self):
+        raise AttributeError("half made")
+kept = HalfMade()
+sys.argv = ["shellvox", *sys.argv[1:]]
+sys.exit(main())
+"""
+
+
+def test_an_interrupted_run_ends_without_the_tracebacks_of_finalisers(tmp_path):
+    out, err = tmp_path / "out", tmp_path / "stderr.txt"
+    with err.open("w") as stream:
+        process = subprocess.Popen(
+            [sys.executable, "-c", HALF_MADE, *build_argv(out, "--voxel-size", "0.01")],
+            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=stream,
+            env={**os.environ, "PYTHONPATH": str(REPO)}, start_new_session=True,
+        )  # fmt: skip
+        wait_for(lambda: "shellvox: grid" in err.read_text(), what="the estimate line")
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=60) == 130
+    stderr = err.read_text()
+    assert "shellvox: error: interrupted (SIGINT)" in stderr
+    assert "Traceback" not in stderr and "half made" not in stderr, stderr
+    assert not out.exists()

@@ -22,7 +22,14 @@ from typing import NoReturn
 
 from pipeline import __version__
 from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.faults import DeferredSignals, describe, signals_raise, unblock_signals
+from pipeline.faults import (
+    EXIT_SIGINT,
+    EXIT_SIGTERM,
+    DeferredSignals,
+    describe,
+    signals_raise,
+    unblock_signals,
+)
 
 COMMANDS = (
     "info", "thickness", "shells", "build", "fdm", "inspect", "view", "chart", "calibrate"
@@ -67,7 +74,14 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; return the process exit status (see :mod:`pipeline.faults`)."""
+    """Run the command line; return the process exit status (see :mod:`pipeline.faults`).
+
+    Run as the program (`argv` None) and stopped by a signal, without ``--debug``: the
+    exceptions of finalisers as the process ends are dropped. A signal can stop a library
+    mid-way (numba compiling a kernel), and the objects it left half made may fail to
+    finalise; the run is stopped and said so in one line, their tracebacks would alarm.
+    """
+    program = argv is None
     argv = sys.argv[1:] if argv is None else list(argv)
     # Libraries' log records (tifffile logs a warning for a broken file) would go to
     # stderr through logging's last-resort handler: not without --debug.
@@ -86,7 +100,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             warnings.simplefilter("always", ShellDefectWarning)
             warnings.showwarning = _show_warning
-            return _run(argv)
+            status = _run(argv)
+            if program and status in (EXIT_SIGINT, EXIT_SIGTERM) and "--debug" not in argv:
+                sys.unraisablehook = _quiet_unraisable
+            return status
     finally:
         logging.getLogger().removeHandler(quiet)
 
@@ -111,3 +128,7 @@ def _run(argv: list[str]) -> int:
                 traceback.print_exception(error, file=sys.stderr)
             print(f"shellvox: error: {message}", file=sys.stderr)
             return status
+
+
+def _quiet_unraisable(unraisable: sys.UnraisableHookArgs) -> None:
+    """Drop an exception raised where none can be (a finaliser), after an interruption."""
