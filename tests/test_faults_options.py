@@ -13,7 +13,17 @@ import subprocess
 import sys
 
 import pytest
-from fault_harness import REPO, Command, assert_failed, build_argv, run, wait_for
+from fault_harness import (
+    REPO,
+    Command,
+    assert_failed,
+    build_argv,
+    run,
+    temporary_files,
+    wait_for,
+)
+
+from pipeline.run import RUN_FOLDER
 
 TWO_GB = 2 * 1024**3
 
@@ -83,7 +93,16 @@ def test_long_build_says_what_it_will_cost_first(tmp_path):
     assert "voxels" in line and "memory" in line and "on disk" in line
     assert " min" in line or " h" in line  # minutes or hours, not seconds
     command.signal(signal.SIGINT)
-    assert_failed(command.finish(timeout=60), 130, "interrupted", folder=out)
+    line = assert_failed(command.finish(timeout=60), 130, "interrupted")
+    # A build this long checkpoints by default, and its first slabs may finish before the
+    # signal: those stay for --resume, and the line says where; nothing else is left.
+    kept = sorted((out / RUN_FOLDER).glob("slab_*.npz"))
+    left = {path.relative_to(out).parts[0] for path in temporary_files(out)}
+    if kept:
+        assert f"{len(kept)} finished slab(s) are kept in {out / RUN_FOLDER}" in line, line
+        assert left == {RUN_FOLDER}, left
+    else:
+        assert left == set(), left
 
 
 #: A program as ``python -m pipeline.cli``, holding an object whose finaliser fails at
@@ -103,9 +122,11 @@ sys.exit(main())
 
 def test_an_interrupted_run_ends_without_the_tracebacks_of_finalisers(tmp_path):
     out, err = tmp_path / "out", tmp_path / "stderr.txt"
+    # no checkpoints: slabs finished before the signal would stay in out/ for --resume
+    argv = build_argv(out, "--voxel-size", "0.01", "--no-checkpoint")
     with err.open("w") as stream:
         process = subprocess.Popen(
-            [sys.executable, "-c", HALF_MADE, *build_argv(out, "--voxel-size", "0.01")],
+            [sys.executable, "-c", HALF_MADE, *argv],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=stream,
             env={**os.environ, "PYTHONPATH": str(REPO)}, start_new_session=True,
         )  # fmt: skip

@@ -13,11 +13,12 @@ A build that checkpoints keeps a run folder, ``DIR/.shellvox-run/``, beside its 
 through the same writers in z order, so the files come out as an uninterrupted run's.
 Resuming is refused, naming what differs, when the key is not the same. The folder is
 removed once the build has committed (its manifest written), and by a run without
-``--resume`` (which starts afresh). A run that fails, or is stopped by SIGINT or SIGTERM,
-removes it too (one complete build or none: the contract of :mod:`pipeline.output._outdir`),
-except when the Dask cluster was lost (:class:`pipeline.errors.ClusterError`): then
-the finished slabs stay for ``--resume``. What cannot clean up (SIGKILL, power loss, the
-kernel's OOM killer) leaves the run folder, and ``--resume`` continues from it.
+``--resume`` (which starts afresh). A run that fails removes it too (one complete build or
+none: the contract of :mod:`pipeline.output._outdir`), except when a rerun can get past the
+failure (SIGINT or SIGTERM, a slab worker killed, the Dask cluster lost, a full disk) and a
+slab has finished: then the finished slabs stay for ``--resume``, and the error line says
+so. What cannot clean up (SIGKILL, power loss, the kernel's OOM killer) leaves the run
+folder, and ``--resume`` continues from it.
 The output folder's lock (:mod:`pipeline.output._outdir`) covers it, and temporary chunk names
 (``.*.partial``) are among the leftovers every run removes first.
 """
