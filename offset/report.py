@@ -26,6 +26,7 @@ def shell_report(
     layer_height_mm: float = 0.027,
     n_samples: int = 20_000,
     seed: int = 0,
+    checks: Sequence[dict[str, Any]] | None = None,
 ) -> dict[str, Any]:
     """Measure every shell, and optionally the baselines, against the ideal offset.
 
@@ -46,6 +47,9 @@ def shell_report(
         Points sampled on each shell (and on the surface, for the slicer baseline).
     seed : int, optional
         Sampling seed.
+    checks : sequence of dict, optional
+        :func:`offset.quality.mesh_checks` of each shell when already measured (on its
+        file read back); default: measured here.
 
     Returns
     -------
@@ -61,6 +65,8 @@ def shell_report(
     t = check_thickness(thickness, f.shape[0])
     if len(shells) != t.shape[0]:
         raise ValueError(f"shells must hold one shell per layer ({t.shape[0]}), got {len(shells)}")
+    if checks is not None and len(checks) != len(shells):
+        raise ValueError(f"checks must hold one entry per shell ({len(shells)}), got {len(checks)}")
     if not layer_height_mm > 0:
         raise ValueError(f"layer_height_mm must be > 0, got {layer_height_mm!r}")
     depth = np.cumsum(t, axis=0)
@@ -75,7 +81,13 @@ def shell_report(
             "layer": shell.layer,
             "depth_mm": {"min": float(depth[k].min()), "max": float(depth[k].max())},
             "shell": _measure(
-                original, depth[k], (shell.vertices, shell.faces), previous, n_samples, rng
+                original,
+                depth[k],
+                (shell.vertices, shell.faces),
+                previous,
+                n_samples,
+                rng,
+                checks=None if checks is None else checks[k],
             ),
         }
         previous = (shell.vertices, shell.faces)
@@ -103,9 +115,11 @@ def _measure(
     previous: tuple[FloatArray, IntArray],
     n_samples: int,
     rng: np.random.Generator,
+    *,
+    checks: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Return mesh checks, nesting and equidistance of one shell."""
-    result = mesh_checks(*mesh)
+    """Return mesh checks (`checks` when given), nesting and equidistance of one shell."""
+    result = dict(checks) if checks is not None else mesh_checks(*mesh)
     result["nested"] = nested_in(mesh, previous) if result["closed"] else False
     if mesh[1].shape[0] == 0:
         result["equidistance"] = None

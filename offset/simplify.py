@@ -43,6 +43,7 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from offset._validate import FloatArray, IntArray
+from offset.heap import heap_blocks
 from offset.simplify_passes import LOG, TIDY, Mesh, crossing_free
 from voxel.geometry._nearest import SurfaceIndex, nearest_faces
 
@@ -125,6 +126,14 @@ def simplify_shells(
     -------
     Simplified
     """
+    with heap_blocks():
+        return _simplify_shells(meshes, surface, depth_mm, limits)
+
+
+def _simplify_shells(
+    meshes: list[Mesh], surface: SurfaceIndex, depth_mm: FloatArray, limits: GuardLimits
+) -> Simplified:
+    """:func:`simplify_shells`, with large blocks from the heap (:mod:`offset.heap`)."""
     before = [len(f) for _, f in meshes]
     raw = [
         _depth_error(surface, depth_mm[k], v, f, samples_only=True)

@@ -146,6 +146,7 @@ def _write(
             [w.shell for w in written],
             baselines=not args.no_baselines,
             layer_height_mm=config.layer_height_mm,
+            checks=[w.checks for w in written],
         )
     )
     for layer, w in zip(report["layers"], written, strict=True):

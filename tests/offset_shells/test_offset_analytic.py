@@ -9,7 +9,7 @@ import trimesh
 
 from offset import Shell, offset_shells, shell_report
 from offset.band import ARC_STEP_RAD
-from offset.quality import equidistance
+from offset.quality import equidistance, mesh_checks
 
 
 def _tm(shell: Shell) -> trimesh.Trimesh:
@@ -74,6 +74,20 @@ def test_icosphere_is_equidistant():
     assert layer["nested"]
     assert layer["equidistance"]["error_pct"]["p99"] <= 0.5
     assert layer["equidistance"]["error_pct"]["max"] <= 1e-6
+
+
+def test_report_takes_the_checks_of_the_files_read_back():
+    box = trimesh.creation.box((10.0, 10.0, 10.0))
+    shells = offset_shells(box.vertices, box.faces, [0.5, 1.0])
+    measured = shell_report(box.vertices, box.faces, [0.5, 1.0], shells, baselines=False)
+    given = [mesh_checks(s.vertices, s.faces) for s in shells]
+    assert given[0]["closed"] and given[0]["self_intersections"] == 0
+    reused = shell_report(
+        box.vertices, box.faces, [0.5, 1.0], shells, baselines=False, checks=given
+    )
+    assert reused == measured
+    with pytest.raises(ValueError, match="one entry per shell"):
+        shell_report(box.vertices, box.faces, [0.5, 1.0], shells, checks=given[:1])
 
 
 def test_thin_plate_collapses_cleanly():
