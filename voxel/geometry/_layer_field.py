@@ -17,13 +17,14 @@ when the thickness is positive).
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.geometry._distance_scan import nearest_in_reach
+from voxel.geometry._distance_scan import NearestInReach, nearest_in_reach
 from voxel.geometry._marching_tets import (
     EDGES,
     TABLE,
@@ -137,10 +138,10 @@ def field_surfaces(
         np.zeros((0, n_y, n_x), np.uint8),
     )
     unbalanced = 0
-    for z_start in range(0, n_z, planes):
+
+    def scan(z_start: int) -> tuple[NDArray[np.bool_], int, NearestInReach]:
         z_stop = min(n_z, z_start + planes)
         inside, n_bad = inside_slab(vertices, faces, grid, z_start, z_stop)
-        unbalanced += n_bad
         near = nearest_in_reach(
             vertices,
             faces,
@@ -152,27 +153,41 @@ def field_surfaces(
             outside_reach_mm=0.0,
             regions=regions,
         )
-        bits = np.empty(inside.shape, dtype=np.uint8)
-        _layer_bits(inside, near.squared_mm2, near.face, depth, bits)
-        inside = np.concatenate([carry[0], inside])
-        squared = np.concatenate([carry[1], near.squared_mm2])
-        face = np.concatenate([carry[2], near.face])
-        bits = np.concatenate([carry[3], bits])
-        z_base = z_start - len(carry[0])
-        carry = (inside[-1:], squared[-1:], face[-1:], bits[-1:])
-        if len(bits) < 2:
-            continue
-        counts = count_triangles(bits, n_levels, TETS, TRIANGLES_PER_CASE)
-        f_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-        v_start = 3 * f_start
-        new_vertices = np.empty((int(v_start[-1]), 3))
-        new_faces = np.empty((int(f_start[-1]), 3), dtype=np.int64)
-        field = NodeField(bits, inside, squared, face, depth, far, step_mm, origin, step, z_base)
-        out = MarchOutputs(new_vertices, v_start, new_faces, f_start)
-        made = march_slab(field, ids, tables, out)
-        for k in range(n_levels):
-            out_v[k].append(new_vertices[v_start[k] : v_start[k] + made[k]])
-            out_f[k].append(new_faces[f_start[k] : f_start[k + 1]])
+        return inside, n_bad, near
+
+    starts = range(0, n_z, planes)
+    # The next slab is scanned in a second thread while this one is meshed (the kernels
+    # release the GIL); it holds one more slab of nodes.
+    with ThreadPoolExecutor(1, thread_name_prefix="shellvox-field") as pool:
+        ahead = [pool.submit(scan, starts[0])]
+        for index, z_start in enumerate(starts):
+            inside, n_bad, near = ahead.pop().result()
+            if index + 1 < len(starts):
+                ahead.append(pool.submit(scan, starts[index + 1]))
+            unbalanced += n_bad
+            bits = np.empty(inside.shape, dtype=np.uint8)
+            _layer_bits(inside, near.squared_mm2, near.face, depth, bits)
+            inside = np.concatenate([carry[0], inside])
+            squared = np.concatenate([carry[1], near.squared_mm2])
+            face = np.concatenate([carry[2], near.face])
+            bits = np.concatenate([carry[3], bits])
+            z_base = z_start - len(carry[0])
+            carry = (inside[-1:], squared[-1:], face[-1:], bits[-1:])
+            if len(bits) < 2:
+                continue
+            counts = count_triangles(bits, n_levels, TETS, TRIANGLES_PER_CASE)
+            f_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+            v_start = 3 * f_start
+            new_vertices = np.empty((int(v_start[-1]), 3))
+            new_faces = np.empty((int(f_start[-1]), 3), dtype=np.int64)
+            field = NodeField(
+                bits, inside, squared, face, depth, far, step_mm, origin, step, z_base
+            )
+            out = MarchOutputs(new_vertices, v_start, new_faces, f_start)
+            made = march_slab(field, ids, tables, out)
+            for k in range(n_levels):
+                out_v[k].append(new_vertices[v_start[k] : v_start[k] + made[k]])
+                out_f[k].append(new_faces[f_start[k] : f_start[k + 1]])
     surfaces = [
         (
             np.concatenate(out_v[k]) if out_v[k] else np.zeros((0, 3)),
