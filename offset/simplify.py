@@ -12,7 +12,8 @@ most slivers and folds the first leaves), and the result is accepted only when
   area-weighted samples; the 99th percentile over the samples, within its share of ``D``),
   or within the unsimplified shell's own error plus the tolerance where the grid alone
   exceeds a limit (the p99 over its samples; past the maximum, its largest error near each
-  such point: the creases of a faceted input, which a finer ``--shell-step`` sharpens), and
+  such point, or its error at the point's nearest point plus the distance to it: the
+  creases of a faceted input, which a finer ``--shell-step`` sharpens), and
 * no two triangles of the shells cross (:func:`offset.intersections.intersecting_pairs`
   over all shells together, so a shell crossing a neighbouring one counts too).
 
@@ -40,6 +41,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
+import trimesh
 from scipy.spatial import cKDTree
 
 from offset._validate import FloatArray, IntArray
@@ -193,7 +195,9 @@ def _within(
     Each bound may be exceeded by what the grid alone gives (the creases of a faceted
     input, rounded off by the grid) plus `tolerance_mm`, how far the simplification may
     move the surface: the p99 by the unsimplified shell's own p99, a point past the maximum
-    by the unsimplified shell's largest error near it (:func:`_raw_error_near`).
+    by the unsimplified shell's largest error near it (:func:`_raw_error_near`) or, where
+    those samples fall short, by the error at the point's nearest point of the unsimplified
+    shell plus the distance to it (:func:`_raw_error_at_nearest`).
     """
     p99 = error.p99_share <= limits.p99_error_share or error.p99 <= raw.p99 + tolerance_mm
     if not p99:
@@ -201,9 +205,53 @@ def _within(
     over = error.error > max(limits.max_error_mm, raw.max + tolerance_mm)
     if not over.any():
         return True
-    points = error.points[over]
+    points, measured = error.points[over], error.error[over]
     near = _raw_error_near(surface, depth, original, points)
-    return bool((error.error[over] <= near + tolerance_mm).all())
+    fine = measured <= near + tolerance_mm
+    if fine.all():
+        return True
+    exact = _raw_error_at_nearest(surface, depth, original, points[~fine], tolerance_mm)
+    return bool((measured[~fine] <= exact).all())
+
+
+def _raw_error_at_nearest(
+    surface: SurfaceIndex, depth: FloatArray, original: Mesh, points: FloatArray, moved: float
+) -> FloatArray:
+    """Return the error a point may have, from the unsimplified shell's nearest point (mm).
+
+    For each point ``p`` ((P, 3), mm) of a simplified shell, ``q`` is the nearest point of
+    the unsimplified shell; the distance to the surface is 1-Lipschitz, so ``p``'s error is
+    at most ``q``'s error plus ``|p - q|``: that sum is returned ((P,) float64), or
+    infinity where ``|p - q|`` exceeds `moved` (the simplification moved the surface
+    further than its tolerance). The samples of :func:`_raw_error_near` can miss ``q``'s
+    error by a little on a long unsimplified triangle across a crease.
+    """
+    v, f = original
+    reach = moved + _longest_edge(original)
+    near_vertices = np.unique(
+        np.concatenate(
+            [np.asarray(i, dtype=np.int64) for i in cKDTree(v).query_ball_point(points, reach)]
+            + [np.zeros(0, dtype=np.int64)]
+        )
+    )
+    hit = np.isin(f, near_vertices).any(axis=1)
+    if not hit.any():
+        return np.full(len(points), np.inf)
+    local = trimesh.Trimesh(v, f[hit], process=False)
+    nearest, gap, _ = trimesh.proximity.closest_point(local, points)  # type: ignore[no-untyped-call]
+    face, distance = nearest_faces(surface, np.asarray(nearest, dtype=np.float64))
+    bound = np.abs(distance - depth[face]) + gap
+    return np.asarray(np.where(gap <= moved, bound, np.inf), dtype=np.float64)
+
+
+def _longest_edge(mesh: Mesh) -> float:
+    """Return the longest edge of a mesh (mm), in chunks of ``CHUNK`` triangles."""
+    v, f = mesh
+    return max(
+        float(np.linalg.norm(v[f[i : i + CHUNK, j]] - v[f[i : i + CHUNK, j - 1]], axis=1).max())
+        for i in range(0, len(f), CHUNK)
+        for j in range(3)
+    )
 
 
 def _raw_error_near(
@@ -216,11 +264,7 @@ def _raw_error_near(
     maximum over those within that distance of the point is returned ((P,) float64).
     """
     v, f = original
-    reach = 2.0 * max(
-        float(np.linalg.norm(v[f[i : i + CHUNK, j]] - v[f[i : i + CHUNK, j - 1]], axis=1).max())
-        for i in range(0, len(f), CHUNK)
-        for j in range(3)
-    )
+    reach = 2.0 * _longest_edge(original)
     keys = np.floor(v / reach).astype(np.int64)
     around = np.floor(points / reach).astype(np.int64)
     steps = np.array(list(np.ndindex(3, 3, 3))) - 1
