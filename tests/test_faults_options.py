@@ -101,6 +101,7 @@ def test_long_build_says_what_it_will_cost_first(tmp_path):
     if kept:
         assert f"{len(kept)} finished slab(s) are kept in {out / RUN_FOLDER}" in line, line
         assert left == {RUN_FOLDER}, left
+        assert not list((out / RUN_FOLDER).glob(".*")), "a chunk half written"
     else:
         assert left == set(), left
 

@@ -237,7 +237,8 @@ def checkpoints(
     Yields None when the build does not checkpoint. Without ``settings.resume`` an
     earlier run's folder is removed and a new one started; with it, the earlier run's
     key must equal `key`. The folder is removed when the block ends (after the build
-    has committed, or failed), except after a lost cluster when it holds a chunk.
+    has committed, or failed), except after a failure a rerun can get past (signals, a slab
+    worker killed, a lost cluster, a full disk) when it holds a chunk.
     """
     path = Path(out_dir) / RUN_FOLDER
     if not (settings.checkpoint or settings.resume):

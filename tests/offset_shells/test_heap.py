@@ -15,7 +15,7 @@ pytestmark = pytest.mark.skipif(
     reason="glibc's malloc and /proc/self/maps",
 )
 
-#: Far above glibc's largest mmap threshold (32 MiB).
+#: Above the mmap threshold the block leaves (32 MiB).
 LARGE = 64 << 20
 
 

@@ -40,7 +40,8 @@ from voxel.geometry._voronoi import voronoi_regions
 from voxel.geometry._winding import inside_slab
 from voxel.grid import GridSpec
 
-#: Node values allowed in one slab (about 30 bytes a node with two layers).
+#: Node values allowed in one slab (about 30 bytes a node with two layers, and 13 more for
+#: the next slab, scanned meanwhile).
 NODES_PER_SLAB = 1 << 24
 
 
