@@ -26,7 +26,7 @@ import contextlib
 import errno
 import signal
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from types import FrameType
 
 from pipeline.errors import InputError, SlabWorkerDied
@@ -76,7 +76,8 @@ def signals_raise() -> Iterator[None]:
     out of an earlier signal or error) is recorded, not raised, so the cleanup finishes.
     Libraries that catch ``BaseException`` (trimesh does, around optional imports) may
     swallow an :class:`Interrupted`; long-running loops call :func:`raise_if_interrupted`
-    so a recorded signal still stops the run.
+    so a recorded signal still stops the run. One that lands inside a finaliser (where
+    Python can only print an exception) is recorded the same way, and not printed.
     """
     _received.clear()
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, set())
@@ -84,15 +85,35 @@ def signals_raise() -> Iterator[None]:
         signum: signal.signal(signum, _raise_interrupted)
         for signum in (signal.SIGINT, signal.SIGTERM)
     }
+    hook = sys.unraisablehook
+    sys.unraisablehook = _unraisable_without_signals(hook)
     try:
         yield
     finally:
+        sys.unraisablehook = hook
         # The signals blocked before stay blocked: ``python -m pipeline.cli`` blocks them
         # from its first line, so no signal cuts the interpreter's shutdown either.
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         for signum, handler in previous.items():
             signal.signal(signum, handler)
         _received.clear()  # not to stop a later run in this process
+
+
+def _unraisable_without_signals(
+    hook: Callable[[sys.UnraisableHookArgs], object],
+) -> Callable[[sys.UnraisableHookArgs], None]:
+    """Return `hook` without the :class:`Interrupted` raised inside a finaliser.
+
+    A signal that lands while a finaliser runs (a library's ``__del__``, during garbage
+    collection) raises there, where Python can only print it; it is recorded all the same,
+    and the next :func:`raise_if_interrupted` stops the run.
+    """
+
+    def unraisable(unraisable: sys.UnraisableHookArgs) -> None:
+        if not isinstance(unraisable.exc_value, Interrupted):
+            hook(unraisable)
+
+    return unraisable
 
 
 def unblock_signals() -> None:

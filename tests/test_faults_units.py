@@ -6,6 +6,7 @@ import contextlib
 import errno
 import os
 import signal
+import sys
 import time
 
 import numpy as np
@@ -103,6 +104,27 @@ def test_swallowed_signal_is_raised_at_the_next_check():
     with pytest.raises(Interrupted) as caught:
         _swallowed_then_checked()
     assert caught.value.signum == signal.SIGTERM
+
+
+class _SignalledFinaliser:
+    """An object whose finaliser is cut by SIGINT (as a library's ``__del__`` in a GC pass)."""
+
+    def __del__(self) -> None:
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(10_000):  # the handler runs here, inside the finaliser
+            pass
+
+
+def test_a_signal_inside_a_finaliser_is_kept_not_printed(capsys):
+    hook = sys.unraisablehook
+    with signals_raise():
+        doomed = _SignalledFinaliser()
+        del doomed  # the Interrupted raised in __del__ cannot propagate
+        with pytest.raises(Interrupted) as caught:
+            raise_if_interrupted()
+    assert caught.value.signum == signal.SIGINT
+    assert sys.unraisablehook is hook
+    assert "Exception ignored" not in capsys.readouterr().err
 
 
 def _deferred_then_closed(reached):
