@@ -9,9 +9,9 @@ free pages go back to the kernel (``malloc_trim``) and the thresholds are set to
 glibc's own sliding thresholds end after a large block is freed (mmap above 32 MiB, trim
 above 64 MiB): a ``mallopt`` call stops glibc from sliding them for the rest of the process,
 so its defaults cannot be restored, and forked slab workers inherit these. One layer of
-spot at 100 mm (16.7 M triangles at step 0.1 mm) built
-and simplified by Manifold: 49 s and 4.6 M page faults before, 37 s and 2.3 M inside
-(2 cores). Where the C library is not glibc the block changes nothing.
+spot at 100 mm (16.7 M triangles at step 0.1 mm) built and simplified by Manifold: 49 s
+and 4.6 M page faults before, 37 s and 2.3 M inside (2 cores). Where the C library is not
+glibc the block changes nothing.
 """
 
 from __future__ import annotations

@@ -227,14 +227,8 @@ def _raw_error_at_nearest(
     error by a little on a long unsimplified triangle across a crease.
     """
     v, f = original
-    reach = moved + _longest_edge(original)
-    near_vertices = np.unique(
-        np.concatenate(
-            [np.asarray(i, dtype=np.int64) for i in cKDTree(v).query_ball_point(points, reach)]
-            + [np.zeros(0, dtype=np.int64)]
-        )
-    )
-    hit = np.isin(f, near_vertices).any(axis=1)
+    # a triangle within `moved` of a point has its corners within this of the point
+    hit = _faces_near(original, points, moved + _longest_edge(original))
     if not hit.any():
         return np.full(len(points), np.inf)
     local = trimesh.Trimesh(v, f[hit], process=False)
@@ -265,12 +259,7 @@ def _raw_error_near(
     """
     v, f = original
     reach = 2.0 * _longest_edge(original)
-    keys = np.floor(v / reach).astype(np.int64)
-    around = np.floor(points / reach).astype(np.int64)
-    steps = np.array(list(np.ndindex(3, 3, 3))) - 1
-    wanted = np.unique((around[:, None, :] + steps[None]).reshape(-1, 3), axis=0)
-    hit = _rows_in(keys, wanted)[f].any(axis=1)
-    corners = v[f[hit]]
+    corners = v[f[_faces_near(original, points, reach)]]
     mids = (corners + np.roll(corners, 1, axis=1)) / 2.0
     samples = np.concatenate(
         [corners.reshape(-1, 3), mids.reshape(-1, 3), corners.mean(axis=1)], axis=0
@@ -281,6 +270,19 @@ def _raw_error_near(
     found = np.isfinite(gap)
     padded = np.append(sample_error, 0.0)
     return np.asarray(np.where(found, padded[np.minimum(index, len(samples))], 0.0).max(axis=1))
+
+
+def _faces_near(mesh: Mesh, points: FloatArray, reach: float) -> npt.NDArray[np.bool_]:
+    """Mark the triangles ((T,) bool) with a corner in a cell (side `reach`, mm) by a point's.
+
+    Every triangle with a corner within `reach` of a point is marked, and some further.
+    """
+    v, f = mesh
+    keys = np.floor(v / reach).astype(np.int64)
+    around = np.floor(points / reach).astype(np.int64)
+    steps = np.array(list(np.ndindex(3, 3, 3))) - 1
+    wanted = np.unique((around[:, None, :] + steps[None]).reshape(-1, 3), axis=0)
+    return np.asarray(_rows_in(keys, wanted)[f].any(axis=1))
 
 
 def _rows_in(rows: IntArray, wanted: IntArray) -> npt.NDArray[np.bool_]:

@@ -160,11 +160,11 @@ def field_surfaces(
     # The next slab is scanned in a second thread while this one is meshed (the kernels
     # release the GIL); it holds one more slab of nodes.
     with ThreadPoolExecutor(1, thread_name_prefix="shellvox-field") as pool:
-        ahead = [pool.submit(scan, starts[0])]
+        ahead = pool.submit(scan, starts[0])
         for index, z_start in enumerate(starts):
-            inside, n_bad, near = ahead.pop().result()
+            inside, n_bad, near = ahead.result()
             if index + 1 < len(starts):
-                ahead.append(pool.submit(scan, starts[index + 1]))
+                ahead = pool.submit(scan, starts[index + 1])
             unbalanced += n_bad
             bits = np.empty(inside.shape, dtype=np.uint8)
             _layer_bits(inside, near.squared_mm2, near.face, depth, bits)
