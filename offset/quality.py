@@ -221,6 +221,8 @@ def nested_in(inner: tuple[FloatArray, IntArray], outer: tuple[FloatArray, IntAr
         return False
     both_v = np.concatenate([outer[0], inner[0]])
     both_f = np.concatenate([outer[1], inner[1] + len(outer[0])])
-    # One test of both (one tolerance): a pair of one face of each must not cross.
-    pairs = intersecting_pairs(both_v, both_f)
+    # One test of both (one tolerance): a pair of one face of each must not cross (the
+    # pairs among the outer faces alone are not tested).
+    inner_faces = np.arange(len(both_f)) >= len(outer[1])
+    pairs = intersecting_pairs(both_v, both_f, only=inner_faces)
     return not np.any((pairs[:, 0] < len(outer[1])) & (pairs[:, 1] >= len(outer[1])))

@@ -1,7 +1,8 @@
 """Guarded simplification of nested closed shells: an error bound, then a no-crossing check.
 
 The shells meshed from the layer field (``voxel.geometry._layer_field``) carry about nine
-triangles per grid step squared of surface: millions on a 100 mm part. They are simplified
+triangles per grid step squared of surface where they are curved (their planar patches are
+triangulated from their boundaries): millions on a 100 mm part. They are simplified
 by Manifold's edge collapse (``manifold3d``, ``Manifold.simplify(tolerance)``: the result
 keeps a subset of the vertices, stays closed and 2-manifold, and no surface moves by more
 than the tolerance), then once more at a quarter of the tolerance (a tidy pass that removes
@@ -21,10 +22,10 @@ Manifold's edge collapse can fold a few triangles over a neighbour around a sliv
 in 15 M triangles of spot at 100 mm). Where the shells cross, the unsimplified triangles
 near the crossing are locked (each its own ``face_id``: Manifold keeps every edge between
 triangles of different ids) and the shell is simplified again, so the first pass keeps
-the unsimplified triangles there, which cross nothing by construction (the tidy pass that
-follows is free to simplify them, and the crossing check covers its result); the lock's
-radius is twice the longest edge of the crossing triangles, doubled on each of
-``GuardLimits.lock_rounds``.
+the unsimplified triangles there, which cross nothing by construction (so does the tidy
+pass that follows; the crossing check covers its result); the lock's radius is twice the
+longest edge of the crossing triangles, doubled on each of ``GuardLimits.lock_rounds``,
+plus the reach of a triangle from its centroid to its farthest corner.
 
 The simplified vertices are then moved by at most 1e-8 of the part's size (seed 0), which
 breaks the exact coplanarity of flat parts that MeshLab's triangle test misreads (see

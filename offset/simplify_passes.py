@@ -96,7 +96,8 @@ def _near_crossings(
     """Mark the triangles of `original` near the crossing triangles of `pairs`.
 
     A triangle is near when its centroid lies within ``2 * scale`` times the longest edge of
-    the crossing triangles from one of their corners.
+    the crossing triangles, plus the distance from its centroid to its farthest corner,
+    from one of their corners.
     """
     vertices, faces = _concatenated(shells)
     corners = vertices[faces[np.unique(pairs)]]
@@ -115,8 +116,13 @@ def _near_crossings(
     box = np.all(below & above, axis=1)
     near = np.zeros(len(f), dtype=bool)
     candidates = np.flatnonzero(box)
-    distance, _ = cKDTree(points).query(v[f[candidates]].mean(axis=1))
-    near[candidates] = distance <= radius
+    corners = v[f[candidates]]
+    centroid = corners.mean(axis=1)
+    # Within the radius of the triangle's farthest corner from its centroid too: a long
+    # triangle (a planar patch's) passes by a crossing far from its centroid.
+    spread = np.linalg.norm(corners - centroid[:, None, :], axis=2).max(axis=1)
+    distance, _ = cKDTree(points).query(centroid)
+    near[candidates] = distance <= radius + spread
     return near
 
 
@@ -132,10 +138,12 @@ def simplified(
     The tidy pass (a new Manifold of the result, simplified at ``TIDY`` of the tolerance)
     swaps and collapses the slivers the first one leaves, and with them most of its folds
     (on the faceted spot at 100 mm: 49 crossing pairs before, 2 after); the surface moves
-    by less than ``(1 + TIDY)`` times the tolerance in all.
+    by less than ``(1 + TIDY)`` times the tolerance in all. The `locked` triangles stay
+    locked in the tidy pass too (it could fold them again: the airplane at 100 mm, around
+    the long triangles of a planar patch).
     """
-    once = manifold_simplify(vertices, faces, tolerance_mm, locked=locked)
-    return manifold_simplify(*once, TIDY * tolerance_mm)
+    once, still = _manifold_simplify(vertices, faces, tolerance_mm, locked)
+    return _manifold_simplify(*once, TIDY * tolerance_mm, still)[0]
 
 
 def manifold_simplify(
@@ -150,8 +158,18 @@ def manifold_simplify(
     Each `locked` triangle ((T,) bool) gets a ``face_id`` of its own, so every edge
     between two of them stays and they come out unsimplified.
     """
+    return _manifold_simplify(vertices, faces, tolerance_mm, locked)[0]
+
+
+def _manifold_simplify(
+    vertices: FloatArray,
+    faces: IntArray,
+    tolerance_mm: float,
+    locked: npt.NDArray[np.bool_] | None,
+) -> tuple[Mesh, npt.NDArray[np.bool_] | None]:
+    """:func:`manifold_simplify`, and which triangles of the result are locked ones."""
     if len(faces) == 0:
-        return vertices, faces
+        return (vertices, faces), locked
     ids = {}
     if locked is not None and locked.any():
         ids["face_id"] = np.where(locked, np.arange(1, len(faces) + 1), 0).astype(np.uint64)
@@ -165,7 +183,9 @@ def manifold_simplify(
         raise ValueError(f"the shell is not a closed 2-manifold: Manifold says {solid.status()}")
     out = solid.simplify(tolerance_mm).to_mesh64()
     v = np.array(np.asarray(out.vert_properties)[:, :3], dtype=np.float64, order="C")
-    return v, np.ascontiguousarray(np.asarray(out.tri_verts), dtype=np.int64)
+    f = np.ascontiguousarray(np.asarray(out.tri_verts), dtype=np.int64)
+    still = np.asarray(out.face_id) > 0 if ids else None
+    return (v, f), still
 
 
 def _jitter(vertices: FloatArray, faces: IntArray) -> Mesh:

@@ -137,6 +137,7 @@ def method_shells(
         "step_mm": step_mm,
         "grid_zyx": list(field.grid.shape_zyx),
         "unbalanced_rows": field.n_unbalanced_rows,
+        "marched_faces": field.marched_faces,
         "seconds": {"field": field_s, "simplify": time.perf_counter() - tick - field_s},
         "simplify": simplified.record,
     }

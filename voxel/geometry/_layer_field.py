@@ -8,6 +8,9 @@ by the project's own scan (:func:`voxel.geometry._distance_scan.nearest_in_reach
 the deepest depth plus two steps) and inside test (:func:`voxel.geometry._winding.inside_slab`),
 one slab of node planes at a time (memory bounded by the slab), and every layer's zero set
 is meshed in the same pass by marching tetrahedra (:mod:`voxel.geometry._marching_tets`).
+Its planar patches (most of a faceted part's surface) are then triangulated again from
+their boundaries (:mod:`voxel.geometry._planar_patches`): the same surface, several times
+fewer triangles.
 
 A deeper layer has a depth at least as large on every face, so its field is no higher at
 every node and its surface is nested inside the shallower one by construction (strictly
@@ -36,6 +39,7 @@ from voxel.geometry._marching_tets import (
     count_triangles,
     march_slab,
 )
+from voxel.geometry._planar_patches import merge_planar_patches
 from voxel.geometry._voronoi import voronoi_regions
 from voxel.geometry._winding import inside_slab
 from voxel.grid import GridSpec
@@ -57,11 +61,15 @@ class FieldSurfaces(NamedTuple):
         The nodes (``voxel_mm`` is the step).
     n_unbalanced_rows : int
         Rows of the inside test whose crossings did not cancel (0 for a closed mesh).
+    marched_faces : list of int
+        Triangles of each layer as marched, before its planar patches were triangulated
+        again.
     """
 
     surfaces: list[tuple[NDArray[np.float64], NDArray[np.int64]]]
     grid: GridSpec
     n_unbalanced_rows: int
+    marched_faces: list[int]
 
 
 def field_grid(vertices: NDArray[np.float64], step_mm: float) -> GridSpec:
@@ -78,6 +86,7 @@ def field_surfaces(
     step_mm: float,
     *,
     nodes_per_slab: int = NODES_PER_SLAB,
+    merge_planar: bool = True,
 ) -> FieldSurfaces:
     """Mesh the zero set of every layer field of a closed mesh on a grid of step `step_mm`.
 
@@ -93,6 +102,8 @@ def field_surfaces(
         Node spacing (the same on the three axes).
     nodes_per_slab : int, optional
         Nodes scanned at once (bounds the memory).
+    merge_planar : bool, optional
+        Triangulate the planar patches again (default); False keeps the marched triangles.
 
     Returns
     -------
@@ -130,6 +141,7 @@ def field_surfaces(
     tables = (EDGES, TETS, TABLE)
     out_v: list[list[NDArray[np.float64]]] = [[] for _ in range(n_levels)]
     out_f: list[list[NDArray[np.int64]]] = [[] for _ in range(n_levels)]
+    out_face: list[list[NDArray[np.int32]]] = [[] for _ in range(n_levels)]
     planes = max(2, nodes_per_slab // (n_y * n_x))
     carry: tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.int32], NDArray[np.uint8]]
     carry = (
@@ -181,22 +193,43 @@ def field_surfaces(
             v_start = 3 * f_start
             new_vertices = np.empty((int(v_start[-1]), 3))
             new_faces = np.empty((int(f_start[-1]), 3), dtype=np.int64)
+            new_vertex_face = np.empty(int(v_start[-1]), dtype=np.int32)
             field = NodeField(
                 bits, inside, squared, face, depth, far, step_mm, origin, step, z_base
             )
-            out = MarchOutputs(new_vertices, v_start, new_faces, f_start)
+            out = MarchOutputs(new_vertices, v_start, new_faces, f_start, new_vertex_face)
             made = march_slab(field, ids, tables, out)
             for k in range(n_levels):
                 out_v[k].append(new_vertices[v_start[k] : v_start[k] + made[k]])
                 out_f[k].append(new_faces[f_start[k] : f_start[k + 1]])
-    surfaces = [
-        (
-            np.concatenate(out_v[k]) if out_v[k] else np.zeros((0, 3)),
-            np.concatenate(out_f[k]) if out_f[k] else np.zeros((0, 3), dtype=np.int64),
-        )
-        for k in range(n_levels)
-    ]
-    return FieldSurfaces(surfaces, grid, unbalanced)
+                out_face[k].append(new_vertex_face[v_start[k] : v_start[k] + made[k]])
+    normals = _unit_normals(vertices, faces)
+    plane_at = np.einsum("ij,ij->i", normals, vertices[faces[:, 0]])
+
+    def level(k: int) -> tuple[NDArray[np.float64], NDArray[np.int64], int]:
+        v = np.concatenate(out_v[k]) if out_v[k] else np.zeros((0, 3))
+        f = np.concatenate(out_f[k]) if out_f[k] else np.zeros((0, 3), dtype=np.int64)
+        if not (merge_planar and len(f)):
+            return v, f, len(f)
+        vertex_face = np.concatenate(out_face[k])
+        merged = merge_planar_patches(v, f, vertex_face, normals, plane_at - depth[k])
+        return merged.vertices, merged.faces, len(f)
+
+    # The layers' patches are merged side by side (the kernels and GEOS release the GIL).
+    with ThreadPoolExecutor(min(n_levels, 2), thread_name_prefix="shellvox-patches") as pool:
+        done = list(pool.map(level, range(n_levels)))
+    surfaces = [(v, f) for v, f, _ in done]
+    marched = [n for _, _, n in done]
+    return FieldSurfaces(surfaces, grid, unbalanced, marched)
+
+
+def _unit_normals(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Return the unit outward normal of every face, (F, 3) float64 (NaN without area)."""
+    corner = vertices[faces]
+    normal = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit: NDArray[np.float64] = normal / np.linalg.norm(normal, axis=1)[:, None]
+    return unit
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")

@@ -226,12 +226,17 @@ class MarchOutputs(NamedTuple):
         Output: level ``k``'s triangles from row ``f_start[k]`` on (ids per level).
     f_start : (K,) int64
         First row of each level in ``faces``.
+    vertex_face : (sum V_k,) int32
+        Output: the nearest face both nodes of a vertex's edge share, -1 where they differ
+        or either node is outside or beyond the reach (where the field is linear along the
+        edge, the vertex lies on that face's offset plane).
     """
 
     vertices: NDArray[np.float64]
     v_start: NDArray[np.int64]
     faces: NDArray[np.int64]
     f_start: NDArray[np.int64]
+    vertex_face: NDArray[np.int32]
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -243,6 +248,15 @@ def _node_value(field: NodeField, k: int, z: int, y: int, x: int) -> float:
     if f < 0:
         return float(field.far[k])
     return float(field.depth[k, f] - np.sqrt(field.squared[z, y, x]))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _shared_face(field: NodeField, za: int, ya: int, xa: int, zb: int, yb: int, xb: int) -> int:
+    """Nearest face of two nodes inside within reach when it is the same, else -1."""
+    if not (field.inside[za, ya, xa] and field.inside[zb, yb, xb]):
+        return -1
+    f = field.face[za, ya, xa]
+    return int(f) if f >= 0 and f == field.face[zb, yb, xb] else -1
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -271,7 +285,7 @@ def march_slab(
     """
     bits, depth, origin, step = field.bits, field.depth, field.origin, field.step
     plane_ids, between_ids, state = ids
-    vertices, v_start, faces, f_start = out
+    vertices, v_start, faces, f_start, vertex_face = out
     edges, tets, table = tables
     n_p, n_y, n_x = bits.shape
     n_levels = depth.shape[0]
@@ -344,6 +358,9 @@ def march_slab(
                                     )
                                     vertices[v_row, 2] = origin[2] + step[2] * (
                                         g + az + share * (bz - z - az)
+                                    )
+                                    vertex_face[v_row] = _shared_face(
+                                        field, z + az, ay, ax, bz, by, bx
                                     )
                                 faces[row, v] = vid
                             n_faces[k] += 1

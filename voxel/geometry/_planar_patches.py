@@ -1,0 +1,449 @@
+"""Planar patches of a marched surface, triangulated again from their boundaries alone.
+
+Marching tetrahedra on a grid of step ``h`` makes about nine triangles per ``h^2`` of
+surface. Where the nearest face of both nodes of every crossed edge is the same face ``f``
+and its field is linear (the nearest point inside the face), the vertices lie on ``f``'s
+offset plane, so most of a faceted part's layer surface is planar patches of thousands of
+triangles each. A patch (triangles connected across edges, every vertex within
+``PLANE_TOLERANCE_MM`` of one plane parallel to the same face's offset plane) is replaced
+by a constrained Delaunay triangulation of its boundary loops in that plane (GEOS, through
+``shapely.constrained_delaunay_triangles``): every boundary vertex and edge is kept and the
+interior vertices go, so the surface covers the same points, stays closed, 2-manifold,
+free of self-intersections and nested with the other layers, with about
+``boundary vertices + 2 holes - 2`` triangles per patch.
+
+A patch is kept as marched where its boundary touches itself at a vertex, its loops are
+not one outer ring (anticlockwise seen from outside) and holes, GEOS finds the polygon
+invalid, or the new triangles fail the check: every corner a boundary vertex, each directed
+edge used once, the unpaired edges exactly the boundary, positive areas and the polygon's
+area in all.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numba
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+
+#: Vertices of a patch lie within this distance (mm) of one plane.
+PLANE_TOLERANCE_MM = 1e-9
+
+#: Largest distance (mm) of a vertex from its face's offset plane for it to be in a patch.
+MAX_OFFSET_MM = 1e-6
+
+#: Whole tolerances in the largest offset.
+QUANTA = round(MAX_OFFSET_MM / PLANE_TOLERANCE_MM)
+
+#: Relative tolerance of a patch's area against the sum of its new triangles'.
+AREA_TOLERANCE = 1e-9
+
+
+class Merged(NamedTuple):
+    """A surface with its planar patches triangulated again.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (T, 3) int64
+        Outward-oriented triangles (unreferenced vertices removed).
+    patches : int
+        Patches triangulated again.
+    faces_before : int
+        Triangles of the marched surface.
+    """
+
+    vertices: NDArray[np.float64]
+    faces: NDArray[np.int64]
+    patches: int
+    faces_before: int
+
+
+def merge_planar_patches(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    vertex_face: NDArray[np.int32],
+    normals: NDArray[np.float64],
+    plane_levels: NDArray[np.float64],
+) -> Merged:
+    """Triangulate the planar patches of a closed, outward-oriented surface again.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (T, 3) int64
+        Closed, 2-manifold, outward-oriented triangles.
+    vertex_face : (V,) int32
+        A face whose offset plane each vertex may lie on, -1 for none.
+    normals : (F, 3) float64
+        Unit outward normal of every face of the original surface (NaN where degenerate).
+    plane_levels : (F,) float64, mm
+        Offset plane of every face: the points ``x`` with ``normals[f] . x == plane_levels[f]``.
+
+    Returns
+    -------
+    Merged
+    """
+    n_faces = len(faces)
+    if n_faces == 0:
+        return Merged(vertices, faces, 0, 0)
+    label = _plane_labels(vertices, vertex_face, normals, plane_levels)
+    corner = label[faces]
+    tri_label = np.where(
+        (corner[:, 0] >= 0) & (corner[:, 0] == corner[:, 1]) & (corner[:, 0] == corner[:, 2]),
+        corner[:, 0],
+        -1,
+    )
+    twin = _twins(faces, len(vertices), tri_label)
+    patch, seeds = _patches(tri_label, twin)
+    n_patches = len(seeds)
+    loop_vertex, loop_start, loop_patch = _loops(faces, twin, patch)
+    patch_face = np.asarray(vertex_face, dtype=np.int64)[faces[seeds, 0]]
+    chosen = _polygons(
+        vertices, patch, n_patches, normals[patch_face], loop_vertex, loop_start, loop_patch
+    )
+    if chosen is None:
+        return Merged(vertices, faces, 0, n_faces)
+    new_faces, replaced = chosen
+    keep = ~replaced[np.maximum(patch, 0)] | (patch < 0)
+    out = np.concatenate([faces[keep], new_faces])
+    used = np.zeros(len(vertices), dtype=bool)
+    used[out] = True
+    index = np.cumsum(used) - 1
+    return Merged(
+        np.ascontiguousarray(vertices[used]),
+        np.ascontiguousarray(index[out], dtype=np.int64),
+        int(replaced.sum()),
+        n_faces,
+    )
+
+
+def _plane_labels(
+    vertices: NDArray[np.float64],
+    vertex_face: NDArray[np.int32],
+    normals: NDArray[np.float64],
+    plane_levels: NDArray[np.float64],
+) -> NDArray[np.int64]:
+    """Label every vertex; vertices within ``PLANE_TOLERANCE_MM`` of one plane share one.
+
+    The plane is parallel to the vertex's face's offset plane: its offset from it, in
+    whole ``PLANE_TOLERANCE_MM``, is part of the label (vertices held ``EDGE_MARGIN`` off a
+    node lie on a plane just off the offset plane, all alike where the plane runs along
+    the grid). -1 for a vertex farther than ``MAX_OFFSET_MM`` from its face's plane.
+    """
+    label = np.full(len(vertices), -1, dtype=np.int64)
+    face = np.asarray(vertex_face, dtype=np.int64)
+    candidate = np.flatnonzero(face >= 0)
+    off = np.einsum("ij,ij->i", normals[face[candidate]], vertices[candidate])
+    off -= plane_levels[face[candidate]]
+    near = np.abs(off) <= MAX_OFFSET_MM
+    candidate, off = candidate[near], off[near]
+    quantum = np.rint(off / PLANE_TOLERANCE_MM).astype(np.int64) + QUANTA
+    label[candidate] = face[candidate] * (2 * QUANTA + 1) + quantum
+    return label
+
+
+def _polygons(
+    vertices: NDArray[np.float64],
+    patch: NDArray[np.int64],
+    n_patches: int,
+    normal: NDArray[np.float64],
+    loop_vertex: NDArray[np.int64],
+    loop_start: NDArray[np.int64],
+    loop_patch: NDArray[np.int64],
+) -> tuple[NDArray[np.int64], NDArray[np.bool_]] | None:
+    """Triangulate the patches with interior vertices again.
+
+    Returns the new triangles and which patches they replace ((P,) bool), or None when
+    none is replaced.
+    """
+    n_loops = len(loop_patch)
+    if n_loops == 0:
+        return None
+    loop_size = np.diff(loop_start)
+    entry_loop = np.repeat(np.arange(n_loops), loop_size)
+    entry_patch = loop_patch[entry_loop]
+    n_entries = len(loop_vertex)
+    ok = np.ones(n_patches, dtype=bool)
+    # A vertex twice on one patch's boundary: the loops touch (not a simple polygon).
+    key = entry_patch * len(vertices) + loop_vertex
+    order = np.argsort(key, kind="stable")
+    twice = key[order][1:] == key[order][:-1]
+    ok[entry_patch[order][1:][twice]] = False
+    # Patch frames: a basis (u, w) of the plane with u x w the outward normal.
+    axis = np.zeros_like(normal)
+    axis[np.arange(n_patches), np.argmin(np.abs(normal), axis=1)] = 1.0
+    u = np.cross(normal, axis)
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    w = np.cross(normal, u)
+    first = np.full(n_patches, -1, dtype=np.int64)
+    first[loop_patch[::-1]] = loop_vertex[loop_start[:-1][::-1]]
+    rel = vertices[loop_vertex] - vertices[first[entry_patch]]
+    x2 = np.einsum("ij,ij->i", rel, u[entry_patch])
+    y2 = np.einsum("ij,ij->i", rel, w[entry_patch])
+    # Signed area of every loop (shoelace, the loop closed on itself).
+    nxt = np.arange(1, n_entries + 1)
+    nxt[loop_start[1:] - 1] = loop_start[:-1]
+    cross = x2 * y2[nxt] - x2[nxt] * y2
+    loop_area = 0.5 * np.add.reduceat(cross, loop_start[:-1])
+    positive = np.bincount(loop_patch, weights=loop_area > 0, minlength=n_patches)
+    ok &= positive == 1
+    n_holes = np.bincount(loop_patch, minlength=n_patches) - 1
+    n_boundary = np.bincount(entry_patch, minlength=n_patches)
+    n_tris = np.bincount(patch[patch >= 0], minlength=n_patches)
+    expected = n_boundary + 2 * n_holes - 2
+    ok &= n_tris > expected
+    chosen = np.flatnonzero(ok)
+    if len(chosen) == 0:
+        return None
+    # Rings of the chosen patches, each outer ring first, closed on their first point.
+    take = ok[loop_patch]
+    loops = np.flatnonzero(take)
+    loops = loops[np.lexsort((loop_area[loops] <= 0, loop_patch[loops]))]
+    sizes = loop_size[loops]
+    starts = loop_start[loops]
+    ring_entries = _ring_entries(starts, sizes)
+    coords = np.column_stack([x2[ring_entries], y2[ring_entries]])
+    ring_offsets = np.concatenate([[0], np.cumsum(sizes + 1)])
+    polygon_rings = np.bincount(loop_patch[loops], minlength=n_patches)[chosen]
+    polygon_offsets = np.concatenate([[0], np.cumsum(polygon_rings)])
+    polygons = shapely.from_ragged_array(
+        shapely.GeometryType.POLYGON, coords, (ring_offsets, polygon_offsets)
+    )
+    valid = shapely.is_valid(polygons)
+    ok[chosen[~valid]] = False
+    polygons, chosen = polygons[valid], chosen[valid]
+    if len(chosen) == 0:
+        return None
+    triangles = shapely.constrained_delaunay_triangles(polygons)
+    # Every triangle is a closed ring of four points.
+    points, owner = shapely.get_coordinates(triangles, return_index=True)
+    tri_patch = chosen[owner[::4]]
+    ring = points.reshape(-1, 4, 2)[:, :3]
+    # Corners back to boundary entries: exact coordinates within the patch.
+    entry_of = _entries_at(
+        entry_patch, x2, y2, np.repeat(tri_patch, 3), ring[:, :, 0].ravel(), ring[:, :, 1].ravel()
+    ).reshape(-1, 3)
+    bad = np.zeros(n_patches, dtype=bool)
+    bad[tri_patch[(entry_of < 0).any(axis=1)]] = True
+    entry_of = np.maximum(entry_of, 0)
+    area = 0.5 * (
+        (x2[entry_of[:, 1]] - x2[entry_of[:, 0]]) * (y2[entry_of[:, 2]] - y2[entry_of[:, 0]])
+        - (x2[entry_of[:, 2]] - x2[entry_of[:, 0]]) * (y2[entry_of[:, 1]] - y2[entry_of[:, 0]])
+    )
+    flip = area < 0
+    entry_of[flip] = entry_of[flip][:, ::-1]
+    area = np.abs(area)
+    bad[tri_patch[area <= 0]] = True
+    total = np.bincount(loop_patch, weights=loop_area, minlength=n_patches)
+    made = np.bincount(tri_patch, weights=area, minlength=n_patches)
+    wrong = np.abs(made[chosen] - total[chosen]) > AREA_TOLERANCE * np.abs(total[chosen])
+    bad[chosen[wrong]] = True
+    bad |= _edges_differ(entry_of, tri_patch, entry_patch, nxt, n_entries, n_patches)
+    ok[bad] = False
+    use = ok[tri_patch]
+    if not use.any():
+        return None
+    new_faces = loop_vertex[entry_of[use]]
+    return new_faces, ok
+
+
+def _ring_entries(starts: NDArray[np.int64], sizes: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Entries of every ring, its first entry repeated at its end."""
+    lengths = sizes + 1
+    ring = np.repeat(np.arange(len(starts)), lengths)
+    position = np.arange(int(lengths.sum())) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    position = np.where(position == np.repeat(sizes, lengths), 0, position)
+    entries: NDArray[np.int64] = starts[ring] + position
+    return entries
+
+
+def _entries_at(
+    entry_patch: NDArray[np.int64],
+    x2: NDArray[np.float64],
+    y2: NDArray[np.float64],
+    query_patch: NDArray[np.int64],
+    qx: NDArray[np.float64],
+    qy: NDArray[np.float64],
+) -> NDArray[np.int64]:
+    """Boundary entry with the query's patch and exact coordinates, -1 for none."""
+    order = np.lexsort((y2, x2, entry_patch))
+    found: NDArray[np.int64] = _search(
+        entry_patch[order], x2[order], y2[order], order, query_patch, qx, qy
+    )
+    return found
+
+
+@numba.njit(cache=True, nogil=True)
+def _search(
+    patch: NDArray[np.int64],
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    order: NDArray[np.int64],
+    query_patch: NDArray[np.int64],
+    qx: NDArray[np.float64],
+    qy: NDArray[np.float64],
+) -> NDArray[np.int64]:
+    """Binary search of ``(patch, x, y)`` rows sorted in that order; ``order[row]`` or -1."""
+    out = np.full(len(qx), -1, dtype=np.int64)
+    for q in range(len(qx)):
+        lo, hi = 0, len(x)
+        key = (query_patch[q], qx[q], qy[q])
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if (patch[mid], x[mid], y[mid]) < key:
+                lo = mid + 1
+            else:
+                hi = mid
+        if lo < len(x) and patch[lo] == key[0] and x[lo] == key[1] and y[lo] == key[2]:
+            out[q] = order[lo]
+    return out
+
+
+def _edges_differ(
+    entry_of: NDArray[np.int64],
+    tri_patch: NDArray[np.int64],
+    entry_patch: NDArray[np.int64],
+    nxt: NDArray[np.int64],
+    n_entries: int,
+    n_patches: int,
+) -> NDArray[np.bool_]:
+    """Patches whose new triangles' unpaired edges are not exactly their boundary.
+
+    Entries belong to one patch each, so a directed edge ``a * n + b`` between entries
+    names its patch.
+    """
+    a = entry_of.ravel()
+    b = entry_of[:, [1, 2, 0]].ravel()
+    edge = a * n_entries + b
+    bad = np.zeros(n_patches, dtype=bool)
+    unique, counts = np.unique(edge, return_counts=True)
+    bad[entry_patch[unique[counts > 1] // n_entries]] = True
+    paired = np.isin(edge, b * n_entries + a)
+    unpaired = np.unique(edge[~paired])
+    in_patch = np.flatnonzero(np.isin(entry_patch, np.unique(tri_patch)))
+    boundary = np.unique(in_patch * n_entries + nxt[in_patch])
+    differ = np.setxor1d(unpaired, boundary, assume_unique=True)
+    bad[entry_patch[differ // n_entries]] = True
+    return bad
+
+
+@numba.njit(cache=True, nogil=True)
+def _twins(
+    faces: NDArray[np.int64], n_vertices: int, tri_label: NDArray[np.int64]
+) -> NDArray[np.int64]:
+    """Opposite half-edge of each half-edge ``3 t + i`` (``faces[t, i] -> faces[t, i+1]``).
+
+    Only between labelled triangles; -1 elsewhere.
+    """
+    n_half = 3 * len(faces)
+    count = np.zeros(n_vertices + 1, dtype=np.int64)
+    for t in range(len(faces)):
+        if tri_label[t] >= 0:
+            for i in range(3):
+                count[faces[t, i] + 1] += 1
+    for v in range(n_vertices):
+        count[v + 1] += count[v]
+    fill = count[:-1].copy()
+    out_half = np.empty(count[n_vertices], dtype=np.int64)
+    out_end = np.empty(count[n_vertices], dtype=np.int64)
+    for t in range(len(faces)):
+        if tri_label[t] >= 0:
+            for i in range(3):
+                a = faces[t, i]
+                out_half[fill[a]] = 3 * t + i
+                out_end[fill[a]] = faces[t, (i + 1) % 3]
+                fill[a] += 1
+    twin = np.full(n_half, -1, dtype=np.int64)
+    for a in range(n_vertices):
+        for j in range(count[a], count[a + 1]):
+            b = out_end[j]
+            for i in range(count[b], count[b + 1]):
+                if out_end[i] == a:
+                    twin[out_half[j]] = out_half[i]
+                    break
+    return twin
+
+
+@numba.njit(cache=True, nogil=True)
+def _patches(
+    tri_label: NDArray[np.int64], twin: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Group the triangles of one label connected across edges into patches.
+
+    Returns a patch id per triangle (-1 unlabelled) and a triangle of each patch.
+    """
+    n = len(tri_label)
+    patch = np.full(n, -1, dtype=np.int64)
+    stack = np.empty(n, dtype=np.int64)
+    seeds = np.empty(n, dtype=np.int64)
+    n_patches = 0
+    for seed in range(n):
+        if tri_label[seed] < 0 or patch[seed] >= 0:
+            continue
+        patch[seed] = n_patches
+        seeds[n_patches] = seed
+        top = 0
+        stack[0] = seed
+        top = 1
+        while top > 0:
+            top -= 1
+            t = stack[top]
+            for i in range(3):
+                g = twin[3 * t + i]
+                if g < 0:
+                    continue
+                s = g // 3
+                if patch[s] < 0 and tri_label[s] == tri_label[t]:
+                    patch[s] = n_patches
+                    stack[top] = s
+                    top += 1
+        n_patches += 1
+    return patch, seeds[:n_patches]
+
+
+@numba.njit(cache=True, nogil=True)
+def _loops(
+    faces: NDArray[np.int64], twin: NDArray[np.int64], patch: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Boundary loops of every patch, the patch on their left seen from outside.
+
+    Returns the loops' vertices one after the other, the first entry of each loop (and the
+    end), and each loop's patch.
+    """
+    n_half = 3 * len(faces)
+    boundary = np.zeros(n_half, dtype=np.bool_)
+    n_boundary = 0
+    for h in range(n_half):
+        p = patch[h // 3]
+        if p >= 0 and (twin[h] < 0 or patch[twin[h] // 3] != p):
+            boundary[h] = True
+            n_boundary += 1
+    vertex = np.empty(n_boundary, dtype=np.int64)
+    start = np.empty(n_boundary + 1, dtype=np.int64)
+    owner = np.empty(n_boundary, dtype=np.int64)
+    seen = np.zeros(n_half, dtype=np.bool_)
+    n_entries = 0
+    n_loops = 0
+    for h in range(n_half):
+        if not boundary[h] or seen[h]:
+            continue
+        start[n_loops] = n_entries
+        owner[n_loops] = patch[h // 3]
+        n_loops += 1
+        g = h
+        while True:
+            seen[g] = True
+            vertex[n_entries] = faces[g // 3, g % 3]
+            n_entries += 1
+            # The next boundary half-edge around the end vertex, inside the patch.
+            g = 3 * (g // 3) + (g % 3 + 1) % 3
+            while not boundary[g]:
+                g = twin[g]
+                g = 3 * (g // 3) + (g % 3 + 1) % 3
+            if g == h or seen[g]:
+                break
+    start[n_loops] = n_entries
+    return vertex[:n_entries], start[: n_loops + 1], owner[:n_loops]
