@@ -77,3 +77,26 @@ def test_concurrent_builds_into_one_folder(tmp_path):
     assert_succeeded(result, out)
     manifest = verified_files(out)
     assert manifest["config"]["thickness_mm"] == [0.5, 0.5]  # the first build's, not mixed
+
+
+def test_a_signal_while_the_folder_is_locked_leaves_no_lock(tmp_path, monkeypatch):
+    # SIGINT sent while the lock is taken (held back there) raises as that block closes:
+    # the folder is then left without the lock file, and a next run is not refused.
+    from pipeline.faults import Interrupted, signals_raise
+    from pipeline.output import _outdir
+
+    acquire = _outdir._acquire
+
+    def acquire_then_signal(path):
+        fd = acquire(path)
+        os.kill(os.getpid(), signal.SIGINT)  # blocked here: delivered as the block closes
+        assert (path.parent / _outdir.LOCK_NAME).is_file()
+        return fd
+
+    monkeypatch.setattr(_outdir, "_acquire", acquire_then_signal)
+    with signals_raise(), pytest.raises(Interrupted), _outdir.OutputFolder(tmp_path / "out"):
+        pytest.fail("the block ran although the signal came before it")
+    assert list((tmp_path / "out").iterdir()) == []
+    monkeypatch.setattr(_outdir, "_acquire", acquire)
+    with _outdir.OutputFolder(tmp_path / "out") as folder:
+        assert (folder.path / _outdir.LOCK_NAME).is_file()

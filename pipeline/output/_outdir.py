@@ -99,9 +99,11 @@ class OutputFolder:
         if self.path.exists() and not self.path.is_dir():
             raise InputError(self.path, "exists and is not a folder", "choose another -o DIR")
         self.path.mkdir(parents=True, exist_ok=True)
-        with DeferredSignals():  # the lock file is made and its removal registered as one
-            self._lock = _acquire(self.path / LOCK_NAME)
         try:
+            # the lock file is made and its removal registered as one; a signal that arrived
+            # meanwhile raises as the block closes, and the lock goes with it
+            with DeferredSignals():
+                self._lock = _acquire(self.path / LOCK_NAME)
             self._old_files = _listed_files(self.path / self.marker)
             remove_leftovers(self.path)
             (self.path / self.marker).unlink(missing_ok=True)
