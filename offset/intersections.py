@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import numpy.typing as npt
@@ -10,7 +12,10 @@ import numpy.typing as npt
 from offset._validate import FloatArray, IntArray
 from offset.crossing_kernels import cell_pair_hits, crossing_pairs
 from offset.exact_crossing import confirmed_crossings
-from offset.hash_grid import hash_grids
+from offset.hash_grid import HashGrid, hash_grids
+
+#: Threads testing candidate pairs at most (the compiled walk releases the GIL).
+MAX_THREADS = 2
 
 
 def intersecting_pairs(
@@ -66,15 +71,16 @@ def intersecting_pairs(
     active = np.ones(len(faces), dtype=np.bool_) if only is None else np.asarray(only, np.bool_)
     if not np.any(active):
         return np.zeros((0, 2), dtype=np.int64)
-    hits = []
-    for grid in hash_grids(lo, hi):
-        # Leaders in sorted order, a bounded number of pairs at a time; the pairs are
-        # walked and tested in one compiled loop (offset.crossing_kernels).
-        for a0, a1 in grid.spans(chunk):
-            hits.append(
-                cell_pair_hits(
-                    a0,
-                    a1,
+    hits: list[IntArray] = []
+    with ThreadPoolExecutor(_threads(), thread_name_prefix="shellvox-crossings") as pool:
+        for grid in hash_grids(lo, hi):
+            # Leaders in sorted order, a bounded number of pairs at a time; the pairs are
+            # walked and tested in one compiled loop (offset.crossing_kernels), which
+            # releases the GIL: the spans of a grid are tested side by side.
+            def walk(span: tuple[int, int], grid: HashGrid = grid) -> IntArray:
+                hit: IntArray = cell_pair_hits(
+                    span[0],
+                    span[1],
                     grid.later,
                     grid.key,
                     grid.owner,
@@ -88,12 +94,19 @@ def intersecting_pairs(
                     eps,
                     active,
                 )
-            )
+                return hit
+
+            hits.extend(pool.map(walk, grid.spans(chunk)))
     pairs = np.concatenate(hits) if hits else np.zeros((0, 2), dtype=np.int64)
     if len(pairs):  # the float test's round-off near clustered vertices, decided exactly
         pairs = pairs[confirmed_crossings(tri[pairs[:, 0]], tri[pairs[:, 1]])]
     code = np.sort(pairs[:, 0] * len(faces) + pairs[:, 1])
     return np.stack([code // len(faces), code % len(faces)], axis=1)
+
+
+def _threads() -> int:
+    """Return the narrow phase's threads: this process's CPUs, at most ``MAX_THREADS``."""
+    return max(1, min(MAX_THREADS, len(os.sched_getaffinity(0))))
 
 
 def _candidate_pairs(

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from offset import intersections
 from offset.intersections import (
     _candidate_pairs,
     _crossing,
@@ -82,9 +83,12 @@ def test_candidate_pairs_are_exactly_the_overlapping_boxes(chunk):
     np.testing.assert_array_equal(second, ref_j)
 
 
-def test_intersecting_pairs_match_all_pairs_test():
+@pytest.mark.parametrize("threads", [1, 2])
+def test_intersecting_pairs_match_all_pairs_test(threads, monkeypatch):
     # A crumpled sphere crossing itself in many places: the grid broad phase with
-    # chunking finds exactly the pairs an all-pairs run of the narrow phase finds.
+    # chunking finds exactly the pairs an all-pairs run of the narrow phase finds, with
+    # the spans walked in one thread or side by side.
+    monkeypatch.setattr(intersections, "_threads", lambda: threads)
     rng = np.random.default_rng(2)
     sphere = trimesh.creation.icosphere(2, 1.0)
     v = np.asarray(sphere.vertices) + rng.normal(0.0, 0.2, (len(sphere.vertices), 3))
