@@ -130,7 +130,9 @@ def _edge_kind(original: trimesh.Trimesh, points: FloatArray, face: IntArray) ->
     return np.where(bend[edge] < 0, "reflex_edge", "convex_edge").astype(object)
 
 
-def mesh_checks(vertices: FloatArray, faces: IntArray) -> dict[str, Any]:
+def mesh_checks(
+    vertices: FloatArray, faces: IntArray, *, crossing_pairs: int | None = None
+) -> dict[str, Any]:
     """Return closure, orientation, degenerate faces and crossings of a mesh as a file holds it.
 
     Vertices at exactly the same position are merged first, as a reader that welds
@@ -141,6 +143,11 @@ def mesh_checks(vertices: FloatArray, faces: IntArray) -> dict[str, Any]:
     ----------
     vertices : (n, 3) float64, mm
     faces : (m, 3) int64
+    crossing_pairs : int, optional
+        The crossing triangle pairs of exactly these arrays when already counted by
+        :func:`offset.intersections.intersecting_pairs` (with other meshes beside them,
+        whose pairs are not among these); used when no vertex is merged (merging changes
+        which pairs share a vertex), else they are counted here.
 
     Returns
     -------
@@ -182,12 +189,19 @@ def mesh_checks(vertices: FloatArray, faces: IntArray) -> dict[str, Any]:
         ),
         "closed": closed,
         "oriented": bool(mesh.is_winding_consistent) and (volume is None or volume > 0),
-        "self_intersections": count_self_intersections(unique, merged),
+        "self_intersections": count_self_intersections(unique, merged)
+        if crossing_pairs is None or len(unique) != len(vertices)
+        else int(crossing_pairs),
         "volume_mm3": volume,
     }
 
 
-def nested_in(inner: tuple[FloatArray, IntArray], outer: tuple[FloatArray, IntArray]) -> bool:
+def nested_in(
+    inner: tuple[FloatArray, IntArray],
+    outer: tuple[FloatArray, IntArray],
+    *,
+    crossing_free: bool = False,
+) -> bool:
     """Return whether the closed mesh `inner` lies strictly inside the closed mesh `outer`.
 
     The two surfaces must not cross, and one vertex of every connected component of
@@ -197,6 +211,9 @@ def nested_in(inner: tuple[FloatArray, IntArray], outer: tuple[FloatArray, IntAr
     Parameters
     ----------
     inner, outer : (vertices (n, 3) float64 mm, faces (m, 3) int64)
+    crossing_free : bool, optional
+        The two, exactly as given, were already tested together with no crossing pair
+        (:func:`offset.intersections.intersecting_pairs`): only the winding test is left.
 
     Returns
     -------
@@ -219,6 +236,8 @@ def nested_in(inner: tuple[FloatArray, IntArray], outer: tuple[FloatArray, IntAr
     probe_pts = inner[0][np.flatnonzero(used)[probe]]
     if not np.all(winding_numbers(outer[0], outer[1], probe_pts) > 0.5):
         return False
+    if crossing_free:
+        return True
     both_v = np.concatenate([outer[0], inner[0]])
     both_f = np.concatenate([outer[1], inner[1] + len(outer[0])])
     # One test of both (one tolerance): a pair of one face of each must not cross (the

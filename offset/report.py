@@ -27,6 +27,7 @@ def shell_report(
     n_samples: int = 20_000,
     seed: int = 0,
     checks: Sequence[dict[str, Any]] | None = None,
+    crossing_free: bool = False,
 ) -> dict[str, Any]:
     """Measure every shell, and optionally the baselines, against the ideal offset.
 
@@ -50,6 +51,10 @@ def shell_report(
     checks : sequence of dict, optional
         :func:`offset.quality.mesh_checks` of each shell when already measured (on its
         file read back); default: measured here.
+    crossing_free : bool, optional
+        The shells, exactly as given and all together, were already tested with no
+        crossing pair: a shell's nesting in the one before it needs only the winding test
+        (layer 1's in the surface is tested here as always).
 
     Returns
     -------
@@ -88,6 +93,7 @@ def shell_report(
                 n_samples,
                 rng,
                 checks=None if checks is None else checks[k],
+                crossing_free=crossing_free and k > 0,
             ),
         }
         previous = (shell.vertices, shell.faces)
@@ -117,10 +123,15 @@ def _measure(
     rng: np.random.Generator,
     *,
     checks: dict[str, Any] | None = None,
+    crossing_free: bool = False,
 ) -> dict[str, Any]:
-    """Return mesh checks (`checks` when given), nesting and equidistance of one shell."""
+    """Return mesh checks (`checks` when given), nesting and equidistance of one shell.
+
+    `crossing_free`: `mesh` and `previous` were tested together with no crossing pair.
+    """
     result = dict(checks) if checks is not None else mesh_checks(*mesh)
-    result["nested"] = nested_in(mesh, previous) if result["closed"] else False
+    closed = result["closed"]
+    result["nested"] = nested_in(mesh, previous, crossing_free=crossing_free) if closed else False
     if mesh[1].shape[0] == 0:
         result["equidistance"] = None
         return result

@@ -100,10 +100,15 @@ class Simplified(NamedTuple):
         ``lock_rounds`` of the last try and ``locked_faces`` per shell (unsimplified
         triangles kept around crossings); ``attempts``: the tolerance, crossing pairs, lock
         rounds and error of every try.
+    crossing_free : bool
+        The shells, as returned and all together, were tested and no two of their
+        triangles cross (:func:`offset.intersections.intersecting_pairs`); False for
+        shells kept unsimplified (crossing-free by construction, not tested here).
     """
 
     meshes: list[Mesh]
     record: dict[str, Any]
+    crossing_free: bool = False
 
 
 def simplify_shells(
@@ -176,7 +181,7 @@ def _simplify_shells(
         LOG.debug("try %d: %s", attempt + 1, record["attempts"][-1])
         if within and crossings == 0:
             record.update(tolerance_mm=tolerance, faces_after=[len(f) for _, f in candidate])
-            return Simplified(candidate, record)
+            return Simplified(candidate, record, crossing_free=True)
         tolerance /= 4.0
     record.update(tolerance_mm=0.0, faces_after=before)
     return Simplified(meshes, record)

@@ -129,7 +129,14 @@ def _write(
     offset_seconds = time.perf_counter() - started
     _say("cleaning, writing and reading back the shell files")
     ready = [ready_for_file(shell, config.method) for shell in made.shells]
-    written = save_shells(out, [r.shell for r in ready], cleaning=[r.cleaning for r in ready])
+    # the method's test of all shells together holds for shells that go to their files as made
+    as_made = all(r.shell is s for r, s in zip(ready, made.shells, strict=True))
+    written = save_shells(
+        out,
+        [r.shell for r in ready],
+        cleaning=[r.cleaning for r in ready],
+        crossing_free=made.crossing_free and as_made,
+    )
     _say("measuring the shells" + ("" if args.no_baselines else " and the baselines"))
     report: dict[str, Any] = {
         "tool": f"shellvox {__version__}",
@@ -147,6 +154,7 @@ def _write(
             baselines=not args.no_baselines,
             layer_height_mm=config.layer_height_mm,
             checks=[w.checks for w in written],
+            crossing_free=made.crossing_free and as_made and all(w.as_given for w in written),
         )
     )
     for layer, w in zip(report["layers"], written, strict=True):

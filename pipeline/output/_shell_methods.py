@@ -70,10 +70,14 @@ class MethodShells(NamedTuple):
     record : dict
         ``method``; for ``field``: ``step_mm``, ``grid_zyx``, ``seconds`` (``field``,
         ``simplify``) and the simplification's record.
+    crossing_free : bool
+        The shells, all together, were tested and no two of their triangles cross
+        (``field``, when simplified: :attr:`offset.simplify.Simplified.crossing_free`).
     """
 
     shells: list[Shell]
     record: dict[str, Any]
+    crossing_free: bool = False
 
 
 def method_shells(
@@ -141,7 +145,7 @@ def method_shells(
         "seconds": {"field": field_s, "simplify": time.perf_counter() - tick - field_s},
         "simplify": simplified.record,
     }
-    return MethodShells(shells, record)
+    return MethodShells(shells, record, crossing_free=simplified.crossing_free)
 
 
 def ready_for_file(shell: Shell, method: str) -> ShellForFile:

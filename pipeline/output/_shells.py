@@ -43,12 +43,15 @@ class WrittenShell:
         (:attr:`offset.for_file.ShellForFile.cleaning`; empty when not given).
     checks : dict
         :func:`offset.quality.mesh_checks` of the mesh read back.
+    as_given : bool
+        The file read back holds exactly the vertices and faces given.
     """
 
     shell: Shell
     path: Path
     cleaning: dict[str, Any]
     checks: dict[str, Any]
+    as_given: bool = False
 
 
 def save_shells(
@@ -57,6 +60,7 @@ def save_shells(
     *,
     cleaning: Sequence[dict[str, Any]] | None = None,
     stack: contextlib.ExitStack | None = None,
+    crossing_free: bool = False,
 ) -> list[WrittenShell]:
     """Write every shell to ``out_dir/shell_<layer>.ply``, each file atomically.
 
@@ -71,6 +75,10 @@ def save_shells(
     stack : contextlib.ExitStack, optional
         Holds the files under their temporary names until it closes (a build renames all
         its files together); without it each file is renamed once written.
+    crossing_free : bool, optional
+        The shells as given, all together, were tested and no two of their triangles
+        cross (:attr:`pipeline.output.MethodShells.crossing_free`): a file that reads
+        back exactly as given counts no crossing pair again.
 
     Returns
     -------
@@ -82,7 +90,11 @@ def save_shells(
         target = Path(out_dir) / f"shell_{shell.layer}.ply"
         with contextlib.ExitStack() as own:
             temporary = (stack or own).enter_context(atomic_path(target))
-            written.append(write_shell(temporary, shell, target=target, cleaning=record))
+            written.append(
+                write_shell(
+                    temporary, shell, target=target, cleaning=record, crossing_free=crossing_free
+                )
+            )
     return written
 
 
@@ -92,6 +104,7 @@ def write_shell(
     *,
     target: Path | None = None,
     cleaning: dict[str, Any] | None = None,
+    crossing_free: bool = False,
 ) -> WrittenShell:
     """Write `shell` to `path` as float64 PLY, read it back and check it.
 
@@ -105,6 +118,8 @@ def write_shell(
         The name the file will have, for :attr:`WrittenShell.path` and messages.
     cleaning : dict, optional
         What made `shell` ready, kept as :attr:`WrittenShell.cleaning`.
+    crossing_free : bool, optional
+        `shell` was tested to have no crossing triangle pairs (see :func:`save_shells`).
 
     Returns
     -------
@@ -124,7 +139,8 @@ def write_shell(
         comment=f"shellvox {__version__} offset shell, layer {shell.layer}",
     )
     vertices, faces = read_ply(path)
-    checks = mesh_checks(vertices, faces)
+    as_given = np.array_equal(vertices, shell.vertices) and np.array_equal(faces, shell.faces)
+    checks = mesh_checks(vertices, faces, crossing_pairs=0 if crossing_free and as_given else None)
     problems = [
         text
         for text, bad in (
@@ -150,6 +166,7 @@ def write_shell(
         path=name,
         cleaning=dict(cleaning or {}),
         checks=checks,
+        as_given=as_given,
     )
 
 

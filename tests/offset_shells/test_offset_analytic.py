@@ -143,3 +143,26 @@ def test_offset_prints_nothing(capfd):
     captured = capfd.readouterr()
     assert captured.out == ""
     assert captured.err == ""
+
+
+def test_report_of_shells_tested_together_needs_no_second_crossing_test(monkeypatch):
+    # Nesting of shell 2 in shell 1 without the crossing test when both were tested
+    # together: the same report; layer 1 in the surface is still tested.
+    from offset import quality
+
+    box = trimesh.creation.box((10.0, 10.0, 10.0))
+    shells = offset_shells(box.vertices, box.faces, [0.5, 1.0])
+    measured = shell_report(box.vertices, box.faces, [0.5, 1.0], shells, baselines=False)
+    pairs = quality.intersecting_pairs
+    tested = []
+
+    def counted(v, f, **kw):
+        tested.append(float(np.abs(v).max()))  # the outer of the two meshes tested
+        return pairs(v, f, **kw)
+
+    monkeypatch.setattr(quality, "intersecting_pairs", counted)
+    reused = shell_report(
+        box.vertices, box.faces, [0.5, 1.0], shells, baselines=False, crossing_free=True
+    )
+    assert reused == measured
+    assert tested == [5.0]  # layer 1 in the surface (half the box's 10 mm), not 2 in 1

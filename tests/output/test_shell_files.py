@@ -295,3 +295,31 @@ def test_folded_faces_finds_faces_back_to_back():
     v = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
     f = np.array([[0, 1, 2], [0, 2, 1]])
     np.testing.assert_array_equal(folded_faces(v, f), [0, 1])
+
+
+def test_a_tested_shell_read_back_as_given_is_not_tested_again(tmp_path, monkeypatch):
+    # The field method's guard tests all shells together; a file that reads back as given
+    # takes that count, one that does not (here: a vertex moved on the way) is tested.
+    from offset import quality
+    from pipeline.output import _shells
+
+    box = trimesh.creation.box((4.0, 4.0, 4.0))
+    shell = Shell(box.vertices, np.asarray(box.faces, np.int64), 1, np.full(12, 0.5))
+    measured = write_shell(tmp_path / "a.ply", shell).checks
+    calls = []
+    count = quality.count_self_intersections
+    monkeypatch.setattr(
+        quality, "count_self_intersections", lambda *a: calls.append(1) or count(*a)
+    )
+    reused = write_shell(tmp_path / "b.ply", shell, crossing_free=True)
+    assert reused.as_given and calls == [] and reused.checks == measured
+    read = _shells.read_ply
+
+    def moved(path):
+        v, f = read(path)
+        return v + np.where(np.arange(len(v)) == 0, 1e-6, 0.0)[:, None], f
+
+    monkeypatch.setattr(_shells, "read_ply", moved)
+    again = write_shell(tmp_path / "c.ply", shell, crossing_free=True)
+    assert not again.as_given and calls == [1]
+    assert again.checks["self_intersections"] == 0
