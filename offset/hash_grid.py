@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import numpy.typing as npt
 
@@ -150,15 +151,8 @@ def _grid(
         return None
     i0 = np.floor(lo_c[boxes] / size).astype(np.int64)
     n = np.floor(hi_c[boxes] / size).astype(np.int64) - i0 + 1
-    per = n.prod(axis=1)
-    owner = np.repeat(np.arange(boxes.size), per)
-    rank = np.arange(owner.size) - np.repeat(np.cumsum(per) - per, per)
-    nx, ny = n[owner, 0], n[owner, 1]
-    cell = i0[owner] + np.stack([rank % nx, (rank // nx) % ny, rank // (nx * ny)], axis=1)
-    del rank, nx, ny
-    span = cell.max(axis=0) + 1
-    key = (cell[:, 0] * span[1] + cell[:, 1]) * span[2] + cell[:, 2]  # one int64 per cell
-    del cell
+    span = (i0 + n - 1).max(axis=0) + 1
+    key, owner = _cell_entries(i0, n, span)  # one int64 per cell
     led = lead[owner]
     if not np.all(led):
         # Followers only matter in cells that a leader occupies.
@@ -183,3 +177,29 @@ def _grid(
         low_cell=np.ascontiguousarray(i0),
         span=np.asarray(span, dtype=np.int64),
     )
+
+
+@numba.njit(cache=True, nogil=True)
+def _cell_entries(
+    i0: IntArray, n: IntArray, span: IntArray
+) -> tuple[IntArray, IntArray]:  # pragma: no cover (compiled)
+    """Return the cell key and the box of every entry: box by box, x fastest, then y, z.
+
+    Box ``b`` occupies the ``n[b]`` cells from ``i0[b]`` ((B, 3) int64 each); a cell's key
+    is ``(i * span[1] + j) * span[2] + k``.
+    """
+    total = 0
+    for b in range(len(i0)):
+        total += n[b, 0] * n[b, 1] * n[b, 2]
+    key = np.empty(total, dtype=np.int64)
+    owner = np.empty(total, dtype=np.int64)
+    e = 0
+    for b in range(len(i0)):
+        for kz in range(n[b, 2]):
+            for ky in range(n[b, 1]):
+                row = (i0[b, 0] * span[1] + i0[b, 1] + ky) * span[2] + i0[b, 2] + kz
+                for kx in range(n[b, 0]):
+                    key[e] = row + kx * span[1] * span[2]
+                    owner[e] = b
+                    e += 1
+    return key, owner
