@@ -104,3 +104,58 @@ def test_clear_cut_random_pairs_agree_with_the_float_test():
     pairs = _random_pairs(np.random.default_rng(3), 2000, 1.0)
     got = confirmed_crossings(pairs[:, 0], pairs[:, 1])
     np.testing.assert_array_equal(got, _crossing(pairs[:, 0], pairs[:, 1], 1e-10 * 100.0))
+
+
+def _moeller_in_fractions(a, b) -> bool:
+    """Moeller's interval rule of the module, every quantity a Fraction (slow reference)."""
+    a = [tuple(Fraction(float(x)) for x in p) for p in a]
+    b = [tuple(Fraction(float(x)) for x in p) for p in b]
+
+    def sub(p, q):
+        return tuple(x - y for x, y in zip(p, q, strict=True))
+
+    def cross(u, v):
+        return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+    def dot(u, v):
+        return sum(x * y for x, y in zip(u, v, strict=True))
+
+    na, nb = cross(sub(a[1], a[0]), sub(a[2], a[0])), cross(sub(b[1], b[0]), sub(b[2], b[0]))
+    db, da = [dot(na, sub(p, a[0])) for p in b], [dot(nb, sub(p, b[0])) for p in a]
+    for d in (da, db):
+        if all(x > 0 for x in d) or all(x < 0 for x in d) or all(x == 0 for x in d):
+            return False
+    if not (min(da) < 0 < max(da) or min(db) < 0 < max(db)):
+        return False
+    line = cross(na, nb)
+
+    def interval(t, d):
+        at = [dot(line, p) for p, x in zip(t, d, strict=True) if x == 0]
+        for i in range(3):
+            j = (i + 1) % 3
+            if d[i] * d[j] < 0:
+                s = d[i] / (d[i] - d[j])
+                at.append(
+                    dot(line, tuple(p + s * (q - p) for p, q in zip(t[i], t[j], strict=True)))
+                )
+        return min(at), max(at)
+
+    (la, ha), (lb, hb) = interval(a, da), interval(b, db)
+    return min(ha, hb) > max(la, lb)
+
+
+def test_degenerate_pairs_decided_as_in_rational_arithmetic():
+    # Shared corners, corners on the other's plane or edges, coplanar pairs and pairs a
+    # rounding apart, at very different scales: the integer arithmetic of the module
+    # decides each as the same rule does with every quantity a Fraction.
+    rng = np.random.default_rng(11)
+    grid = rng.integers(-2, 3, (3000, 2, 3, 3)).astype(np.float64)  # many exact contacts
+    grid[:1000] *= 2.0**-40
+    grid[1000:2000] = grid[1000:2000] * 1e3 + 0.1  # not dyadic: other denominators
+    shared = rng.integers(0, 3, 3000)
+    grid[np.arange(3000), 1, 0] = grid[np.arange(3000), 0, shared]  # one common corner
+    grid[::3, 1, 1] += np.spacing(grid[::3, 1, 1])  # a rounding off a contact
+    got = confirmed_crossings(grid[:, 0], grid[:, 1])
+    want = np.array([_moeller_in_fractions(a, b) for a, b in grid])
+    assert 50 < want.sum() < len(want) - 50
+    np.testing.assert_array_equal(got, want)
