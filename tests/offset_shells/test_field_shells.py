@@ -156,3 +156,23 @@ def test_unsimplified_when_the_guard_allows_no_try():
     assert out.record["simplify"]["tolerance_mm"] == 0.0
     assert len(out.shells[0].faces) == out.record["simplify"]["faces_before"][0]
     assert not out.crossing_free  # kept as marched: not tested, the files' checks test them
+
+
+def _triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """The triangles as sorted rows of corner coordinates, each from its smallest corner."""
+    keys = [tuple(map(tuple, t)) for t in vertices[faces].tolist()]
+    rotated = [min(k[i:] + k[:i] for i in range(3)) for k in keys]
+    return np.array(sorted(rotated))
+
+
+def test_slabs_of_any_size_give_the_same_surfaces():
+    # The field is scanned slab by slab, each slab with the plane before it: slabs of two
+    # planes and one slab for the whole grid mesh the same triangles.
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=2.0)
+    faces = np.asarray(ball.faces, dtype=np.int64)
+    depth = np.stack([np.full(len(faces), 0.3), np.full(len(faces), 0.6)])
+    whole = field_surfaces(ball.vertices, faces, depth, 0.1, nodes_per_slab=1 << 30)
+    thin = field_surfaces(ball.vertices, faces, depth, 0.1, nodes_per_slab=1)
+    assert whole.marched_faces == thin.marched_faces and whole.marched_faces[1] > 1000
+    for (v0, f0), (v1, f1) in zip(whole.surfaces, thin.surfaces, strict=True):
+        np.testing.assert_array_equal(_triangles(v0, f0), _triangles(v1, f1))

@@ -143,51 +143,48 @@ def field_surfaces(
     out_f: list[list[NDArray[np.int64]]] = [[] for _ in range(n_levels)]
     out_face: list[list[NDArray[np.int32]]] = [[] for _ in range(n_levels)]
     planes = max(2, nodes_per_slab // (n_y * n_x))
-    carry: tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.int32], NDArray[np.uint8]]
-    carry = (
-        np.zeros((0, n_y, n_x), bool),
-        np.zeros((0, n_y, n_x)),
-        np.zeros((0, n_y, n_x), np.int32),
-        np.zeros((0, n_y, n_x), np.uint8),
-    )
     unbalanced = 0
 
-    def scan(z_start: int) -> tuple[NDArray[np.bool_], int, NearestInReach]:
+    def scan(
+        z_start: int, before: NDArray[np.bool_]
+    ) -> tuple[NDArray[np.bool_], int, NearestInReach, NDArray[np.uint8]]:
+        """Scan the node planes ``z_start`` to the slab's end and the plane before them.
+
+        `before` is the inside test of that plane ((1, Y, X), from the slab before; (0, Y, X)
+        for the first slab), so the arrays returned run from it on and the slabs' meshes
+        meet without copying a plane over.
+        """
         z_stop = min(n_z, z_start + planes)
-        inside, n_bad = inside_slab(vertices, faces, grid, z_start, z_stop)
+        own, n_bad = inside_slab(vertices, faces, grid, z_start, z_stop)
+        inside = np.concatenate([before, own]) if len(before) else own
         near = nearest_in_reach(
             vertices,
             faces,
             grid,
-            z_start,
+            z_start - len(before),
             z_stop,
             reach,
             inside=inside,
             outside_reach_mm=0.0,
             regions=regions,
         )
-        return inside, n_bad, near
+        bits = np.empty(inside.shape, dtype=np.uint8)
+        _layer_bits(inside, near.squared_mm2, near.face, depth, bits)
+        return inside, n_bad, near, bits
 
     starts = range(0, n_z, planes)
     # The next slab is scanned in a second thread while this one is meshed (the kernels
     # release the GIL); it holds one more slab of nodes.
     with ThreadPoolExecutor(1, thread_name_prefix="shellvox-field") as pool:
-        ahead = pool.submit(scan, starts[0])
+        ahead = pool.submit(scan, starts[0], np.zeros((0, n_y, n_x), dtype=bool))
         for index, z_start in enumerate(starts):
-            inside, n_bad, near = ahead.result()
+            inside, n_bad, near, bits = ahead.result()
             if index + 1 < len(starts):
-                ahead = pool.submit(scan, starts[index + 1])
+                ahead = pool.submit(scan, starts[index + 1], inside[-1:])
             unbalanced += n_bad
-            bits = np.empty(inside.shape, dtype=np.uint8)
-            _layer_bits(inside, near.squared_mm2, near.face, depth, bits)
-            inside = np.concatenate([carry[0], inside])
-            squared = np.concatenate([carry[1], near.squared_mm2])
-            face = np.concatenate([carry[2], near.face])
-            bits = np.concatenate([carry[3], bits])
-            z_base = z_start - len(carry[0])
-            carry = (inside[-1:], squared[-1:], face[-1:], bits[-1:])
             if len(bits) < 2:
                 continue
+            z_base = z_start - (index > 0)
             counts = count_triangles(bits, n_levels, TETS, TRIANGLES_PER_CASE)
             f_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
             v_start = 3 * f_start
@@ -195,7 +192,7 @@ def field_surfaces(
             new_faces = np.empty((int(f_start[-1]), 3), dtype=np.int64)
             new_vertex_face = np.empty(int(v_start[-1]), dtype=np.int32)
             field = NodeField(
-                bits, inside, squared, face, depth, far, step_mm, origin, step, z_base
+                bits, inside, near.squared_mm2, near.face, depth, far, step_mm, origin, step, z_base
             )
             out = MarchOutputs(new_vertices, v_start, new_faces, f_start, new_vertex_face)
             made = march_slab(field, ids, tables, out)
