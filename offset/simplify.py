@@ -16,12 +16,15 @@ most slivers and folds the first leaves), and the result is accepted only when
   such point, or its error at the point's nearest point plus the distance to it: the
   creases of a faceted input, which a finer ``--shell-step`` sharpens), and
 * no two triangles of the shells cross (:func:`offset.intersections.intersecting_pairs`
-  over all shells together, so a shell crossing a neighbouring one counts too).
+  over all shells together, so a shell crossing a neighbouring one counts too), and no
+  shell is pinched (two of its vertices at one place: Manifold keeps a collapse that makes
+  the surface touch itself 2-manifold that way, a non-manifold vertex once welded).
 
 Manifold's edge collapse can fold a few triangles over a neighbour around a sliver (4 pairs
-in 15 M triangles of spot at 100 mm). Where the shells cross, the unsimplified triangles
-near the crossing are locked (each its own ``face_id``: Manifold keeps every edge between
-triangles of different ids) and the shell is simplified again, so the first pass keeps
+in 15 M triangles of spot at 100 mm), or pinch a shell (the bunny's inner one at 50 mm).
+Where the shells cross or pinch, the unsimplified triangles near there are locked (each
+its own ``face_id``: Manifold keeps every edge between triangles of different ids) and
+the shell is simplified again, so the first pass keeps
 the unsimplified triangles there, which cross nothing by construction (so does the tidy
 pass that follows; the crossing check covers its result); the lock's radius is twice the
 longest edge of the crossing triangles, doubled on each of ``GuardLimits.lock_rounds``,

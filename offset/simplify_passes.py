@@ -38,17 +38,31 @@ class Locks(NamedTuple):
 def crossing_free(
     meshes: list[Mesh], tolerance_mm: float, rounds: int
 ) -> tuple[list[Mesh], Locks, int]:
-    """Simplify the shells, locking the triangles near crossings until none cross.
+    """Simplify the shells, locking the triangles near defects until there are none.
+
+    The defects are crossing triangle pairs and pinches: Manifold keeps its result
+    2-manifold where a collapse makes the surface touch itself at a vertex by splitting
+    that vertex in two at the same place, which a reader that welds coincident vertices
+    (MeshLab) reads as a non-manifold vertex.
 
     Returns the shells (jittered unless the jitter makes a crossing), the locks and the
-    crossing pairs left after the last round (0 when the shells are accepted).
+    crossing pairs and faces at pinches left after the last round (0 when the shells are
+    accepted).
     """
     locks = [np.zeros(len(f), dtype=bool) for _, f in meshes]
     plain = [simplified(v, f, tolerance_mm) for v, f in meshes]
     done = 0
     while True:
         candidate, pairs, owner = _jittered(plain)
-        LOG.debug("tolerance %g, lock round %d: %d crossing pairs", tolerance_mm, done, len(pairs))
+        pinched = pinched_faces(plain)
+        LOG.debug(
+            "tolerance %g, lock round %d: %d crossing pairs, %d faces at pinches",
+            tolerance_mm,
+            done,
+            len(pairs),
+            len(pinched),
+        )
+        pairs = np.concatenate([pairs, np.stack([pinched, pinched], axis=1)])
         if len(pairs) == 0 or done == rounds:
             return candidate, Locks(locks, done), len(pairs)
         for k in np.unique(owner[pairs]):
@@ -84,6 +98,24 @@ def _jittered(plain: list[Mesh]) -> tuple[list[Mesh], IntArray, IntArray]:
         return moved, pairs, owner
     pairs, owner = crossings(plain)
     return plain, pairs, owner
+
+
+def pinched_faces(meshes: list[Mesh]) -> IntArray:
+    """Return the faces, concatenated outside in, at a vertex that shares its position.
+
+    Two vertices of one shell at exactly one position are a pinch (see :func:`crossing_free`).
+    """
+    vertices, faces = _concatenated(meshes)
+    if len(vertices) == 0:
+        return np.zeros(0, dtype=np.int64)
+    start = np.cumsum([0] + [len(v) for v, _ in meshes])
+    shell = np.searchsorted(start, np.arange(len(vertices)), side="right") - 1
+    keyed = np.column_stack([shell.astype(np.float64), vertices])
+    _, first, count = np.unique(keyed, axis=0, return_inverse=True, return_counts=True)
+    shared = count[np.asarray(first).reshape(-1)] > 1
+    if not shared.any():
+        return np.zeros(0, dtype=np.int64)
+    return np.flatnonzero(shared[faces].any(axis=1)).astype(np.int64)
 
 
 def _near_crossings(
