@@ -147,21 +147,22 @@ def field_surfaces(
 
     def scan(
         z_start: int, before: NDArray[np.bool_]
-    ) -> tuple[NDArray[np.bool_], int, NearestInReach, NDArray[np.uint8]]:
+    ) -> tuple[int, NDArray[np.bool_], int, NearestInReach, NDArray[np.uint8]]:
         """Scan the node planes ``z_start`` to the slab's end and the plane before them.
 
         `before` is the inside test of that plane ((1, Y, X), from the slab before; (0, Y, X)
         for the first slab), so the arrays returned run from it on and the slabs' meshes
-        meet without copying a plane over.
+        meet without copying a plane over. Returns the arrays' first plane with them.
         """
         z_stop = min(n_z, z_start + planes)
+        z_first = z_start - len(before)
         own, n_bad = inside_slab(vertices, faces, grid, z_start, z_stop)
         inside = np.concatenate([before, own]) if len(before) else own
         near = nearest_in_reach(
             vertices,
             faces,
             grid,
-            z_start - len(before),
+            z_first,
             z_stop,
             reach,
             inside=inside,
@@ -170,21 +171,20 @@ def field_surfaces(
         )
         bits = np.empty(inside.shape, dtype=np.uint8)
         _layer_bits(inside, near.squared_mm2, near.face, depth, bits)
-        return inside, n_bad, near, bits
+        return z_first, inside, n_bad, near, bits
 
     starts = range(0, n_z, planes)
     # The next slab is scanned in a second thread while this one is meshed (the kernels
     # release the GIL); it holds one more slab of nodes.
     with ThreadPoolExecutor(1, thread_name_prefix="shellvox-field") as pool:
         ahead = pool.submit(scan, starts[0], np.zeros((0, n_y, n_x), dtype=bool))
-        for index, z_start in enumerate(starts):
-            inside, n_bad, near, bits = ahead.result()
+        for index in range(len(starts)):
+            z_base, inside, n_bad, near, bits = ahead.result()
             if index + 1 < len(starts):
                 ahead = pool.submit(scan, starts[index + 1], inside[-1:])
             unbalanced += n_bad
             if len(bits) < 2:
                 continue
-            z_base = z_start - (index > 0)
             counts = count_triangles(bits, n_levels, TETS, TRIANGLES_PER_CASE)
             f_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
             v_start = 3 * f_start
