@@ -14,9 +14,12 @@ import numpy as np
 import pytest
 import zarr
 from scipy import stats
+from zarr.core.buffer import cpu
 
 from voxel.grid import GridSpec
 from voxel.io import LabelValue, OmeZarrWriter, downsample_labels
+from voxel.io import _zarr_shards as zarr_shards
+from voxel.io._zarr_shards import VoidTestedBuffer
 
 #: A J750-like grid (voxel x, y, z mm): levels 1 and 2 span several 64-row shards.
 GRID = GridSpec((0.0, 0.0, 0.0), (0.042, 0.085, 0.027), (300, 40, 70))
@@ -177,3 +180,30 @@ def _block_sum(values: np.ndarray, factors: tuple[int, ...]) -> np.ndarray:
     for axis, f in enumerate(factors):
         values = np.add.reduceat(values, np.arange(0, values.shape[axis], f), axis=axis)
     return values
+
+
+@pytest.mark.parametrize("dtype", ["uint8", "uint16", "int32", "bool", "float32"])
+def test_the_void_test_answers_as_zarrs_own(dtype):
+    """:class:`VoidTestedBuffer.all_equal` against zarr's ``NDBuffer.all_equal``."""
+    rng = np.random.default_rng(11)
+    for case in range(40):
+        chunk = np.zeros((3, 8, 8, 8), dtype=dtype)
+        if case % 2:
+            chunk.flat[rng.integers(chunk.size)] = 1
+        fill = np.array(case % 3 == 0, dtype=dtype)[()] if dtype == "bool" else chunk.dtype.type(0)
+        for other in (fill, None):
+            fast = VoidTestedBuffer.from_numpy_array(chunk).all_equal(other)
+            reference = cpu.NDBuffer.from_numpy_array(chunk).all_equal(other)
+            assert fast == reference
+
+
+def test_the_store_is_the_same_bytes_with_zarrs_own_void_test(tmp_path, monkeypatch):
+    """Writing with zarr's own test of void chunks stores the same files, byte for byte."""
+    fast = _write(tmp_path / "fast.ome.zarr", 64)
+    monkeypatch.setattr(zarr_shards, "_WRITE_CONFIG", {})
+    plain = _write(tmp_path / "plain.ome.zarr", 64)
+    files = sorted(p.relative_to(fast) for p in fast.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(plain) for p in plain.rglob("*") if p.is_file())
+    assert any("/c/" in f"/{f}" for f in map(str, files))
+    for name in files:
+        assert (fast / name).read_bytes() == (plain / name).read_bytes(), name

@@ -16,8 +16,10 @@ from typing import Any
 
 import numpy as np
 import zarr
+import zarr.registry
 from numpy.typing import NDArray
 from zarr.codecs import ZstdCodec
+from zarr.core.buffer import cpu
 
 #: Inner chunk ``(z, y, x)`` of every array (y and x at most the grid's): cubes, so a y or
 #: x section through a tall build crosses a few dozen chunks along z, not one per slab
@@ -33,6 +35,30 @@ ZSTD_LEVEL = 1
 STORE_LAYOUT = (
     f"zarr {zarr.__version__}, chunks {CHUNK_ZYX}, shards of {SHARD_ROWS} rows, zstd {ZSTD_LEVEL}"
 )
+
+
+class VoidTestedBuffer(cpu.NDBuffer):
+    """zarr's CPU array buffer, with a one-pass test of an integer chunk against its fill value.
+
+    With ``write_empty_chunks=False`` zarr tests every chunk it writes with
+    ``NDBuffer.all_equal``, which calls ``np.array_equal(..., equal_nan=True)``; numpy 1.x
+    answers that for integers by masking and copying the chunk: 2 ms for a 64^3 colour
+    chunk, against 0.03 ms for one comparison (about a third of the store's writing time
+    at 100 mm on a J750). The answer is the same, so the stored chunks and bytes are too.
+    Registered with zarr, and used by :func:`write_solid` (zarr takes buffer classes by
+    configuration only: sharding refuses a prototype given with the write).
+    """
+
+    def all_equal(self, other: Any, equal_nan: bool = True) -> bool:
+        """Whether every element equals the scalar `other` (zarr's test of a void chunk)."""
+        if other is not None and np.ndim(other) == 0 and self._data.dtype.kind in "biu":
+            return not bool((self._data != other).any())
+        return bool(super().all_equal(other, equal_nan))
+
+
+zarr.registry.register_ndbuffer(VoidTestedBuffer)
+#: zarr's configuration while the store's chunks are written (:class:`VoidTestedBuffer`).
+_WRITE_CONFIG = {"ndbuffer": f"{VoidTestedBuffer.__module__}.{VoidTestedBuffer.__qualname__}"}
 
 
 def level_array(group: Any, name: str, shape_zyx: Sequence[int], samples: int) -> Any:
@@ -79,7 +105,8 @@ def write_solid(array: Any, z0: int, rows: NDArray[np.uint8]) -> None:
     x0, x1 = xs[0] // cx * cx, -(-(xs[-1] + 1) // cx) * cx
     lead = (slice(None),) * (rows.ndim - 3)
     box = (slice(y0, y1), slice(x0, x1))
-    array[(*lead, slice(z0, z0 + rows.shape[-3]), *box)] = rows[(*lead, slice(None), *box)]
+    with zarr.config.set(_WRITE_CONFIG):
+        array[(*lead, slice(z0, z0 + rows.shape[-3]), *box)] = rows[(*lead, slice(None), *box)]
 
 
 @dataclass(frozen=True)
