@@ -108,6 +108,12 @@ def view(pool: ThreadPoolExecutor, port: int, mode: str, axis: str, index: int,
     return time.perf_counter() - started
 
 
+def _cache_mb(folder: BuildFolder) -> float | None:
+    """Megabytes in the TIFF stacks' page cache (None for the store: TensorStore's own)."""
+    cache = getattr(folder.stacks["layers"], "cache", None)
+    return None if cache is None else round(cache.used_bytes / 1e6, 1)
+
+
 def serve(folder: BuildFolder, *, warm: bool) -> tuple[ViewerServer, threading.Thread]:
     server = ViewerServer(folder, 0, warm=warm)
     thread = threading.Thread(target=server.serve_forever, daemon=True)
@@ -170,7 +176,7 @@ def main() -> None:
         "from the cache",
         "seconds": cold,
         "steps": {a: fitted_region(folder, a, width, height) for a in "zyx"},
-        "cache_mb": round(folder.stacks["layers"].cache.used_bytes / 1e6, 1),
+        "cache_mb": _cache_mb(folder),
     }
     server.shutdown()
     server.server_close()
@@ -197,7 +203,7 @@ def main() -> None:
             print("warmed", axis, mode, warmed[axis][mode], flush=True)
     result["warmed"] = {
         "background_decoding_seconds": round(warming, 2),
-        "cache_mb": round(folder.stacks["layers"].cache.used_bytes / 1e6, 1),
+        "cache_mb": _cache_mb(folder),
         "seconds": warmed,
     }
     zoomed: dict[str, dict[str, float]] = {}

@@ -28,7 +28,7 @@ from pipeline.errors import InputError
 from pipeline.output import check_files, read_manifest
 from pipeline.viewer._depth import Surface
 from pipeline.viewer._stacks import StackError, SymbolCache, TiffStack
-from pipeline.viewer._zarr_stacks import BlockCache, ZarrStack
+from pipeline.viewer._zarr_stacks import ZarrStack, read_context
 from voxel.grid import GridSpec
 
 #: The stacks the viewer reads: name -> (file, samples). materials.tif is optional.
@@ -263,18 +263,18 @@ def _tiff_stacks(folder: Path, manifest: dict[str, Any], grid: GridSpec) -> dict
 
 
 def _zarr_stacks(folder: Path, manifest: dict[str, Any], grid: GridSpec) -> dict[str, ZarrStack]:
-    """Open the images of the build's OME-Zarr store (one band budget for them all)."""
+    """Open the images of the build's OME-Zarr store (one chunk cache for them all)."""
     listed = manifest["files"]
     if f"{ZARR_STORE}/zarr.json" not in listed:
         raise StackError(f"{folder}: the build has no {ZARR_STORE}")
     store = (folder / ZARR_STORE).resolve()
-    cache = BlockCache()
+    context = read_context()
     samples = int(manifest.get("zarr", {}).get("samples", 3))
     stacks = {}
     for key, (group, colour) in ZARR_IMAGES.items():
         if f"{ZARR_STORE}/{group}/zarr.json".replace("/./", "/") not in listed:
             continue
         stacks[key] = ZarrStack(
-            store / group, grid.shape_zyx, samples=samples if colour else 0, cache=cache
+            store / group, grid.shape_zyx, samples=samples if colour else 0, context=context
         )
     return stacks

@@ -18,8 +18,9 @@ import zarr
 from pipeline.viewer import BuildFolder
 from pipeline.viewer import _surface as surface_module
 from pipeline.viewer._slices import probe
+from pipeline.viewer._stacks import StackError
 from pipeline.viewer._surface import Overview
-from pipeline.viewer._zarr_stacks import BlockCache, ZarrStack
+from pipeline.viewer._zarr_stacks import ZarrStack, read_context
 
 PLANE = {"z": ("y", "x"), "y": ("z", "x"), "x": ("z", "y")}
 KINDS = {"layers": "layers.tif", "colour": "colour.tif", "materials": "materials.tif"}
@@ -86,47 +87,49 @@ def test_zoomed_out_slices_are_the_coarser_levels_voxels(small_zarr_build, folde
         [c // f[col_axis] for c in cols],
     )
     assert np.array_equal(folder.stacks[kind].region(axis, index, rows, cols), expected)
-    # with no room for bands, the slice is read alone (zarr's strided selection)
-    alone = ZarrStack(
+    # with no chunk kept between reads, and columns not evenly spaced on the level (read
+    # as their span, picked from after)
+    uneven = range(0, shape[col_axis], f[col_axis] + 1)
+    uncached = ZarrStack(
         small_zarr_build / "stack.ome.zarr" / GROUPS[kind],
         folder.grid.shape_zyx,
         samples=3 if kind == "colour" else 0,
-        cache=BlockCache(budget_bytes=1000),
+        context=read_context(0),
     )
-    assert np.array_equal(alone.region(axis, index, rows, cols), expected)
-    assert alone.cache.used_bytes == 0
+    assert np.array_equal(uncached.region(axis, index, rows, cols), expected)
+    assert len({c // f[col_axis] for c in uneven[:3]}) == 3
+    assert np.array_equal(
+        uncached.region(axis, index, rows, uneven),
+        _plane(
+            level1,
+            axis,
+            index // f[axis],
+            [r // f[row_axis] for r in rows],
+            [c // f[col_axis] for c in uneven],
+        ),
+    )
 
 
-def test_bands_are_kept_within_the_budget(small_zarr_build, truth):
-    cache = BlockCache(budget_bytes=40_000)
+def test_every_slice_is_read_whole_through_a_cache_smaller_than_a_chunk(small_zarr_build, truth):
     shape = truth["layers"].shape
     stack = ZarrStack(small_zarr_build / "stack.ome.zarr/labels/layers", shape, samples=0,
-                      cache=cache)  # fmt: skip
-    for index in range(0, shape[1], 7):
+                      context=read_context(1000))  # fmt: skip
+    for index in [*range(0, shape[1], 7), 0]:
         got = stack.region("y", index, range(shape[0]), range(shape[2]))
         assert np.array_equal(got, truth["layers"][:, index])
-        assert cache.used_bytes <= max(cache.budget_bytes, got.size * 64)
-    again = stack.region("y", 0, range(shape[0]), range(shape[2]))
-    assert np.array_equal(again, truth["layers"][:, 0])
 
 
-def test_a_large_band_is_thinned_to_the_planes_around_the_slice(small_zarr_build, truth):
-    shape = truth["layers"].shape
-    assert shape[1] > 16
-    plane = shape[0] * shape[2]  # one y plane of the layers, bytes
-    cache = BlockCache(budget_bytes=32 * 8 * plane)  # 8 planes fit a band, whole chunks not
-    stack = ZarrStack(small_zarr_build / "stack.ome.zarr/labels/layers", shape, samples=0,
-                      cache=cache)  # fmt: skip
-    rows, cols = range(shape[0]), range(shape[2])
-    for index in range(1, 8):  # one band, planes 0-7
-        assert np.array_equal(stack.region("y", index, rows, cols), truth["layers"][:, index])
-        assert cache.used_bytes == 8 * plane
-    assert np.array_equal(stack.region("y", 9, rows, cols), truth["layers"][:, 9])
-    assert cache.used_bytes == 16 * plane  # and planes 8-15
-    half = BlockCache(budget_bytes=32 * 4 * plane)  # room for 4 planes only
-    stack = ZarrStack(stack.path, shape, samples=0, cache=half)
-    assert np.array_equal(stack.region("y", 6, rows, cols), truth["layers"][:, 6])
-    assert half.used_bytes == 4 * plane
+def test_a_damaged_chunk_is_one_stack_error_naming_the_image(small_zarr_build, tmp_path, truth):
+    copy = tmp_path / "store"
+    shutil.copytree(small_zarr_build / "stack.ome.zarr/labels/layers", copy)
+    shards = sorted(p for p in (copy / "0/c").rglob("*") if p.is_file())
+    for shard in shards:
+        data = bytearray(shard.read_bytes())
+        data[: len(data) // 2] = bytes(len(data) // 2)  # the chunks' zstd frames zeroed
+        shard.write_bytes(bytes(data))
+    stack = ZarrStack(copy, truth["layers"].shape, samples=0)
+    with pytest.raises(StackError, match=f"{copy}: level 0 cannot be read"):
+        stack.pages(0, truth["layers"].shape[0])
 
 
 def test_a_build_with_only_the_store_opens_and_reads_out_voxels(small_zarr_build, tmp_path, truth):
