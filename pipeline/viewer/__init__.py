@@ -6,7 +6,6 @@ See :mod:`pipeline.viewer._server`.
 from __future__ import annotations
 
 from pipeline.viewer._folder import BuildFolder
-from pipeline.viewer._inflate import InflateError, decode, pick_bytes
 from pipeline.viewer._sections import (
     MIDDLE,
     VIVID_SPAN,
@@ -15,7 +14,7 @@ from pipeline.viewer._sections import (
 )
 from pipeline.viewer._server import STATIC, ViewerServer
 from pipeline.viewer._slices import probe
-from pipeline.viewer._stacks import Axis, StackError, SymbolCache, TiffStack
+from pipeline.viewer._stacks import Axis, StackError, StripCache, TiffStack
 from pipeline.viewer._surface import MAX_FACES, Overview, SurfaceMesh
 
 __all__ = [
@@ -25,16 +24,13 @@ __all__ = [
     "VIVID_SPAN",
     "Axis",
     "BuildFolder",
-    "InflateError",
     "Overview",
     "SectionCounts",
     "StackError",
+    "StripCache",
     "SurfaceMesh",
-    "SymbolCache",
     "TiffStack",
     "ViewerServer",
     "choose_section",
-    "decode",
-    "pick_bytes",
     "probe",
 ]

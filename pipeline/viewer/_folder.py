@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from pipeline.errors import InputError
 from pipeline.output import check_files, read_manifest
 from pipeline.viewer._depth import Surface
-from pipeline.viewer._stacks import StackError, SymbolCache, TiffStack
+from pipeline.viewer._stacks import StackError, StripCache, TiffStack
 from pipeline.viewer._zarr_stacks import ZarrStack, read_context
 from voxel.grid import GridSpec
 
@@ -245,7 +245,7 @@ class BuildFolder:
 def _tiff_stacks(folder: Path, manifest: dict[str, Any], grid: GridSpec) -> dict[str, TiffStack]:
     """Open the build's TIFF stacks (one decoded-page budget for them all)."""
     stacks: dict[str, TiffStack] = {}
-    cache = SymbolCache()
+    cache = StripCache()
     try:
         for key, (name, samples) in STACKS.items():
             if name not in manifest["files"]:

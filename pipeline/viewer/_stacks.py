@@ -5,11 +5,12 @@ pages of ``(Y, X[, S])`` uint8, each page one strip or a few (what
 :mod:`voxel.io._tiff_writer` writes). The page and strip offsets are read once (tifffile);
 the file stays open and every read is an ``os.pread`` of the strips a region needs, so
 any number of server threads read at once. A z slice inflates its strips with zlib; a
-y or x slice takes one row or column of every page it covers, read out of the page's
-deflate symbols (:mod:`pipeline.viewer._inflate`) without inflating it. Decoded pages
-are kept in a :class:`SymbolCache` shared by the stacks of a build (about as large as
-the compressed pages), so the next y or x slice through the same pages only reads
-them. Regions are ``range`` objects of indices with a step: a view zoomed out to a
+y or x slice takes one row or column of every page it covers, inflating each of those
+pages whole (a strip of deflate can only be read from its start). Inflated strips are
+kept in a :class:`StripCache` shared by the stacks of a build, so the next y or x slice
+through the same pages only reads them; a build large enough for that to be slow has
+its OME-Zarr store (:mod:`pipeline.viewer._zarr_stacks`), which answers any axis from
+chunks. Regions are ``range`` objects of indices with a step: a view zoomed out to a
 whole 5 G-voxel model asks for every fourth page, not all of them.
 """
 
@@ -29,8 +30,6 @@ import numpy as np
 import tifffile
 from numpy.typing import NDArray
 
-from pipeline.viewer._inflate import InflateError, Symbols, decode, pick
-
 Axis = Literal["z", "y", "x"]
 
 #: TIFF compression codes read: deflate (the TIFF 6 code and Adobe's).
@@ -38,44 +37,43 @@ DEFLATE = (8, 32946)
 #: What tifffile raises on a file that is not a whole TIFF (struct.error: an IFD cut short).
 _UNREADABLE = (OSError, tifffile.TiffFileError, ValueError, IndexError, KeyError, struct.error)
 
-#: Streams below which a slice is read in one thread (above: two, the decoder is nogil).
+#: Strips below which a slice is read in one thread (above: two; zlib releases the GIL).
 _SPLIT_STREAMS = 64
 
-#: Memory for decoded pages kept between requests, bytes (a 100 mm J750 part's layers
-#: and colour pages take about 0.4 and 0.6 GB).
+#: Memory for inflated strips kept between requests, bytes.
 CACHE_BYTES = 1 << 30
 
 
-class SymbolCache:
-    """Decoded strips, least recently used first out, within a memory budget.
+class StripCache:
+    """Inflated strips, least recently used first out, within a memory budget.
 
     Parameters
     ----------
     budget_bytes : int
-        Memory the kept :class:`~pipeline.viewer._inflate.Symbols` may hold.
+        Memory the kept strips (uint8 arrays) may hold.
     """
 
     def __init__(self, budget_bytes: int = CACHE_BYTES) -> None:
         self.budget_bytes = budget_bytes
         self.used_bytes = 0
-        self._items: OrderedDict[tuple[int, int, int], Symbols] = OrderedDict()
+        self._items: OrderedDict[tuple[int, int, int], NDArray[np.uint8]] = OrderedDict()
         self._lock = threading.Lock()
 
-    def get(self, key: tuple[int, int, int]) -> Symbols | None:
+    def get(self, key: tuple[int, int, int]) -> NDArray[np.uint8] | None:
         """Return the strip at ``(stack id, page, strip)``, or None."""
         with self._lock:
-            symbols = self._items.get(key)
-            if symbols is not None:
+            strip = self._items.get(key)
+            if strip is not None:
                 self._items.move_to_end(key)
-            return symbols
+            return strip
 
-    def put(self, key: tuple[int, int, int], symbols: Symbols) -> None:
-        """Keep a decoded strip, dropping the least recently used beyond the budget."""
+    def put(self, key: tuple[int, int, int], strip: NDArray[np.uint8]) -> None:
+        """Keep an inflated strip, dropping the least recently used beyond the budget."""
         with self._lock:
             if key in self._items:
                 return
-            self._items[key] = symbols
-            self.used_bytes += symbols.nbytes
+            self._items[key] = strip
+            self.used_bytes += strip.nbytes
             while self.used_bytes > self.budget_bytes and self._items:
                 _, dropped = self._items.popitem(last=False)
                 self.used_bytes -= dropped.nbytes
@@ -117,8 +115,8 @@ class TiffStack:
         The build's grid ``(Z, Y, X)``; the file must hold exactly this.
     samples : int
         0 for a grey stack, 3 or 4 for RGB(A).
-    cache : SymbolCache, optional
-        Where decoded pages are kept (shared by a build's stacks); default: a new one.
+    cache : StripCache, optional
+        Where inflated strips are kept (shared by a build's stacks); default: a new one.
 
     Raises
     ------
@@ -133,10 +131,10 @@ class TiffStack:
         shape_zyx: Sequence[int],
         *,
         samples: int,
-        cache: SymbolCache | None = None,
+        cache: StripCache | None = None,
     ) -> None:
         self.path = Path(path)
-        self.cache = cache if cache is not None else SymbolCache()
+        self.cache = cache if cache is not None else StripCache()
         self.shape_zyx = (int(shape_zyx[0]), int(shape_zyx[1]), int(shape_zyx[2]))
         self.samples = samples
         self._pool: ThreadPoolExecutor | None = None
@@ -260,7 +258,7 @@ class TiffStack:
         jobs = [(int(z), strip, pos) for z in pages for strip, pos in positions]
         if len(jobs) < 2 * _SPLIT_STREAMS:
             parts = self._read(jobs)
-        else:  # two halves at once (the decoder releases the GIL)
+        else:  # two halves at once (zlib releases the GIL)
             half = len(jobs) // 2
             second = self._executor().submit(self._read, jobs[half:])
             parts = self._read(jobs[:half]) + second.result()
@@ -271,23 +269,15 @@ class TiffStack:
         out = []
         for z, strip, positions in jobs:
             key = (id(self), z, strip)
-            symbols = self.cache.get(key)
-            try:
-                if symbols is None:
-                    count, offset = int(self.counts[z, strip]), int(self.offsets[z, strip])
-                    raw = os.pread(self._fd, count, offset)
-                    expected = self._strip_rows(strip) * self.shape_zyx[2] * self.pixel_bytes
-                    symbols = decode(raw, max_inflated=expected)
-                    if symbols.size != expected:
-                        raise InflateError(f"{symbols.size} bytes, not {expected}")
-                    self.cache.put(key, symbols)
-                out.append(pick(symbols, positions))
-            except InflateError as error:
-                raise StackError(f"{self.path}: page {z} cannot be read ({error})") from None
+            data = self.cache.get(key)
+            if data is None:
+                data = np.frombuffer(self._inflate(z, strip), dtype=np.uint8)
+                self.cache.put(key, data)
+            out.append(data[positions])
         return out
 
     def warm(self, pages: range, stop: threading.Event) -> None:
-        """Decode every strip of ``pages`` into the cache (until ``stop`` is set).
+        """Inflate every strip of ``pages`` into the cache (until ``stop`` is set).
 
         Run in a background thread, so that y and x slices through these pages are read
         from the cache.

@@ -130,18 +130,18 @@ def test_a_truncated_stack_is_refused(tmp_path) -> None:
 def test_the_cache_keeps_decoded_pages_within_its_budget(tmp_path) -> None:
     import threading
 
-    from pipeline.viewer import SymbolCache
+    from pipeline.viewer import StripCache
 
     volume = _volume(3)
     path = tmp_path / "c.tif"
     _write_shellvox(path, volume, 3, None)
-    small = SymbolCache(budget_bytes=20_000)
+    small = StripCache(budget_bytes=20_000)
     with TiffStack(path, SHAPE, samples=3, cache=small) as stack:
         for y in (3, 18, 30):  # every page decoded, the oldest dropped
             got = stack.region("y", y, range(23), range(41))
             np.testing.assert_array_equal(got, volume[:, y])
             assert 0 < small.used_bytes <= small.budget_bytes
-    roomy = SymbolCache()
+    roomy = StripCache()
     with TiffStack(path, SHAPE, samples=3, cache=roomy) as stack:
         stack.warm(range(0, 23, 2), threading.Event())  # pages 0, 2, .. decoded ahead
         assert {key[1] for key in roomy._items} == set(range(0, 23, 2))
