@@ -20,6 +20,7 @@ neighbours, the same region panned) are read from memory.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -94,7 +95,7 @@ class ZarrStack:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def warm(self, pages: range, stop: Any) -> None:
+    def warm(self, pages: range, stop: threading.Event) -> None:
         """Nothing to decode ahead: a zoomed-out slice reads a coarse level."""
 
     def region(self, axis: Axis, index: int, rows: range, cols: range) -> NDArray[np.uint8]:
