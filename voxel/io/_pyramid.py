@@ -29,7 +29,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._srgb import DECODE_LUT_F32, linear_to_srgb
+from voxel.colour._srgb import DECODE_LUT_F32
 
 Factors = tuple[int, int, int]
 
@@ -116,18 +116,11 @@ def downsample_colour(
         The blocks' total weight.
     """
     shape = _shape(weight.shape, factors)
-    linear = np.zeros((*shape, colour.shape[-1]), dtype=np.float32)
+    out = np.zeros((*shape, colour.shape[-1]), dtype=np.uint8)
     total = np.zeros(shape, dtype=np.float32)
     coloured_rows = np.asarray(weight).reshape(-1, weight.shape[-1]).any(axis=1)
     coloured_rows = coloured_rows.reshape(weight.shape[:2])  # (Z, Y): rows with colour
-    _mean_kernel(colour, weight, coloured_rows, DECODE_LUT_F32, *factors, linear, total)
-    out = np.zeros(linear.shape, dtype=np.uint8)
-    where = total > 0  # the colour voxels only
-    values = linear[where]
-    encoded = np.empty(values.shape, dtype=np.float64)
-    encoded[:, :3] = linear_to_srgb(values[:, :3])
-    encoded[:, 3:] = np.clip(values[:, 3:], 0.0, 1.0)
-    out[where] = np.rint(encoded * 255.0)
+    _mean_kernel(colour, weight, coloured_rows, DECODE_LUT_F32, *factors, out, total)
     return out, total
 
 
@@ -171,32 +164,30 @@ def _mode_kernel(
 ) -> None:  # pragma: no cover - compiled
     n_z, n_y, n_x = labels.shape
     n_ox = out.shape[2]
-    first = np.empty(n_x, dtype=np.uint8)  # the block row's first input row
-    same = np.empty(n_x, dtype=np.bool_)  # whether every row of the block row agrees
-    uniform = np.empty(n_ox, dtype=np.bool_)
+    differs = np.empty(n_x, dtype=np.uint8)  # nonzero where a row of the block row differs
     values = np.empty(fz * fy * fx, dtype=np.uint8)
     for oz in range(out.shape[0]):
         z0, z1 = oz * fz, min(n_z, oz * fz + fz)
         for oy in range(out.shape[1]):
             y0, y1 = oy * fy, min(n_y, oy * fy + fy)
-            first[:] = labels[z0, y0]
-            same[:] = True
+            first = labels[z0, y0]  # the block row's first input row
+            differs[:] = 0
             for z in range(z0, z1):  # whole rows at a time (vectorised)
                 for y in range(y0, y1):
                     row = labels[z, y]
                     for x in range(n_x):
-                        same[x] &= row[x] == first[x]
+                        differs[x] |= row[x] ^ first[x]
             line = out[oz, oy]
-            for ox in range(n_ox):
-                line[ox] = first[ox * fx]
-                uniform[ox] = True
-            for k in range(fx):
-                for ox in range(n_ox):
-                    x = min(n_x - 1, ox * fx + k)
-                    uniform[ox] &= same[x] & (first[x] == line[ox])
             for ox in range(n_ox):  # most blocks hold one value: only the others counted
-                if not uniform[ox]:
-                    x0, x1 = ox * fx, min(n_x, ox * fx + fx)
+                x0, x1 = ox * fx, min(n_x, ox * fx + fx)
+                value = first[x0]
+                uniform = True
+                for x in range(x0, x1):
+                    if differs[x] != 0 or first[x] != value:
+                        uniform = False
+                if uniform:
+                    line[ox] = value
+                else:
                     line[ox] = _block_mode(labels, z0, z1, y0, y1, x0, x1, values)
 
 
@@ -209,32 +200,50 @@ def _mean_kernel(
     fz: int,
     fy: int,
     fx: int,
-    linear: NDArray[np.float32],
+    out: NDArray[np.uint8],
     total: NDArray[np.float32],
 ) -> None:  # pragma: no cover - compiled
+    """Weighted means of the blocks, a block row at a time, encoded as sRGB codes into `out`.
+
+    Each block's sums are float32, its voxels added in (z, y, x) order; the mean is
+    encoded in float64 as :func:`voxel.colour._srgb.linear_to_srgb` does (alpha clipped).
+    """
     n_c = colour.shape[3]
     n_z, n_y, n_x = weight.shape
-    for z in range(n_z):  # the voxels in order, each added to its block
-        oz = z // fz
-        for y in range(n_y):
-            if not coloured_rows[z, y]:  # most rows cross no colour layer
-                continue
-            oy = y // fy
-            row = weight[z, y]
-            for x in range(n_x):
-                w = np.float32(row[x])
-                if w == 0:
-                    continue
-                ox = x // fx
-                total[oz, oy, ox] += w
-                for c in range(min(n_c, 3)):
-                    linear[oz, oy, ox, c] += w * lut[colour[z, y, x, c]]
-                if n_c == 4:
-                    linear[oz, oy, ox, 3] += w * np.float32(colour[z, y, x, 3] / 255.0)
+    n_ox = total.shape[2]
+    sums = np.zeros((n_ox, n_c), dtype=np.float32)
     for oz in range(total.shape[0]):
+        z0, z1 = oz * fz, min(n_z, oz * fz + fz)
         for oy in range(total.shape[1]):
-            for ox in range(total.shape[2]):
-                t = total[oz, oy, ox]
+            y0, y1 = oy * fy, min(n_y, oy * fy + fy)
+            if not coloured_rows[z0:z1, y0:y1].any():  # most block rows hold no colour
+                continue
+            sums[:] = 0
+            line = total[oz, oy]
+            for z in range(z0, z1):
+                for y in range(y0, y1):
+                    if not coloured_rows[z, y]:
+                        continue
+                    row = weight[z, y]
+                    for x in range(n_x):
+                        w = np.float32(row[x])
+                        if w == 0:
+                            continue
+                        ox = x // fx
+                        line[ox] += w
+                        for c in range(min(n_c, 3)):
+                            sums[ox, c] += w * lut[colour[z, y, x, c]]
+                        if n_c == 4:
+                            sums[ox, 3] += w * np.float32(colour[z, y, x, 3] / 255.0)
+            codes = out[oz, oy]
+            for ox in range(n_ox):
+                t = line[ox]
                 if t > 0:
                     for c in range(n_c):
-                        linear[oz, oy, ox, c] /= t
+                        mean = min(max(float(sums[ox, c] / t), 0.0), 1.0)
+                        if c < 3:
+                            if mean <= 0.0031308:
+                                mean = mean * 12.92
+                            else:
+                                mean = 1.055 * mean ** (1.0 / 2.4) - 0.055
+                        codes[ox, c] = np.uint8(np.rint(mean * 255.0))

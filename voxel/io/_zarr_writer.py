@@ -183,13 +183,27 @@ class _Level:
 def _to_planar(
     colour: NDArray[np.uint8], out: NDArray[np.uint8]
 ) -> None:  # pragma: no cover - compiled
-    """Copy ``(n, Y, X, C)`` colour into ``(C, n, Y, X)`` `out` (the store's order)."""
+    """Copy ``(n, Y, X, C)`` colour into ``(C, n, Y, X)`` `out` (the store's order).
+
+    Three channels: each row read once, into its planes together.
+    """
     n_z, n_y, n_x, n_c = colour.shape
     for z in range(n_z):
         for y in range(n_y):
-            for c in range(n_c):
+            source = colour[z, y]
+            if n_c == 3:
+                red = out[0, z, y]
+                green = out[1, z, y]
+                blue = out[2, z, y]
                 for x in range(n_x):
-                    out[c, z, y, x] = colour[z, y, x, c]
+                    red[x] = source[x, 0]
+                    green[x] = source[x, 1]
+                    blue[x] = source[x, 2]
+            else:
+                for c in range(n_c):
+                    plane = out[c, z, y]
+                    for x in range(n_x):
+                        plane[x] = source[x, c]
 
 
 def _reduce(rows: _Rows, factors: Factors) -> _Rows:
