@@ -6,12 +6,12 @@ Usage (from the repository root; meshes from ../shared/meshes)::
         [--keep DIR] [--out benchmarks/results/bench_zarr_build.json]
 
 ``shellvox build`` of spot (largest extent ``--size-mm``, the J750 default grid) with the
-default formats (``tiff,vdb,gcvf``) and with the store in their place (``zarr,vdb,gcvf``),
-alternating in one run, each a child process under ``/usr/bin/time -v``: wall time, the
-manifest's seconds (``slabs`` among them), peak RSS, bytes and files on disk (the store's
-and the TIFFs' apart). ``--keep DIR`` keeps the last build with the store as
-``DIR`` (for ``bench_viewer.py``). The load average before and after each build is
-recorded: the machine may be shared. A benchmark, not a test.
+TIFFs (``tiff,vdb,gcvf``), with the store in their place (``zarr,vdb,gcvf``) and with both
+(``tiff,zarr,vdb,gcvf``, the default formats), alternating in one run, each a child
+process under ``/usr/bin/time -v``: wall time, the manifest's seconds (``slabs`` among
+them), peak RSS, bytes and files on disk (the store's and the TIFFs' apart). ``--keep
+DIR`` keeps the last build with both as ``DIR`` (for ``bench_viewer.py``). The load
+average before and after each build is recorded: the machine may be shared. A benchmark, not a test.
 """
 
 from __future__ import annotations
@@ -32,7 +32,9 @@ import trimesh
 
 ROOT = Path(__file__).resolve().parents[1]
 SPOT = ROOT.parent / "shared" / "meshes" / "spot" / "spot_triangulated.obj"
-FORMATS = ("zarr,vdb,gcvf", "tiff,vdb,gcvf")
+#: The store in place of the TIFFs, the TIFFs alone (the default before the store joined
+#: it) and both (the default since).
+FORMATS = ("zarr,vdb,gcvf", "tiff,vdb,gcvf", "tiff,zarr,vdb,gcvf")
 
 
 def _size(folder: Path, pattern: str) -> tuple[int, int]:
@@ -88,10 +90,10 @@ def main() -> None:
     with tempfile.TemporaryDirectory(dir=args.keep.parent if args.keep else None) as work:
         for round_ in range(args.rounds):
             for formats in FORMATS:
-                out = Path(work) / f"{round_}_{formats.split(',')[0]}"
+                out = Path(work) / f"{round_}_{formats.replace(',', '_')}"
                 runs.append(build(SPOT, scale, formats, out))
                 print(json.dumps(runs[-1]), flush=True)
-                if args.keep and formats.startswith("zarr"):
+                if args.keep and formats == FORMATS[-1]:
                     shutil.rmtree(args.keep, ignore_errors=True)
                     out.rename(args.keep)
                 else:

@@ -134,4 +134,7 @@ def test_corrupted_folder(folder, tmp_path, case):
 def test_intact_folder_verifies(folder, tmp_path):
     result = run(["inspect", str(folder)], tmp_path / "run", timeout=60)
     assert_succeeded(result, folder)
-    assert result.stdout.count("verified") == len(_manifest(folder)["files"])
+    files = _manifest(folder)["files"]
+    outside = [name for name in files if not name.startswith("stack.ome.zarr/")]
+    # one row a file, the store's files summed up in one row
+    assert result.stdout.count("verified") == len(outside) + (len(outside) < len(files))

@@ -32,6 +32,7 @@ def test_rebuild_with_other_options_replaces_the_old_build(tmp_path, shells):
     assert_succeeded(run(["inspect", str(out)], tmp_path / "inspect"), out)
     old_files = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
     assert {"volume.vdb", "materials.tif", "preview/section_xy.png"} <= old_files
+    assert "stack.ome.zarr/labels/materials/zarr.json" in old_files
     assert ("shells/shell_3.ply" in old_files) == shells
     (out / "notes.txt").write_text("mine")  # not shellvox's: stays
     # New: two layers, no VDB, no materials, no shell meshes.
@@ -40,7 +41,11 @@ def test_rebuild_with_other_options_replaces_the_old_build(tmp_path, shells):
     )
     assert_succeeded(new, out)
     manifest = verified_files(out, extra=("notes.txt",))  # every file listed, checksums
-    assert set(manifest["files"]) == {"layers.tif", "colour.tif"}
+    store = {name for name in manifest["files"] if name.startswith("stack.ome.zarr/")}
+    assert set(manifest["files"]) - store == {"layers.tif", "colour.tif"}
+    # the store of the new build: no materials image left of the old one's
+    assert "stack.ome.zarr/labels/layers/zarr.json" in store
+    assert not any(name.startswith("stack.ome.zarr/labels/materials") for name in store)
     assert manifest["config"]["thickness_mm"] == [0.4, 0.4]
     # No folder of the old build is left either (shells/, preview/).
     assert sorted(p.name for p in out.iterdir()) == [
@@ -48,6 +53,7 @@ def test_rebuild_with_other_options_replaces_the_old_build(tmp_path, shells):
         "layers.tif",
         "manifest.json",
         "notes.txt",
+        "stack.ome.zarr",
     ]
     # The new manifest describes the new files, byte for byte (not stale records).
     for name in ("layers.tif", "colour.tif"):

@@ -76,8 +76,8 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="F1,F2,...",
         help="files to write, among " + ",".join(FORMATS) + " (tiff: layers/colour/materials"
         ".tif, vdb: volume.vdb, gcvf: job.gcvf, png: slices/, zarr: stack.ome.zarr/, OME-Zarr "
-        "with colour, materials and layers and their pyramids); default auto: tiff, vdb and "
-        "the printer's job format when the grid is the printer's",
+        "with colour, materials and layers and their pyramids); default auto: tiff, zarr, vdb "
+        "and the printer's job format when the grid is the printer's",
     )
     materials = parser.add_argument_group("materials (separation and halftone)")
     materials.add_argument(
@@ -240,7 +240,7 @@ def _formats(
         math.isclose(a, b, rel_tol=1e-9) for a, b in zip(voxel, profile.voxel_mm, strict=True)
     )
     if args.format == "auto":
-        chosen = ["tiff", "vdb"]
+        chosen = ["tiff", "zarr", "vdb"]
         if on_printer_grid and not args.no_materials:
             chosen.append(profile.slice_format)
     else:
