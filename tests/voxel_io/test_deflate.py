@@ -10,6 +10,7 @@ import tifffile
 
 from voxel.grid import GridSpec
 from voxel.io import TiffStackWriter, pixel_bytes, zlib_compress
+from voxel.io._deflate import FIXED_BELOW, compress_segments
 
 
 @pytest.mark.parametrize("period", [1, 2, 3, 4])
@@ -25,6 +26,34 @@ def test_round_trip_through_zlib(period: int) -> None:
     assert zlib.decompress(zlib_compress(noise.tobytes(), period)) == noise.tobytes()
     with pytest.raises(ValueError, match="period"):
         zlib_compress(b"abc", 5)
+
+
+def _block_type(stream: bytes) -> int:
+    """BTYPE of a zlib stream's first deflate block (bits 1-2 after the 2-byte header)."""
+    return (stream[2] >> 1) & 0b11
+
+
+def test_segments_short_and_long_through_zlib() -> None:
+    """Each segment its own stream, inflated by zlib; fixed codes below the threshold."""
+    rng = np.random.default_rng(7)
+    one = np.frombuffer(np.float32(1.0).tobytes(), np.uint8)
+    sizes = [0, 4, 2048, 6144, FIXED_BELOW - 4, FIXED_BELOW, 3 * FIXED_BELOW]
+    parts = []
+    for k, size in enumerate(sizes):
+        runs = np.tile(one, size // 4) if k % 2 else np.repeat(rng.integers(0, 9, size), 7)
+        parts.append(np.asarray(runs[:size], dtype=np.uint8))
+    raw = np.concatenate(parts)
+    bounds = np.concatenate([[0], np.cumsum(sizes)])
+    packed, lengths = compress_segments(raw, bounds, period=4)
+    starts = np.concatenate([[0], np.cumsum(lengths)])
+    for part, size, a, b in zip(parts, sizes, starts[:-1], starts[1:], strict=True):
+        stream = packed[a:b].tobytes()
+        assert zlib.decompress(stream) == part.tobytes()
+        assert _block_type(stream) == (1 if size < FIXED_BELOW else 2)
+        assert stream == zlib_compress(part, 4)  # one stream or many: the same bytes
+    # a leaf of one value: a 3-bit header, not the dynamic block's 97 bytes
+    leaf = np.tile(one, 512)
+    assert len(zlib_compress(leaf, 4)) < len(zlib.compress(leaf.tobytes(), 9)) + 8
 
 
 def test_runs_compress_like_zlib() -> None:

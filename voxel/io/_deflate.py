@@ -8,12 +8,14 @@ their bytes. Voxel data is mostly long runs (void, the core, one value, repeated
 pixels), and zlib's general match finder spends most of its time on them. This encoder
 emits one deflate block (RFC 1951) in a zlib stream (RFC 1950): at each byte it takes
 the longest run-match at distance ``period`` (1, or the bytes per pixel) or 1, of 3 to
-258 bytes, else a literal (zlib's ``Z_RLE`` strategy). The block's Huffman codes are
-fixed in advance for such data and sent in its header ("dynamic" block type, RFC 1951
-section 3.2.7): the longest match (258 bytes) at distance 1 costs 2 bits, so runs
-compress about 1000:1 as with zlib's own codes, and a literal costs 9 or 10 bits. Any
-inflater (zlib, libpng, libtiff, Java's) reads it; the tests check round trips with
-Python's zlib.
+258 bytes, else a literal (zlib's ``Z_RLE`` strategy). A stream of :data:`FIXED_BELOW`
+bytes or more is one "dynamic" block (RFC 1951 section 3.2.7) whose Huffman codes are
+fixed in advance for such data and sent in its 97-byte header: the longest match (258
+bytes) at distance 1 costs 2 bits, so runs compress about 1000:1 as with zlib's own
+codes, and a literal costs 9 or 10 bits. A shorter stream (a VDB leaf: at most 6 KiB)
+is one block of deflate's fixed codes (section 3.2.6; a 3-bit header; 13 bits a longest
+match, 8 or 9 a literal): the dynamic header would be most of it. Any inflater (zlib,
+libpng, libtiff, Java's) reads both; the tests check round trips with Python's zlib.
 """
 
 from __future__ import annotations
@@ -125,6 +127,28 @@ def _tables() -> _Tables:
 
 _TABLES = _tables()
 
+#: Streams shorter than this (bytes) are one block of deflate's fixed codes: the dynamic
+#: block's header (776 bits) pays for itself after about 70 longest matches (11 bits
+#: each), some 18 KB of runs.
+FIXED_BELOW = 16384
+
+
+def _fixed_tables() -> _Tables:
+    """Return the fixed codes of RFC 1951 section 3.2.6 and their header (BFINAL, BTYPE 1)."""
+    literal_lengths = [8] * 144 + [9] * 112 + [7] * 24 + [8] * 8
+    return _Tables(
+        np.array(_canonical(literal_lengths), dtype=np.uint32),
+        np.array(literal_lengths, dtype=np.uint8),
+        _length_table(),
+        np.array(_canonical([5] * 30), dtype=np.uint32),
+        np.full(30, 5, dtype=np.uint8),
+        np.frombuffer((0b011).to_bytes(256, "little"), dtype=np.uint8).copy(),
+        3,
+    )
+
+
+_FIXED_TABLES = _fixed_tables()
+
 
 def zlib_compress(data: bytes | NDArray[np.uint8], period: int = 1) -> bytes:
     """Return ``data`` as a zlib stream (runs as matches at distance ``period`` or 1).
@@ -153,7 +177,8 @@ def zlib_compress(data: bytes | NDArray[np.uint8], period: int = 1) -> bytes:
     # worst case: header, 10 bits a byte (all literals), end of block, Adler-32
     header_bytes = _TABLES.header_bits // 8
     out = np.empty(2 + header_bytes + 1 + (10 * len(raw) + 7) // 8 + 2 + 4 + 8, np.uint8)
-    size = _encode(raw, period, _TABLES, out)
+    tables = _FIXED_TABLES if len(raw) < FIXED_BELOW else _TABLES
+    size = _encode(raw, period, tables, out)
     return out[:size].tobytes()
 
 
@@ -315,7 +340,7 @@ def compress_segments(
     out = np.empty(int(worst.sum()), dtype=np.uint8)
     lengths = np.zeros(len(sizes), dtype=np.int64)
     room = np.concatenate([[0], np.cumsum(worst)]).astype(np.int64)
-    used = _encode_segments(raw, bounds, room, period, _TABLES, out, lengths)
+    used = _encode_segments(raw, bounds, room, period, _TABLES, _FIXED_TABLES, out, lengths)
     return out[:used], lengths
 
 
@@ -326,6 +351,7 @@ def _encode_segments(
     room: NDArray[np.int64],
     period: int,
     tables: _Tables,
+    fixed: _Tables,
     out: NDArray[np.uint8],
     packed_lengths: NDArray[np.int64],
 ) -> int:
@@ -333,7 +359,8 @@ def _encode_segments(
     pos = 0
     for n in range(len(bounds) - 1):
         segment = raw[bounds[n] : bounds[n + 1]]
-        size = _encode(segment, period, tables, out[pos : pos + room[n + 1] - room[n]])
+        chosen = fixed if len(segment) < FIXED_BELOW else tables
+        size = _encode(segment, period, chosen, out[pos : pos + room[n + 1] - room[n]])
         packed_lengths[n] = size
         pos += size
     return pos

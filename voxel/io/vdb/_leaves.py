@@ -120,7 +120,8 @@ class GridSpool:
             stored raw.
         runs : bool
             Values are runs of equal numbers (density, layer): the compiled run encoder
-            packs them as well as zlib in one call; otherwise zlib-ng per leaf.
+            packs them in one call (about a quarter of zlib-ng's time per leaf, 2.6 times
+            its bytes); otherwise zlib-ng per leaf.
         """
         if len(origin) == 0:
             return
