@@ -229,14 +229,19 @@ class TiffStack:
         return np.ascontiguousarray(block[row_slice, col_slice])
 
     def _inflate(self, z: int, strip: int) -> bytes:
+        """Return a strip's bytes, inflating no more than one byte past what it must hold."""
         raw = os.pread(self._fd, int(self.counts[z, strip]), int(self.offsets[z, strip]))
         expected = self._strip_rows(strip) * self.shape_zyx[2] * self.pixel_bytes
+        inflater = zlib.decompressobj()
         try:
-            data = zlib.decompress(raw)
+            data = inflater.decompress(raw, expected + 1)
         except zlib.error as error:
             raise StackError(f"{self.path}: page {z} cannot be inflated ({error})") from None
-        if len(data) != expected:
-            raise StackError(f"{self.path}: page {z} holds {len(data)} bytes, not {expected}")
+        if len(data) != expected or not inflater.eof:
+            held = f"more than {expected}" if len(data) > expected else f"{len(data)}"
+            if len(data) == expected:
+                held = f"{expected} of a stream cut short"
+            raise StackError(f"{self.path}: page {z} holds {held} bytes, not {expected}")
         return data
 
     def _strip_rows(self, strip: int) -> int:

@@ -127,6 +127,36 @@ def test_a_truncated_stack_is_refused(tmp_path) -> None:
             TiffStack(path, SHAPE, samples=0)
 
 
+@pytest.mark.parametrize("damage", ["garbage", "too long", "too short"])
+def test_a_damaged_strip_is_one_stack_error_on_every_axis(tmp_path, damage) -> None:
+    import zlib
+
+    path = tmp_path / "d.tif"
+    _write_shellvox(path, _volume(0), 0, None)
+    with TiffStack(path, SHAPE, samples=0) as stack:
+        offset, count = int(stack.offsets[5, 0]), int(stack.counts[5, 0])
+        expected = stack._strip_rows(0) * SHAPE[2]
+    replacement = {
+        "garbage": bytes(range(7, 7 + count % 200)) * (count // 200 + 1),
+        "too long": zlib.compress(bytes(100 * expected)),  # would inflate 100 times over
+        "too short": zlib.compress(bytes(expected // 2)),
+    }[damage][:count]
+    assert len(replacement) <= count
+    data = bytearray(path.read_bytes())
+    data[offset : offset + len(replacement)] = replacement
+    path.write_bytes(bytes(data))
+    for axis, index, rows, cols in (
+        ("z", 5, range(SHAPE[1]), range(SHAPE[2])),
+        ("y", 0, range(SHAPE[0]), range(SHAPE[2])),
+        ("x", 3, range(SHAPE[0]), range(SHAPE[1])),
+    ):
+        with (
+            TiffStack(path, SHAPE, samples=0) as stack,
+            pytest.raises(StackError, match=f"{path}: page 5 "),
+        ):
+            stack.region(axis, index, rows, cols)
+
+
 def test_the_cache_keeps_decoded_pages_within_its_budget(tmp_path) -> None:
     import threading
 
