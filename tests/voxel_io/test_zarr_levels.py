@@ -16,9 +16,11 @@ import zarr
 from scipy import stats
 from zarr.core.buffer import cpu
 
+from voxel.colour._srgb import DECODE_LUT_F32, linear_to_srgb
 from voxel.grid import GridSpec
 from voxel.io import LabelValue, OmeZarrWriter, downsample_labels
 from voxel.io import _zarr_shards as zarr_shards
+from voxel.io._pyramid import downsample_colour
 from voxel.io._zarr_shards import VoidTestedBuffer
 
 #: A J750-like grid (voxel x, y, z mm): levels 1 and 2 span several 64-row shards.
@@ -199,7 +201,12 @@ def test_the_void_test_answers_as_zarrs_own(dtype):
 
 def test_the_store_is_the_same_bytes_with_zarrs_own_void_test(tmp_path, monkeypatch):
     """Writing with zarr's own test of void chunks stores the same files, byte for byte."""
+    calls = []
+    own = VoidTestedBuffer.all_equal
+    monkeypatch.setattr(VoidTestedBuffer, "all_equal", lambda *a: calls.append(1) or own(*a))
     fast = _write(tmp_path / "fast.ome.zarr", 64)
+    assert calls  # the writes went through the one-pass test
+    monkeypatch.setattr(VoidTestedBuffer, "all_equal", own)
     monkeypatch.setattr(zarr_shards, "_WRITE_CONFIG", {})
     plain = _write(tmp_path / "plain.ome.zarr", 64)
     files = sorted(p.relative_to(fast) for p in fast.rglob("*") if p.is_file())
@@ -207,3 +214,32 @@ def test_the_store_is_the_same_bytes_with_zarrs_own_void_test(tmp_path, monkeypa
     assert any("/c/" in f"/{f}" for f in map(str, files))
     for name in files:
         assert (fast / name).read_bytes() == (plain / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+def test_colour_means_are_the_float32_sums_encoded_as_linear_to_srgb(channels):
+    """Every block's code, exactly: float32 sums in (z, y, x) order, then the encoding."""
+    rng = np.random.default_rng(channels)
+    colour = rng.integers(0, 256, (9, 7, 11, channels), dtype=np.uint8)
+    weight = (rng.random((9, 7, 11)) * (rng.random((9, 7, 11)) < 0.6) * 5).astype(np.float32)
+    factors = (2, 3, 4)
+    codes, total = downsample_colour(colour, weight, factors)
+    lut = DECODE_LUT_F32
+    for oz, oy, ox in np.ndindex(total.shape):
+        sums = np.zeros(channels, np.float32)
+        t = np.float32(0)
+        for z, y, x in np.ndindex(factors):
+            z, y, x = oz * 2 + z, oy * 3 + y, ox * 4 + x
+            if z >= 9 or y >= 7 or x >= 11 or weight[z, y, x] == 0:
+                continue
+            w = weight[z, y, x]
+            t += w
+            sums[:3] += w * lut[colour[z, y, x, :3]]
+            sums[3:] += w * np.float32(colour[z, y, x, 3:] / 255.0)
+        assert total[oz, oy, ox] == t
+        if t == 0:
+            assert not codes[oz, oy, ox].any()
+            continue
+        means = (sums / t).astype(np.float64)
+        expected = np.concatenate([linear_to_srgb(means[:3]), np.clip(means[3:], 0.0, 1.0)])
+        assert np.array_equal(codes[oz, oy, ox], np.rint(expected * 255.0).astype(np.uint8))

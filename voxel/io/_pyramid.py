@@ -13,7 +13,8 @@ level ``k + 1``:
   (as :func:`scipy.stats.mode`);
 - colour: the mean, in linear light, of the block's colour voxels weighted by how many
   colour-layer voxels of level 0 each stands for (:data:`voxel.colour._srgb.DECODE_LUT_F32`
-  decodes, :func:`voxel.colour._srgb.linear_to_srgb` encodes); alpha is averaged as it is;
+  decodes, the compiled kernel encodes as :func:`voxel.colour._srgb.linear_to_srgb` does,
+  tested equal); alpha is averaged as it is;
   0 where the block has no colour voxel.
 
 Both kernels are compiled and release the GIL (the writer thread runs them beside the slabs).

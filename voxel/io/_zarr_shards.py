@@ -10,6 +10,7 @@ the bytes are zarr's either way, so the store is the same wherever a slab is enc
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -59,6 +60,8 @@ class VoidTestedBuffer(cpu.NDBuffer):
 zarr.registry.register_ndbuffer(VoidTestedBuffer)
 #: zarr's configuration while the store's chunks are written (:class:`VoidTestedBuffer`).
 _WRITE_CONFIG = {"ndbuffer": f"{VoidTestedBuffer.__module__}.{VoidTestedBuffer.__qualname__}"}
+#: zarr's configuration is one for the process: writes that set it take turns.
+_WRITE_LOCK = threading.Lock()
 
 
 def level_array(group: Any, name: str, shape_zyx: Sequence[int], samples: int) -> Any:
@@ -105,7 +108,7 @@ def write_solid(array: Any, z0: int, rows: NDArray[np.uint8]) -> None:
     x0, x1 = xs[0] // cx * cx, -(-(xs[-1] + 1) // cx) * cx
     lead = (slice(None),) * (rows.ndim - 3)
     box = (slice(y0, y1), slice(x0, x1))
-    with zarr.config.set(_WRITE_CONFIG):
+    with _WRITE_LOCK, zarr.config.set(_WRITE_CONFIG):
         array[(*lead, slice(z0, z0 + rows.shape[-3]), *box)] = rows[(*lead, slice(None), *box)]
 
 
