@@ -51,7 +51,7 @@ def test_segments_short_and_long_through_zlib() -> None:
         assert zlib.decompress(stream) == part.tobytes()
         assert _block_type(stream) == (1 if size < FIXED_BELOW else 2)
         assert stream == zlib_compress(part, 4)  # one stream or many: the same bytes
-    # a leaf of one value: a 3-bit header, not the dynamic block's 97 bytes
+    # a leaf of one value: a 3-bit header, not the dynamic block's 93 bytes
     leaf = np.tile(one, 512)
     assert len(zlib_compress(leaf, 4)) < len(zlib.compress(leaf.tobytes(), 9)) + 8
 

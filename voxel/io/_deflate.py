@@ -10,7 +10,7 @@ emits one deflate block (RFC 1951) in a zlib stream (RFC 1950): at each byte it 
 the longest run-match at distance ``period`` (1, or the bytes per pixel) or 1, of 3 to
 258 bytes, else a literal (zlib's ``Z_RLE`` strategy). A stream of :data:`FIXED_BELOW`
 bytes or more is one "dynamic" block (RFC 1951 section 3.2.7) whose Huffman codes are
-fixed in advance for such data and sent in its 97-byte header: the longest match (258
+fixed in advance for such data and sent in its 93-byte header: the longest match (258
 bytes) at distance 1 costs 2 bits, so runs compress about 1000:1 as with zlib's own
 codes, and a literal costs 9 or 10 bits. A shorter stream (a VDB leaf: at most 6 KiB)
 is one block of deflate's fixed codes (section 3.2.6; a 3-bit header; 13 bits a longest
@@ -128,8 +128,8 @@ def _tables() -> _Tables:
 _TABLES = _tables()
 
 #: Streams shorter than this (bytes) are one block of deflate's fixed codes: the dynamic
-#: block's header (776 bits) pays for itself after about 70 longest matches (11 bits
-#: each), some 18 KB of runs.
+#: block's header (737 bits) pays for itself after about 67 longest matches (11 bits
+#: each), some 17 KB of runs.
 FIXED_BELOW = 16384
 
 
