@@ -97,7 +97,8 @@ def test_zoomed_out_slices_are_the_coarser_levels_voxels(small_zarr_build, folde
         context=read_context(0),
     )
     assert np.array_equal(uncached.region(axis, index, rows, cols), expected)
-    assert len({c // f[col_axis] for c in uneven[:3]}) == 3
+    gaps = np.diff([c // f[col_axis] for c in uneven])
+    assert len(set(gaps)) > 1 or f[col_axis] == 1  # uneven on the level where it can be
     assert np.array_equal(
         uncached.region(axis, index, rows, uneven),
         _plane(
