@@ -6,6 +6,7 @@ whatever the slabs. Where slabs hold whole shards (:func:`encoded_by_slabs`),
 metadata (:func:`level_array`, as :class:`voxel.io._zarr_writer.OmeZarrWriter` creates
 them) and returns the shard files zarr made, which the writer then stores as they are:
 the bytes are zarr's either way, so the store is the same wherever a slab is encoded.
+:func:`to_planar` turns channels-last colour into the store's planar order.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numba
 import numpy as np
 import zarr
 import zarr.registry
@@ -110,6 +112,33 @@ def write_solid(array: Any, z0: int, rows: NDArray[np.uint8]) -> None:
     box = (slice(y0, y1), slice(x0, x1))
     with _WRITE_LOCK, zarr.config.set(_WRITE_CONFIG):
         array[(*lead, slice(z0, z0 + rows.shape[-3]), *box)] = rows[(*lead, slice(None), *box)]
+
+
+@numba.njit(cache=True, nogil=True)
+def to_planar(
+    colour: NDArray[np.uint8], out: NDArray[np.uint8]
+) -> None:  # pragma: no cover - compiled
+    """Copy ``(n, Y, X, C)`` colour into ``(C, n, Y, X)`` `out` (the store's order).
+
+    Three channels: each row read once, into its planes together.
+    """
+    n_z, n_y, n_x, n_c = colour.shape
+    for z in range(n_z):
+        for y in range(n_y):
+            source = colour[z, y]
+            if n_c == 3:
+                red = out[0, z, y]
+                green = out[1, z, y]
+                blue = out[2, z, y]
+                for x in range(n_x):
+                    red[x] = source[x, 0]
+                    green[x] = source[x, 1]
+                    blue[x] = source[x, 2]
+            else:
+                for c in range(n_c):
+                    plane = out[c, z, y]
+                    for x in range(n_x):
+                        plane[x] = source[x, c]
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numba
 import numpy as np
 import zarr
 from numpy.typing import NDArray
@@ -45,7 +44,7 @@ from voxel.io._ome_metadata import (
 from voxel.io._png_slices import _replace_folder
 from voxel.io._pyramid import Factors, downsample_colour, downsample_labels, level_factors
 from voxel.io._slab_thread import ClosingWriter, SlabThread
-from voxel.io._zarr_shards import SHARD_ROWS, level_array, write_solid
+from voxel.io._zarr_shards import SHARD_ROWS, level_array, to_planar, write_solid
 
 
 @dataclass
@@ -160,7 +159,7 @@ class _Level:
         while at < len(rows):
             n = min(self._colour.shape[1] - self._filled, len(rows) - at)
             into = slice(self._filled, self._filled + n)
-            _to_planar(rows.colour[at : at + n], self._colour[:, into])
+            to_planar(rows.colour[at : at + n], self._colour[:, into])
             for name, buffer in self._labels.items():
                 buffer[into] = rows.labels[name][at : at + n]
             self._filled += n
@@ -177,33 +176,6 @@ class _Level:
                 write_solid(self.arrays[name], self._shard_z, buffer[:n])
         self._shard_z += n
         self._filled = 0
-
-
-@numba.njit(cache=True, nogil=True)
-def _to_planar(
-    colour: NDArray[np.uint8], out: NDArray[np.uint8]
-) -> None:  # pragma: no cover - compiled
-    """Copy ``(n, Y, X, C)`` colour into ``(C, n, Y, X)`` `out` (the store's order).
-
-    Three channels: each row read once, into its planes together.
-    """
-    n_z, n_y, n_x, n_c = colour.shape
-    for z in range(n_z):
-        for y in range(n_y):
-            source = colour[z, y]
-            if n_c == 3:
-                red = out[0, z, y]
-                green = out[1, z, y]
-                blue = out[2, z, y]
-                for x in range(n_x):
-                    red[x] = source[x, 0]
-                    green[x] = source[x, 1]
-                    blue[x] = source[x, 2]
-            else:
-                for c in range(n_c):
-                    plane = out[c, z, y]
-                    for x in range(n_x):
-                        plane[x] = source[x, c]
 
 
 def _reduce(rows: _Rows, factors: Factors) -> _Rows:
