@@ -15,7 +15,11 @@ mode of the labels, the colour layers' mean colour there).
 
 Decoded chunks are kept in TensorStore's cache, one budget for the images of a build
 (:func:`read_context`), so the next slices through the same chunks (a slice's
-neighbours, the same region panned) are read from memory.
+neighbours, the same region panned) are read from memory. Whole pages (:meth:`ZarrStack.pages`,
+the server's opening pass over the build) are read apart, through a context of one
+thread and no cache (:func:`bulk_context`): they neither queue ahead of the slices asked
+for meanwhile nor push their chunks out of the cache (read through the one context, a
+colour section along x took up to 0.45 s while the pass ran, against 0.06 s after it).
 """
 
 from __future__ import annotations
@@ -42,6 +46,17 @@ _POSITION = {"z": 0, "y": 1, "x": 2}
 def read_context(budget_bytes: int = CACHE_BYTES) -> Any:
     """Return a TensorStore context whose decoded-chunk cache holds `budget_bytes`."""
     return ts.Context({"cache_pool": {"total_bytes_limit": int(budget_bytes)}})
+
+
+def bulk_context() -> Any:
+    """Return a TensorStore context for whole pages: one thread, no cache."""
+    return ts.Context(
+        {
+            "cache_pool": {"total_bytes_limit": 0},
+            "data_copy_concurrency": {"limit": 1},
+            "file_io_concurrency": {"limit": 1},
+        }
+    )
 
 
 class ZarrStack:
@@ -77,8 +92,8 @@ class ZarrStack:
         self.shape_zyx = (int(shape_zyx[0]), int(shape_zyx[1]), int(shape_zyx[2]))
         self.samples = samples
         self.context = context if context is not None else read_context()
-        self.levels, self.factors, self._chunks = _open_levels(
-            self.path, self.shape_zyx, samples, self.context
+        self.levels, self.factors, self._chunks, self._pages = _open_levels(
+            self.path, self.shape_zyx, samples, self.context, bulk_context()
         )
 
     @property
@@ -139,7 +154,7 @@ class ZarrStack:
         """
         y1 = self.shape_zyx[1] if y1 is None else y1
         lead = (slice(None),) if self.samples else ()
-        values = self._read(0, (*lead, slice(z0, z1), slice(y0, y1), slice(None)))
+        values = self._read(0, (*lead, slice(z0, z1), slice(y0, y1), slice(None)), self._pages)
         return _interleaved(values, self.samples)
 
     def voxel(self, z: int, y: int, x: int) -> NDArray[np.uint8]:
@@ -147,10 +162,14 @@ class ZarrStack:
         lead = (slice(None),) if self.samples else ()
         return self._read(0, (*lead, z, y, x)).astype(np.uint8).reshape(-1)
 
-    def _read(self, level: int, selection: tuple[Any, ...]) -> NDArray[np.uint8]:
-        """Return ``selection`` of `level` (NumPy indexing), decoded."""
+    def _read(self, level: int, selection: tuple[Any, ...], array: Any = None) -> NDArray[np.uint8]:
+        """Return ``selection`` of `level` (NumPy indexing), decoded.
+
+        From `array` if given: that level opened in another context.
+        """
+        source = self.levels[level] if array is None else array
         try:
-            return np.asarray(self.levels[level][selection].read().result())
+            return np.asarray(source[selection].read().result())
         except ValueError as error:
             raise StackError(f"{self.path}: level {level} cannot be read ({error})") from None
 
@@ -201,9 +220,11 @@ def _interleaved(values: NDArray[np.uint8], samples: int) -> NDArray[np.uint8]:
 
 
 def _open_levels(
-    path: Path, shape_zyx: tuple[int, int, int], samples: int, context: Any
-) -> tuple[list[Any], list[tuple[int, int, int]], tuple[int, int]]:
-    """Return the levels (TensorStore arrays), their factors and level 0's chunk rows.
+    path: Path, shape_zyx: tuple[int, int, int], samples: int, context: Any, bulk: Any
+) -> tuple[list[Any], list[tuple[int, int, int]], tuple[int, int], Any]:
+    """Return the levels (TensorStore arrays), their factors, level 0's chunk rows, level 0.
+
+    The last is level 0 opened again in the `bulk` context (for whole pages).
 
     The factors are each level's ``(z, y, x)`` voxel over level 0's; the chunk rows,
     ``(z, y)``. All are checked against the build's grid.
@@ -232,15 +253,15 @@ def _open_levels(
         ratio = np.rint(np.asarray(scale[-3:], dtype=np.float64) / base).astype(int)
         factors.append((int(ratio[0]), int(ratio[1]), int(ratio[2])))
     try:
-        levels = [
-            ts.open(
-                {"driver": "zarr3", "kvstore": {"driver": "file", "path": str(path / d["path"])}},
-                read=True,
-                context=context,
-            ).result()
-            for d in datasets
-        ]
+        levels = [_open(path / str(d["path"]), context) for d in datasets]
+        pages = _open(path / str(datasets[0]["path"]), bulk)
     except ValueError as error:
         raise StackError(f"{path}: TensorStore cannot open the levels ({error})") from None
     chunks = arrays[0].chunks[-3:]
-    return levels, factors, (int(chunks[0]), int(chunks[1]))
+    return levels, factors, (int(chunks[0]), int(chunks[1])), pages
+
+
+def _open(path: Path, context: Any) -> Any:
+    """Open one level's array for reading (TensorStore's ``zarr3`` driver)."""
+    spec = {"driver": "zarr3", "kvstore": {"driver": "file", "path": str(path)}}
+    return ts.open(spec, read=True, context=context).result()
