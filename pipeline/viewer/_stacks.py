@@ -237,12 +237,15 @@ class TiffStack:
             data = inflater.decompress(raw, expected + 1)
         except zlib.error as error:
             raise StackError(f"{self.path}: page {z} cannot be inflated ({error})") from None
-        if len(data) != expected or not inflater.eof:
-            held = f"more than {expected}" if len(data) > expected else f"{len(data)}"
-            if len(data) == expected:
-                held = f"{expected} of a stream cut short"
-            raise StackError(f"{self.path}: page {z} holds {held} bytes, not {expected}")
-        return data
+        if len(data) == expected and inflater.eof:
+            return data
+        if len(data) > expected:
+            held = f"more than {expected} bytes"
+        elif len(data) < expected:
+            held = f"{len(data)} bytes"
+        else:
+            held = f"{expected} bytes of a stream cut short"
+        raise StackError(f"{self.path}: page {z} holds {held}, not {expected}")
 
     def _strip_rows(self, strip: int) -> int:
         return min(self.rows_per_strip, self.shape_zyx[1] - strip * self.rows_per_strip)
