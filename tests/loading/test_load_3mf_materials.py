@@ -375,3 +375,57 @@ def test_multiproperties_over_two_texture_groups_and_object_level_properties(tmp
                 kinds.append("texture")
             assert _corner_colour(mesh, face, corner) == expected, (face, corner)
     assert kinds.count("colour") == 3  # face 1 only: face 3's pid without p1 is the object's
+
+
+def _unprefixed_multi_model(entries: str) -> str:
+    """The 3MF Consortium's multiprop samples: ``<m:multiproperties>`` whose entries are
+    written ``<multi>`` without the prefix (so in the core namespace), a colour group
+    under an opaque texture group with explicit coordinates."""
+    uv = [(0.1, 0.1), (0.9, 0.1), (0.1, 0.9), (0.9, 0.9)]
+    coords = "".join(f'<m:tex2coord u="{u}" v="{v}"/>' for u, v in uv)
+    return _model(
+        '<m:colorgroup id="1"><m:color color="#0090FF"/></m:colorgroup>'
+        '<m:texture2d id="2" path="/3D/Textures/tex.png" contenttype="image/png" '
+        'filter="nearest"/>'
+        f'<m:texture2dgroup id="4" texid="2">{coords}</m:texture2dgroup>'
+        f'<m:multiproperties id="6" pids="1 4">{entries}</m:multiproperties>'
+        '<object id="3" type="model">'
+        + _mesh(['pid="6" p1="0" p2="1" p3="2"', 'pid="6" p1="3" p2="2" p3="1"'] * 2)
+        + "</object>",
+        '<item objectid="3"/>',
+    )
+
+
+def test_multi_entries_in_the_core_namespace_are_read_with_a_warning(tmp_path):
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 256, (8, 8, 4), dtype=np.uint8)
+    image[..., 3] = 255  # opaque: the texture layer hides the colour under it
+    entries = "".join(f'<multi pindices="0 {i}"/>' for i in range(4))
+    path = tmp_path / "multiprop-opaque.3mf"
+    _write(path, _unprefixed_multi_model(entries), texture=image)
+    with pytest.warns(ShellvoxWarning, match=r"multiproperties '6'.*<multi> in the core namespace"):
+        mesh = load_model(path)
+    assert mesh.colour_kind == "texture"
+    # The truth: each corner names a texture coordinate explicitly (entry i -> uv[i]);
+    # the corner's colour is the texel there (nearest filter, v up).
+    uv = np.array([(0.1, 0.1), (0.9, 0.1), (0.1, 0.9), (0.9, 0.9)])
+    corners = [(0, 1, 2), (3, 2, 1)] * 2
+    for face in range(4):
+        for corner, entry in enumerate(corners[face]):
+            u, v = uv[entry]
+            expected = image[int((1 - v) * 8), int(u * 8)].tolist()
+            assert _corner_colour(mesh, face, corner) == expected, (face, corner)
+    # lib3mf, the consortium's reader, sees the same entries as no entries at all.
+    groups = _lib3mf_model(path).GetMultiPropertyGroups()
+    assert groups.MoveNext()
+    assert groups.GetCurrentMultiPropertyGroup().GetCount() == 0
+
+
+def test_a_multiproperties_group_without_entries_is_refused_naming_it(tmp_path, capsys):
+    path = tmp_path / "empty.3mf"
+    _write(path, _unprefixed_multi_model(""), texture=marker_image(8, 8, 1, 1))
+    assert main(["info", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert "multiproperties '6' have no <multi> entries" in err[0]
+    assert str(path) in err[0]

@@ -252,8 +252,23 @@ def _multiproperties(
             f"multiproperties {name!r} have malformed blendmethods {group.get('blendmethods')!r}",
             f"give at most {len(pids) - 1} of mix or multiply; " + FIX,
         )
+    entries = [child for child in group if child.tag in (f"{MATERIAL}multi", f"{CORE}multi")]
+    if not entries:
+        raise InputError(
+            path,
+            f"multiproperties {name!r} have no <multi> entries",
+            "give each layer combination a <m:multi pindices=...> entry; " + FIX,
+        )
+    if any(child.tag == f"{CORE}multi" for child in entries):
+        warnings.warn(
+            f"{path}: multiproperties {name!r} write their entries as <multi> in the core "
+            "namespace, not the Materials extension's <m:multi>; shellvox reads them as "
+            "<m:multi> (lib3mf reads the group as empty)",
+            ShellvoxWarning,
+            stacklevel=5,
+        )
     rows = []
-    for multi in group.iter(f"{MATERIAL}multi"):
+    for multi in entries:
         words = (multi.get("pindices") or "").split()[: len(pids)]
         rows.append(words + ["0"] * (len(pids) - len(words)))
     flat = [w for row in rows for w in row]
