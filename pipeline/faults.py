@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import os
 import signal
 import sys
 from collections.abc import Callable, Iterator
@@ -206,7 +207,7 @@ def _describe(error: BaseException) -> tuple[int, str]:
     cause = os_error(error)
     if cause is not None and cause.errno in _DISK_ERRNOS:
         where = cause.filename or "the output folder"
-        reason = cause.strerror or str(os_error)
+        reason = cause.strerror or os.strerror(cause.errno)
         fix = (
             "free some space or choose another -o DIR"
             if cause.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)

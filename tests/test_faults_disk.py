@@ -125,3 +125,22 @@ def test_inspect_without_previews_reads_a_read_only_folder(tmp_path, tmpfs):
     assert "layers.tif" in result.stdout and "verified" in result.stdout
     with_previews = run(["inspect", str(out)], tmp_path / "previews")
     assert_failed(with_previews, 3, "Read-only file system")
+
+
+def test_a_disk_error_without_its_text_is_named_by_its_number():
+    # A writer may raise an OSError that carries an errno but no strerror (a library
+    # building its own, or a thread's error re-raised): the line names the errno's text.
+    import errno
+    import os
+
+    from pipeline.faults import EXIT_DISK, describe
+
+    error = OSError(errno.ENOSPC, "No space left on device", "out/layers.tif")
+    error.strerror = None
+    wrapped = RuntimeError("writer thread failed")
+    wrapped.__cause__ = error
+    status, line = describe(wrapped)
+    assert status == EXIT_DISK
+    assert line.startswith(f"out/layers.tif: cannot write ({os.strerror(errno.ENOSPC)})")
+    assert "<function" not in line
+    assert len(line.splitlines()) == 1
