@@ -21,16 +21,14 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pipeline.errors import InputError
+
 _SPECTRAL = re.compile(r"^(?:SPECTRAL_NM|SPECTRAL_|SPEC_|NM|R_)(\d{3})$", re.IGNORECASE)
 _ID_FIELDS = ("SAMPLE_ID", "SAMPLEID", "SAMPLE_NAME")
 
 
-class CgatsError(ValueError):
+class CgatsError(InputError):
     """A CGATS file that cannot be read: names the file, the problem and the fix."""
-
-    def __init__(self, path: str | Path, problem: str, fix: str) -> None:
-        self.path, self.problem, self.fix = str(path), problem, fix
-        super().__init__(f"{path}: {problem}; {fix}")
 
 
 @dataclass(frozen=True)

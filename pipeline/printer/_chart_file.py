@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError
-from pipeline.printer._cgats import CgatsError, read_cgats
+from pipeline.printer._cgats import read_cgats
 from voxel.colour import Optics, Patch
 
 #: How far a layer's fractions may sum from 1.
@@ -165,15 +165,12 @@ def chart_readings(chart: ChartFile, measured: str | Path) -> NDArray[np.float64
     Raises
     ------
     InputError
-        The file cannot be read (:class:`pipeline.printer._cgats.CgatsError`), a patch has no
-        reading, or a reading names no patch of the chart (each named).
+        The file cannot be read (:class:`pipeline.printer._cgats.CgatsError`), a patch has
+        no reading, or a reading names no patch of the chart (each named).
     """
     ids = [p.patch_id for p in chart.patches]
-    try:
-        readings = read_cgats(measured, expected_ids=ids)
-        values = readings.at(chart.optics.wavelengths_nm, measured)
-    except CgatsError as error:
-        raise InputError(error.path, error.problem, error.fix) from None
+    readings = read_cgats(measured, expected_ids=ids)
+    values = readings.at(chart.optics.wavelengths_nm, measured)
     row = {name: i for i, name in enumerate(readings.sample_ids)}
     known = set(ids)
     for name in readings.sample_ids:

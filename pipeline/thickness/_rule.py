@@ -71,6 +71,8 @@ from typing import Literal, get_args
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.errors import InputError
+
 #: The rules that give a face's colour layer before the common limits.
 RuleKind = Literal["optical", "lightness"]
 
@@ -79,14 +81,22 @@ UPPER, SIDE, LOWER = 0, 1, 2
 ORIENTATION_NAMES = ("upper", "side", "lower")
 
 
-class RuleError(ValueError):
-    """A rule value out of range: names the key, the problem and the fix."""
+class RuleError(InputError):
+    """A rule value out of range: names the key (in place of a file), the problem and the fix.
+
+    Examples
+    --------
+    >>> str(RuleError("colour_layer.min_mm", "must be a number >= 0, got -1", "write 0.3"))
+    'colour_layer.min_mm: must be a number >= 0, got -1; write 0.3'
+    """
 
     def __init__(self, key: str, problem: str, fix: str) -> None:
-        self.key = key
-        self.problem = problem
-        self.fix = fix
-        super().__init__(f"{key}: {problem}; {fix}")
+        super().__init__(key, problem, fix)
+
+    @property
+    def key(self) -> str:
+        """The rule's key (``table.key``) the problem is about."""
+        return self.path or ""
 
 
 def _require(ok: bool, key: str, problem: str, fix: str) -> None:

@@ -52,3 +52,17 @@ def test_interpolation_and_range(tmp_path):
     np.testing.assert_allclose(readings.at([555.0], "f"), [[0.55]])
     with pytest.raises(CgatsError, match="380-730 nm"):
         readings.at([360.0, 700.0], "f")
+
+
+def test_a_cgats_error_is_an_input_error_with_its_one_line(tmp_path):
+    from pipeline.errors import InputError
+
+    path = tmp_path / "i1.txt"
+    write_i1profiler(path, ["P1", "P1"], BANDS, _values(2))
+    with pytest.raises(InputError) as caught:
+        read_cgats(path, expected_ids=["P1"])
+    error = caught.value
+    assert isinstance(error, CgatsError)
+    assert str(error) == str(InputError(error.path, error.problem, error.fix))
+    assert str(error).startswith(f"{path}: ")
+    assert "\n" not in str(error)

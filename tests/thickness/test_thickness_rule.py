@@ -401,3 +401,15 @@ def test_bad_rule_files_name_the_file_the_key_and_the_fix(tmp_path, text, key, f
 def test_a_missing_rule_file_is_an_input_error(tmp_path):
     with pytest.raises(InputError, match="not found"):
         load_rule(tmp_path / "nope.toml")
+
+
+def test_a_rule_error_is_an_input_error_naming_the_key():
+    from pipeline.thickness._rule import RuleError
+
+    with pytest.raises(InputError) as caught:
+        ColourLayerRule(min_mm=-1.0)
+    error = caught.value
+    assert isinstance(error, RuleError)
+    assert error.key == error.path
+    assert str(error) == str(InputError(error.key, error.problem, error.fix))
+    assert "-1.0" in error.problem
