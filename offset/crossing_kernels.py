@@ -18,15 +18,17 @@ References
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, cast
+from typing import Any
 
-import numba
 import numpy as np
+
+from voxel._compiled import kernel
 
 
 def _jit(function: Callable[..., Any]) -> Callable[..., Any]:
-    """Compile ``function`` with numba (cached on disk next to this module)."""
-    return cast(Callable[..., Any], numba.njit(cache=True, nogil=True)(function))
+    """Compile ``function`` with :func:`voxel._compiled.kernel` (the Python one stays callable)."""
+    compiled: Callable[..., Any] = kernel(function)
+    return compiled
 
 
 def _interval_py(t, d0, d1, d2, l0, l1, l2):  # type: ignore[no-untyped-def]

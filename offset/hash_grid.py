@@ -10,11 +10,11 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 import numpy.typing as npt
 
 from offset._validate import FloatArray, IntArray
+from voxel._compiled import kernel
 
 #: Boxes spanning at most this many cells of the fine grid (3 per axis) are binned there;
 #: larger ones in coarser grids (see :func:`hash_grids`).
@@ -179,7 +179,7 @@ def _grid(
     )
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _cell_entries(
     i0: IntArray, n: IntArray, span: IntArray
 ) -> tuple[IntArray, IntArray]:  # pragma: no cover (compiled)

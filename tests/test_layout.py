@@ -40,7 +40,9 @@ READERS = ("pipeline.report", "pipeline.viewer")
 STAGES = ("model", "loading", "thickness", "printer", "output", "fdm", "run", "build", "tray",
           "report", "viewer", "cli")  # fmt: skip
 MAX_TOP_MODULES = {"pipeline": 8, "voxel": 10}
-MAX_LINES = 400
+MAX_LINES = 1000  # a sanity limit: modules are split by concept, not by a count
+#: The one decorator of compiled kernels: every package may import it.
+COMPILED = "voxel._compiled"
 
 
 def _modules() -> dict[str, Path]:
@@ -132,6 +134,8 @@ def _broken_rule(name: str, target: str) -> str | None:
     if _within(name, "voxel"):
         if not _within(target, "voxel"):
             return "voxel imports neither offset nor pipeline"
+        if target == COMPILED:
+            return None
         if _within(name, "voxel.io") and not (
             _within(target, "voxel.io") or target in ("voxel.grid", "voxel.colour._srgb")
         ):
@@ -146,8 +150,8 @@ def _broken_rule(name: str, target: str) -> str | None:
     if _within(name, "offset"):
         if _within(target, "pipeline"):
             return "offset never imports pipeline"
-        if _within(target, "voxel") and target != "voxel.geometry._nearest":
-            return "offset imports only voxel.geometry._nearest of voxel"
+        if _within(target, "voxel") and target not in ("voxel.geometry._nearest", COMPILED):
+            return "offset imports only voxel.geometry._nearest (and the kernels' decorator)"
         return None
     if not _within(target, "pipeline"):
         return None
@@ -226,7 +230,7 @@ def test_no_test_folder_shadows_a_package() -> None:
     assert folders.isdisjoint({*PACKAGES, "build", "dist"})
 
 
-def test_no_module_over_400_lines() -> None:
+def test_no_module_is_a_monster() -> None:
     long = {
         name: n
         for name, path in MODULES.items()

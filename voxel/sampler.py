@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel._compiled import kernel
 from voxel.grid import GridSpec
 
 
@@ -69,7 +69,7 @@ class LayerSampler:
         return self.grid.index_to_world(index), np.concatenate(self._layers)
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _positions(
     flat: NDArray[np.uint8], ranks: NDArray[np.int64], starts: NDArray[np.int64]
 ) -> NDArray[np.int64]:

@@ -12,11 +12,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import colour
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import FdmError
+from voxel._compiled import kernel
 from voxel.colour import srgb8_to_lab
 
 _HEX = re.compile(r"#?([0-9A-Fa-f]{6})")
@@ -138,7 +138,7 @@ def _dithered(
     return chosen
 
 
-@numba.njit(cache=True)
+@kernel
 def _face_classes(neighbours: NDArray[np.int64]) -> NDArray[np.int64]:
     """Greedy colouring of the faces by index: the least class no earlier neighbour has."""
     classes = np.full(neighbours.shape[0], -1, np.int64)

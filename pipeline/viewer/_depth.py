@@ -13,11 +13,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.output import read_face_ply
+from voxel._compiled import kernel
 from voxel.geometry import SurfaceIndex, nearest_faces
 from voxel.geometry._closest_point import triangle_d2
 
@@ -101,7 +101,7 @@ class Surface:
         return float(np.sqrt(nearest)), face
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _squared_distances(p: NDArray[np.float64], corners: NDArray[np.float64]) -> NDArray[np.float64]:
     """Exact squared distance ``(F,)`` from `p` to each triangle ``(F, 3, 3)``."""
     d2 = np.empty(corners.shape[0])

@@ -23,9 +23,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from voxel._compiled import kernel
 
 #: Most rays of one disc: larger discs read every ``m``-th lattice point (``m`` odd, so
 #: the lattice still steps through every residue of the halftone's even-sized tile).
@@ -87,7 +88,7 @@ class Discs(NamedTuple):
     walk: NDArray[np.float64]
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def ray(
     discs: Discs, i: int, a: float, b: float
 ) -> tuple[float, float, float, float, float, float]:
@@ -114,7 +115,7 @@ def ray(
     )
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def walk(
     discs: Discs,
     i: int,
@@ -156,7 +157,7 @@ def walk(
             counts[i, bin_, m] += 1
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def count_slab(
     discs: Discs, z0: int, materials: NDArray[np.uint8], counts: NDArray[np.int64]
 ) -> None:

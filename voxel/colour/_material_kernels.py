@@ -2,9 +2,10 @@
 
 These loops run once per voxel of a slab, where numpy would need several passes over
 ``(N, 8, M)`` temporaries (about 1 M colour voxels/s against 10 to 20 M here). Each
-kernel is written as plain Python over arrays and compiled with ``numba.njit``; the
-blue-noise kernel and ``proportions_kernel`` share the interpolation, so a voxel's
-material follows from exactly the proportions ``Separation.proportions`` reports.
+kernel is written as plain Python over arrays and compiled by
+:func:`voxel._compiled.kernel`; the blue-noise kernel and ``proportions_kernel`` share
+the interpolation, so a voxel's material follows from exactly the proportions
+``Separation.proportions`` reports.
 
 Callers: :mod:`voxel.colour._separation` (``Separation.proportions``) and
 :mod:`voxel.colour._materials` (``materials_for_slab``). Nothing here checks its input.
@@ -13,11 +14,12 @@ Callers: :mod:`voxel.colour._separation` (``Separation.proportions``) and
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, NamedTuple, cast
+from typing import Any, NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from voxel._compiled import kernel
 
 #: Lou and Stucki's 3D error filter: ``(dz, dy, dx, weight * 21)`` of the 12 forward
 #: neighbours of a voxel in raster order (z, then y, then x), weights 4/21 and 1/21.
@@ -82,8 +84,9 @@ class _Scratch(NamedTuple):
 
 
 def _jit(function: Callable[..., Any]) -> Callable[..., Any]:
-    """Compile ``function`` with numba (cached on disk next to this module)."""
-    return cast(Callable[..., Any], numba.njit(cache=True, nogil=True)(function))
+    """Compile ``function`` with :func:`voxel._compiled.kernel` (the Python one stays callable)."""
+    compiled: Callable[..., Any] = kernel(function)
+    return compiled
 
 
 def _opaque_mix_py(r, g, b, lattice, scratch):  # type: ignore[no-untyped-def]

@@ -16,10 +16,10 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel._compiled import kernel
 from voxel.colour._srgb import DECODE_LUT
 from voxel.geometry import barycentric
 
@@ -141,7 +141,7 @@ class _Encoding(NamedTuple):
     start: NDArray[np.int64]
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _wrap(index: int, size: int, mode: int) -> int:
     """Map a texel index into ``[0, size)`` (``pipeline.model._texture._wrap``)."""
     if 0 <= index < size:
@@ -154,7 +154,7 @@ def _wrap(index: int, size: int, mode: int) -> int:
     return min(max(index, 0), size - 1)
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _encode_exact(linear: float) -> int:
     """8-bit sRGB code of a linear value (:func:`voxel.colour._srgb.encode_uint8`)."""
     x = min(max(linear, 0.0), 1.0)
@@ -166,7 +166,7 @@ def _encode_exact(linear: float) -> int:
 ENCODE_BINS = 4096
 
 
-@numba.njit(cache=True, error_model="numpy")
+@kernel
 def _encode_tables() -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Thresholds of :func:`_encode_exact` and the code at the start of each bin.
 
@@ -204,7 +204,7 @@ def _encode_tables() -> tuple[NDArray[np.float64], NDArray[np.int64]]:
 _THRESHOLD, _BIN_START = _encode_tables()
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _encode(linear: float, threshold: NDArray[np.float64], start: NDArray[np.int64]) -> int:
     """8-bit sRGB code of a linear value, from the tables of :func:`_encode_tables`."""
     x = min(max(linear, 0.0), 1.0)
@@ -214,7 +214,7 @@ def _encode(linear: float, threshold: NDArray[np.float64], start: NDArray[np.int
     return int(code)
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _colour_kernel(
     points: NDArray[np.float64],
     face_ids: NDArray[np.int64],
@@ -268,7 +268,7 @@ def _colour_kernel(
         out[n, 3] = int(np.rint(min(max(linear[3], 0.0), 1.0) * 255.0))
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _sample(u: float, t: float, m: int, textures: _Textures, linear: NDArray[np.float64]) -> None:
     """Linear RGBA of material ``m`` at ``(u, v = t)``.
 

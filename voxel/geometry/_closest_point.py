@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import math
 
-import numba
+from voxel._compiled import kernel
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def closest_weights(
     p0: float, p1: float, p2: float,
     a0: float, a1: float, a2: float,
@@ -59,7 +59,7 @@ def closest_weights(
     return vb / total, vc / total
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def triangle_d2(
     p0: float, p1: float, p2: float,
     a0: float, a1: float, a2: float,
@@ -81,7 +81,7 @@ def triangle_d2(
     return d0 * d0 + d1 * d1 + d2 * d2
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _segment_d2(
     p0: float, p1: float, p2: float,
     a0: float, a1: float, a2: float,
@@ -97,7 +97,7 @@ def _segment_d2(
     return d0 * d0 + d1 * d1 + d2 * d2
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def barycentric(
     p0: float, p1: float, p2: float,
     a0: float, a1: float, a2: float,

@@ -38,10 +38,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel._compiled import kernel
 from voxel.geometry._closest_point import triangle_d2
 from voxel.geometry._voronoi import FACE, VoronoiRegions, voronoi_regions
 from voxel.grid import GridSpec
@@ -213,7 +213,7 @@ def nearest_within(
     return NearestInReach(squared, face, int(n_tests))
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _fill_reach(
     inside: NDArray[np.bool_], inner: float, outer: float, squared: NDArray[np.float64]
 ) -> None:
@@ -224,7 +224,7 @@ def _fill_reach(
         flat[index] = inner if flat_inside[index] else outer
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _segment_2d_d2(py: float, pz: float, ay: float, az: float, by: float, bz: float) -> float:
     """Squared distance in the ``(y, z)`` plane from ``(py, pz)`` to the segment ``a b``."""
     ey, ez = by - ay, bz - az
@@ -236,7 +236,7 @@ def _segment_2d_d2(py: float, pz: float, ay: float, az: float, by: float, bz: fl
     return dy * dy + dz * dz
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _scan_regions(
     mesh: _Mesh,
     regions: VoronoiRegions,

@@ -23,10 +23,10 @@ import math
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel._compiled import kernel
 from voxel.geometry._distance_scan import NearestInReach, nearest_in_reach
 from voxel.geometry._marching_tets import (
     EDGES,
@@ -229,7 +229,7 @@ def _unit_normals(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> ND
     return unit
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _layer_bits(
     inside: NDArray[np.bool_],
     squared: NDArray[np.float64],

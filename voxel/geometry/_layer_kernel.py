@@ -12,9 +12,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from voxel._compiled import kernel
 
 
 class LayerInputs(NamedTuple):
@@ -69,7 +70,7 @@ class LayerOutputs(NamedTuple):
     counts: NDArray[np.int64]
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def assign_layers(given: LayerInputs, out: LayerOutputs) -> tuple[int, int, int]:
     """Fill ``layers`` (by distance), ``sdf`` and ``sdf_band`` of a slab in place.
 
@@ -142,7 +143,7 @@ def assign_layers(given: LayerInputs, out: LayerOutputs) -> tuple[int, int, int]
     return n_colour, n_unreached, n_reached
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def colour_voxels(
     layers: NDArray[np.uint8], is_colour: NDArray[np.bool_], count: int
 ) -> NDArray[np.int64]:
@@ -157,7 +158,7 @@ def colour_voxels(
     return out[:n]
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def layer_material_counts(
     layers: NDArray[np.uint8], materials: NDArray[np.uint8], n_layers: int
 ) -> NDArray[np.int64]:

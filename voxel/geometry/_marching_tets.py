@@ -38,9 +38,10 @@ from __future__ import annotations
 import itertools
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from voxel._compiled import kernel
 
 #: Smallest place of a vertex along its edge, as a share of the edge from either node.
 EDGE_MARGIN = 1e-6
@@ -111,7 +112,7 @@ TRIANGLES_PER_CASE = (TABLE[:, :, :, 0] >= 0).sum(axis=2).astype(np.int64)
 DIRECTIONS_NB = DIRECTIONS.copy()  # a global array numba freezes at compile time
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def count_triangles(
     bits: NDArray[np.uint8], n_levels: int, tets: NDArray[np.int64], per_case: NDArray[np.int64]
 ) -> NDArray[np.int64]:
@@ -239,7 +240,7 @@ class MarchOutputs(NamedTuple):
     vertex_face: NDArray[np.int32]
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@kernel(inline="always")
 def _node_value(field: NodeField, k: int, z: int, y: int, x: int) -> float:
     """Layer field ``D_k(f) - d`` of one node (see :class:`NodeField`)."""
     if not field.inside[z, y, x]:
@@ -250,7 +251,7 @@ def _node_value(field: NodeField, k: int, z: int, y: int, x: int) -> float:
     return float(field.depth[k, f] - np.sqrt(field.squared[z, y, x]))
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@kernel(inline="always")
 def _shared_face(field: NodeField, za: int, ya: int, xa: int, zb: int, yb: int, xb: int) -> int:
     """Nearest face of two nodes inside within reach when it is the same, else -1."""
     if not (field.inside[za, ya, xa] and field.inside[zb, yb, xb]):
@@ -259,7 +260,7 @@ def _shared_face(field: NodeField, za: int, ya: int, xa: int, zb: int, yb: int, 
     return int(f) if f >= 0 and f == field.face[zb, yb, xb] else -1
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def march_slab(
     field: NodeField,
     ids: VertexIds,

@@ -7,14 +7,15 @@ runs from ``faces[t, i]`` to ``faces[t, (i + 1) % 3]``; only triangles with a la
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from voxel._compiled import kernel
 
 __all__ = ["boundary_loops", "patches", "twins"]
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def twins(
     faces: NDArray[np.int64], n_vertices: int, tri_label: NDArray[np.int64]
 ) -> NDArray[np.int64]:
@@ -51,7 +52,7 @@ def twins(
     return twin
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def patches(
     tri_label: NDArray[np.int64], twin: NDArray[np.int64]
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -88,7 +89,7 @@ def patches(
     return patch, seeds[:n_patches]
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def boundary_loops(
     faces: NDArray[np.int64], twin: NDArray[np.int64], patch: NDArray[np.int64]
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:

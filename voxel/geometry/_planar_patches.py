@@ -23,11 +23,11 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import numba
 import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from voxel._compiled import kernel
 from voxel.geometry._patch_topology import boundary_loops, patches, twins
 
 #: Vertices of a patch lie within this distance (mm) of one plane.
@@ -278,7 +278,7 @@ def _entries_at(
     return found
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _search(
     patch: NDArray[np.int64],
     x: NDArray[np.float64],

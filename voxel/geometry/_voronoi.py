@@ -27,9 +27,10 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from voxel._compiled import kernel
 
 #: Loosening of every bound, relative to the model's largest coordinate (plus 1 mm).
 EPSILON = 1e-9
@@ -196,7 +197,7 @@ def voronoi_regions(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> 
 MAX_CONE_BOUNDS = 24
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _cone_spread(
     bounds_ptr: NDArray[np.int64],
     bounds: NDArray[np.float64],

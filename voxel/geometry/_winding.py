@@ -26,10 +26,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel._compiled import kernel
 from voxel.grid import GridSpec
 
 
@@ -149,7 +149,7 @@ def _covered_rows(
     return chosen, j_lo[chosen], j_hi[chosen], k_lo[chosen], k_hi[chosen]
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _edge_sign(
     index: NDArray[np.float64], v_a: int, v_b: int, row_u: float, row_w: float
 ) -> tuple[float, float]:
@@ -174,7 +174,7 @@ def _edge_sign(
     return sign, value
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _scatter_crossings(
     index: NDArray[np.float64],
     faces: NDArray[np.int64],
@@ -220,7 +220,7 @@ def _scatter_crossings(
                 counts[k - z_start, j, column] += contribution
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _prefix(
     counts: NDArray[np.int16], winding: NDArray[np.int16], inside: NDArray[np.bool_]
 ) -> int:

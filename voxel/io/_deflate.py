@@ -22,9 +22,10 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from voxel._compiled import kernel
 
 
 def _reverse(code: int, length: int) -> int:
@@ -182,7 +183,7 @@ def zlib_compress(data: bytes | NDArray[np.uint8], period: int = 1) -> bytes:
     return out[:size].tobytes()
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _match(raw: NDArray[np.uint8], i: int, distance: int, n: int) -> int:
     """Length (<= 258) of the run at ``i`` repeating the bytes ``distance`` back."""
     if i < distance:
@@ -194,7 +195,7 @@ def _match(raw: NDArray[np.uint8], i: int, distance: int, n: int) -> int:
     return length
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _encode(raw: NDArray[np.uint8], period: int, tables: _Tables, out: NDArray[np.uint8]) -> int:
     """Write the zlib stream of ``raw`` into ``out``; return its size."""
     codes, code_lengths, lengths, distance_codes, distance_lengths, header, header_bits = tables
@@ -250,7 +251,7 @@ def _encode(raw: NDArray[np.uint8], period: int, tables: _Tables, out: NDArray[n
     return pos + 4
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _adler32(raw: NDArray[np.uint8]) -> tuple[int, int]:
     """Adler-32 sums ``(a, b)`` of ``raw`` (RFC 1950), modulo taken every 5552 bytes."""
     a = 1
@@ -293,7 +294,7 @@ def pixel_bytes(page: NDArray[np.uint8]) -> NDArray[np.uint8]:
     return out.reshape(-1)
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _copy_samples(flat: NDArray[np.uint8], step: int, n_c: int, out: NDArray[np.uint8]) -> None:
     """Copy the first ``n_c`` of every ``step`` bytes of ``flat`` into ``out``."""
     n = len(out) // n_c
@@ -308,7 +309,7 @@ def _copy_samples(flat: NDArray[np.uint8], step: int, n_c: int, out: NDArray[np.
                 out[n_c * k + c] = flat[step * k + c]
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _copy_pixels(page: NDArray[np.uint8], out: NDArray[np.uint8]) -> None:
     """Copy ``page (Y, X, C)`` (any strides) into the contiguous ``out``."""
     n_y, n_x, n_c = page.shape
@@ -344,7 +345,7 @@ def compress_segments(
     return out[:used], lengths
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@kernel
 def _encode_segments(
     raw: NDArray[np.uint8],
     bounds: NDArray[np.int64],

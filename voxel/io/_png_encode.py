@@ -21,10 +21,10 @@ from __future__ import annotations
 import struct
 import zlib
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel._compiled import kernel
 from voxel.io._compression import check_level, compressobj
 
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -126,7 +126,7 @@ def encode_indexed_png(
     return _png(rows, width, samples, level, pixels_per_metre)
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _indexed_rows(
     indices: NDArray[np.uint8], lut: NDArray[np.uint8], bottom_up: bool, rows: NDArray[np.uint8]
 ) -> None:

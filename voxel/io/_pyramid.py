@@ -26,10 +26,10 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel._compiled import kernel
 from voxel.colour._srgb import DECODE_LUT_F32
 
 Factors = tuple[int, int, int]
@@ -130,7 +130,7 @@ def _shape(shape: Sequence[int], factors: Factors) -> tuple[int, int, int]:
     return z, y, x
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _block_mode(
     labels: NDArray[np.uint8],
     z0: int,
@@ -159,7 +159,7 @@ def _block_mode(
     return best
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _mode_kernel(
     labels: NDArray[np.uint8], fz: int, fy: int, fx: int, out: NDArray[np.uint8]
 ) -> None:  # pragma: no cover - compiled
@@ -192,7 +192,7 @@ def _mode_kernel(
                     line[ox] = _block_mode(labels, z0, z1, y0, y1, x0, x1, values)
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _mean_kernel(
     colour: NDArray[np.uint8],
     weight: NDArray[np.uint8] | NDArray[np.float32],

@@ -16,13 +16,14 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import numba
 import numpy as np
 import zarr
 import zarr.registry
 from numpy.typing import NDArray
 from zarr.codecs import ZstdCodec
 from zarr.core.buffer import cpu
+
+from voxel._compiled import kernel
 
 #: Inner chunk ``(z, y, x)`` of every array (y and x at most the grid's): cubes, so a y or
 #: x section through a tall build crosses a few dozen chunks along z, not one per slab
@@ -114,7 +115,7 @@ def write_solid(array: Any, z0: int, rows: NDArray[np.uint8]) -> None:
         array[(*lead, slice(z0, z0 + rows.shape[-3]), *box)] = rows[(*lead, slice(None), *box)]
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def to_planar(
     colour: NDArray[np.uint8], out: NDArray[np.uint8]
 ) -> None:  # pragma: no cover - compiled

@@ -10,10 +10,10 @@ from __future__ import annotations
 import io
 from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel._compiled import kernel
 from voxel.colour._srgb import codes_to_linear
 from voxel.grid import GridSpec
 from voxel.io.vdb._leaves import LEAF, GridSpool
@@ -207,7 +207,7 @@ class _Blocks:
         return np.asarray(origin, dtype=np.int32)
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _block_stats(
     layers: NDArray[np.uint8],
     sdf: NDArray[np.float32],
@@ -279,7 +279,7 @@ def _block_stats(
     return stats
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _gather(
     volume: NDArray[Any],
     b_y: NDArray[np.int64],

@@ -15,10 +15,10 @@ import struct
 from dataclasses import dataclass, field
 from typing import BinaryIO
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from voxel._compiled import kernel
 from voxel.io._compression import compress
 from voxel.io._deflate import compress_segments
 
@@ -158,7 +158,7 @@ class GridSpool:
             self.extend(low[None], high[None])
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _active_box(
     origin: NDArray[np.int32], active: NDArray[np.bool_]
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -216,7 +216,7 @@ def _zipped_all(
     return body, lengths
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def _assemble(
     raw: NDArray[np.uint8],
     bounds: NDArray[np.int64],
@@ -257,7 +257,7 @@ def _interleave(
     return record
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel
 def copy_records(
     source: NDArray[np.uint8],
     source_starts: NDArray[np.int64],
