@@ -89,11 +89,6 @@ class Surface:
         return out
 
 
-def crossing_count(vertices: FloatArray, faces: IntArray) -> int:
-    """Return the number of crossing triangle pairs of a shell."""
-    return int(intersecting_pairs(vertices, faces).shape[0])
-
-
 def too_deep_count(
     surface: Surface, depth: FloatArray, vertices: FloatArray, faces: IntArray
 ) -> int:

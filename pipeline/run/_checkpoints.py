@@ -102,10 +102,6 @@ class RunFolder:
         """Return those of `ranges` whose chunk is there."""
         return {rows for rows in ranges if self.chunk_path(rows).is_file()}
 
-    def has_chunks(self) -> bool:
-        """Whether any slab has been checkpointed."""
-        return any(self.path.glob("slab_*.npz"))
-
     def save(self, rows: Rows, done: StackSlab, send: tuple[str, ...] | None = None) -> None:
         """Checkpoint a finished slab (only the arrays `send` when it has its pages)."""
         save_chunk(self.chunk_path(rows), encode_chunk(done, send))

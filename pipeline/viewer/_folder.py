@@ -21,9 +21,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-import numpy as np
-from numpy.typing import NDArray
-
 from pipeline.errors import InputError
 from pipeline.output import check_files, read_manifest
 from pipeline.viewer._depth import Surface
@@ -202,11 +199,6 @@ class BuildFolder:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-    @property
-    def band_layers(self) -> NDArray[np.uint8]:
-        """Indices ``1 .. K`` of the shell bands (between outside and the core)."""
-        return np.arange(1, len(self.layers) - 1, dtype=np.uint8)
 
     def _range(self, key: str, *, colour_only: bool) -> list[float]:
         """``[0, largest]`` of a per-face statistic of the bands (or colour layers), mm."""

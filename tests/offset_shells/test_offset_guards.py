@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from offset.guards import Surface, crossing_count, too_deep, too_deep_count
+from offset.guards import Surface, too_deep, too_deep_count
+from offset.intersections import count_self_intersections
 
 
 def _box(size: float) -> tuple[np.ndarray, np.ndarray]:
@@ -19,7 +20,7 @@ def test_exact_inner_box_is_neither_deep_nor_crossing():
     surface = Surface(v, f)
     assert surface.n_crossing == 0
     assert too_deep_count(surface, np.full(len(f), 0.5), shell_v, shell_f) == 0
-    assert crossing_count(shell_v, shell_f) == 0
+    assert count_self_intersections(shell_v, shell_f) == 0
 
 
 def test_a_face_cut_deeper_than_asked_is_counted():

@@ -16,52 +16,6 @@ BAND_RGB = ((120, 120, 120), (170, 150, 110), (110, 150, 170), (150, 110, 170))
 CORE_RGB = (60, 60, 60)
 
 
-def section_image(
-    layers: NDArray[np.uint8],
-    rgb: NDArray[np.uint8],
-    *,
-    colour_layers: tuple[int, ...],
-    n_bands: int,
-    pixel_mm: tuple[float, float],
-    max_pixels: int = 1600,
-) -> Image.Image:
-    """Render one section: surface colour in the colour layers, a flat tone elsewhere.
-
-    Parameters
-    ----------
-    layers : (H, W) uint8
-        Layer index of the section (rows top to bottom as given).
-    rgb : (H, W, 3) uint8
-        sRGB colour of the section (0 outside the colour layers).
-    colour_layers : tuple of int
-        Layers drawn with their surface colour.
-    n_bands : int
-        ``K``; layer ``K + 1`` is the core.
-    pixel_mm : (2,) float, mm
-        Physical ``(width, height)`` of one voxel in the section.
-    max_pixels : int
-        Longest side of the picture.
-
-    Returns
-    -------
-    PIL.Image.Image
-        RGB picture resampled (nearest) to true physical aspect.
-    """
-    palette = np.array(
-        [OUTSIDE_RGB, *(BAND_RGB[k % len(BAND_RGB)] for k in range(n_bands)), CORE_RGB]
-        + [(255, 0, 255)] * (256 - n_bands - 2),
-        dtype=np.uint8,
-    )
-    picture = palette[layers]
-    coloured = np.isin(layers, np.asarray(colour_layers, dtype=np.uint8))
-    picture[coloured] = rgb[coloured]
-    height_mm = layers.shape[0] * pixel_mm[1]
-    width_mm = layers.shape[1] * pixel_mm[0]
-    scale = max_pixels / max(height_mm, width_mm)
-    size = (max(1, round(width_mm * scale)), max(1, round(height_mm * scale)))
-    return Image.fromarray(picture, "RGB").resize(size, Image.Resampling.NEAREST)
-
-
 def boundary_depths(
     layers: NDArray[np.uint8], pixel_mm: tuple[float, float], n_bands: int
 ) -> list[NDArray[np.float64]]:
