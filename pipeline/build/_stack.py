@@ -204,7 +204,14 @@ class _Job:
             )
         )
         shell_job.start_beside(stack)
-        outputs = StackOutputs(folder, plan.grid, config, self._profile(), self.materials)
+        outputs = StackOutputs(
+            folder,
+            plan.grid,
+            config,
+            self._profile(),
+            self.materials,
+            surface=(mesh.vertices, mesh.faces),
+        )
         sampler = None  # the voxels compared with the shell meshes, when there are any
         if shell_job.writes_meshes:
             n_slabs = math.ceil(plan.grid.shape_zyx[0] / plan.rows)

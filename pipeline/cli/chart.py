@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _write_job(path: Path, layout: ChartLayout, profile: PrinterProfile) -> Path:
-    table = [(m.index, m.name, m.rgba_key) for m in profile.materials[1:]]
+    table = [(m.index, m.job_name, m.rgba_key) for m in profile.materials[1:]]
     with atomic_path(path) as temporary:
         writer = gcvf_writer(temporary, layout.grid, table, profile)
         with writer:

@@ -65,6 +65,7 @@ class Tally:
             {
                 "index": m.index,
                 "name": m.name,
+                "job_name": m.job_name,
                 "role": m.role,
                 "rgba_key": list(m.rgba_key),
                 "display_srgb": list(m.display_srgb),

@@ -59,6 +59,9 @@ class StackOutputs:
         Materials (names, keys, display colours); None: no material outputs.
     plan : MaterialPlan or None
         Which material indices the voxels may hold (with `profile`).
+    surface : ((V, 3) float64 mm, (F, 3) int64), optional
+        The surface built (the model, or the tray's models placed), for the printer job's
+        ``Mesh.stl``.
     """
 
     #: The OME-Zarr store's folder name.
@@ -71,6 +74,7 @@ class StackOutputs:
         config: BuildConfig,
         profile: PrinterProfile | None,
         plan: MaterialPlan | None,
+        surface: tuple[NDArray[np.float64], NDArray[np.int64]] | None = None,
     ) -> None:
         self.folder = folder
         self.grid = grid
@@ -106,7 +110,7 @@ class StackOutputs:
             for material in profile.materials[1:]:
                 self._display[material.index] = (*material.display_srgb, 255)
             if "gcvf" in formats:
-                self.gcvf = self._gcvf(profile, plan)
+                self.gcvf = self._gcvf(profile, plan, surface)
             if "png" in formats:
                 self.png = stack.enter_context(
                     PngSliceWriter(
@@ -133,9 +137,15 @@ class StackOutputs:
             TiffStackWriter(path, self.grid, samples=samples, compression_level=level)
         )
 
-    def _gcvf(self, profile: PrinterProfile, plan: MaterialPlan) -> GcvfWriter:
+    def _gcvf(
+        self,
+        profile: PrinterProfile,
+        plan: MaterialPlan,
+        surface: tuple[NDArray[np.float64], NDArray[np.int64]] | None,
+    ) -> GcvfWriter:
         table = _gcvf_table(profile, plan)
-        writer = gcvf_writer(self.folder.temporary("job.gcvf"), self.grid, table, profile)
+        path = self.folder.temporary("job.gcvf")
+        writer = gcvf_writer(path, self.grid, table, profile, surface)
         return self.folder.stack.enter_context(writer)
 
     def write(
@@ -175,7 +185,8 @@ class StackOutputs:
                 slab.z_start, slab.layers, slab.rgba[..., :3], coloured, slab.sdf, materials
             )
         if self.gcvf is not None and "job.gcvf" in pages and counts is not None:
-            self.gcvf.write_encoded(pages["job.gcvf"], counts.sum(axis=0))
+            assert materials is not None  # a job's slices are made with the materials
+            self.gcvf.write_encoded(pages["job.gcvf"], counts.sum(axis=0), materials)
         elif self.gcvf is not None and materials is not None:
             self.gcvf.write_slab(materials)
         if self.png is not None and materials is not None:
@@ -223,9 +234,10 @@ class StackOutputs:
                 "slice_width": job.slice_width,
                 "slice_height": job.slice_height,
                 "materials": [
-                    {"index": m.index, "name": m.name, "rgba_key": list(m.rgba), "voxels": n}
+                    {"index": m.index, "job_name": m.name, "rgba_key": list(m.rgba), "voxels": n}
                     for m, n in job.materials
                 ],
+                "files": list(job.files),
             }
         if self.png is not None:
             self.png.close()
@@ -292,11 +304,10 @@ def _layer_labels(config: BuildConfig) -> list[LabelValue]:
 
 
 def _gcvf_table(profile: PrinterProfile, plan: MaterialPlan) -> list[tuple[int, str, RGBA]]:
-    """Return the job's material table: ``(index, name, rgba_key)`` of every usable one."""
+    """Return the job's material table: ``(index, job_name, rgba_key)`` of every usable one."""
     used = sorted({*plan.column_materials, plan.backing_material, plan.core_material})
-    return [
-        (index, profile.materials[index].name, profile.materials[index].rgba_key) for index in used
-    ]
+    materials = profile.materials
+    return [(index, materials[index].job_name, materials[index].rgba_key) for index in used]
 
 
 def gcvf_slices(profile: PrinterProfile, plan: MaterialPlan) -> KeySlices | None:
@@ -317,8 +328,9 @@ def gcvf_writer(
     grid: GridSpec,
     table: list[tuple[int, str, RGBA]],
     profile: PrinterProfile,
+    surface: tuple[NDArray[np.float64], NDArray[np.int64]] | None = None,
 ) -> GcvfWriter:
-    """Return the ``.gcvf`` job writer of `profile` for `grid` at `path`.
+    """Return the ``.gcvf`` job writer of `profile` for `grid` at `path` (`surface`: its mesh).
 
     Raises
     ------
@@ -336,6 +348,7 @@ def gcvf_writer(
             max_materials=profile.max_materials,
             min_slices=profile.min_slices,
             tray_mm=profile.tray_mm,
+            surface=surface,
         )
     except GcvfJobError as error:
         raise InputError(

@@ -8,7 +8,7 @@ from pipeline.printer._chart_file import chart_readings, read_chart
 from pipeline.printer._chart_preview import chart_preview
 from pipeline.printer._material_plan import build_material_plan, layer_model
 from pipeline.printer._profile import (
-    BACKGROUND_KEY,
+    BACKGROUND_KEYS,
     PrinterProfile,
     load_profile,
     parse_profile,
@@ -18,7 +18,7 @@ from pipeline.printer._profile_toml import profile_text, profile_with_optics
 from pipeline.printer._table_cache import DiskTables
 
 __all__ = [
-    "BACKGROUND_KEY",
+    "BACKGROUND_KEYS",
     "CgatsError",
     "ChartLayout",
     "DiskTables",

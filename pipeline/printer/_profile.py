@@ -13,7 +13,9 @@ Examples
 >>> [round(v, 4) for v in profile.voxel_mm]
 [0.0423, 0.0847, 0.027]
 >>> profile.material("black").rgba_key
-(1, 1, 1, 255)
+(0, 0, 0, 255)
+>>> profile.material("cyan").name, profile.material("cyan").job_name
+('VeroCyan-V', 'VeroCY-V')
 """
 
 from __future__ import annotations
@@ -35,8 +37,10 @@ SliceFormat = Literal["gcvf", "png"]
 
 #: Roles of the materials that colour a voxel (the separation's materials).
 COLOUR_ROLES: tuple[Role, ...] = ("cyan", "magenta", "yellow", "black", "white", "clear")
-#: Key of the void (background) in ``.gcvf`` slices; no material may use it.
-BACKGROUND_KEY = (0, 0, 0, 255)
+#: Keys the void (background, air) may have in ``.gcvf`` slices: transparent black, as
+#: OpenVCAD writes it and the format's template comment reads (the shipped profiles), or
+#: opaque black, as slice2vox writes it. No material may use the void's key.
+BACKGROUND_KEYS = ((0, 0, 0, 0), (0, 0, 0, 255))
 
 _ROLES: tuple[str, ...] = get_args(Role)
 _FORMATS: tuple[str, ...] = get_args(SliceFormat)
@@ -44,7 +48,9 @@ _TOP_KEYS = {
     "name", "description", "slice_format", "dpi", "slice_thickness_nm", "tray_mm",
     "max_materials", "min_slices", "backing_role", "core_role", "materials", "optics",
 }  # fmt: skip
-_MATERIAL_KEYS = {"name", "role", "rgba_key", "display_srgb", "attenuation_per_mm", *MATERIAL_KEYS}
+_MATERIAL_KEYS = {
+    "name", "job_name", "role", "rgba_key", "display_srgb", "attenuation_per_mm", *MATERIAL_KEYS,
+}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -65,6 +71,9 @@ class PrinterMaterial:
         Its printed colour (sRGB) for predictions and previews.
     attenuation_per_mm : float or None, 1/mm
         Optical attenuation, when known.
+    job_name : str
+        The name a printer job lists it by (GrabCAD's short name, ``"VeroCY-V"``): the
+        TOML key ``job_name``, else `name`.
     """
 
     index: int
@@ -73,6 +82,11 @@ class PrinterMaterial:
     rgba_key: tuple[int, int, int, int]
     display_srgb: tuple[int, int, int]
     attenuation_per_mm: float | None = None
+    job_name: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.job_name:
+            object.__setattr__(self, "job_name", self.name)
 
 
 @dataclass(frozen=True)
@@ -324,9 +338,11 @@ class _Reader:
             self.fail(prefix + "attenuation_per_mm", f"must be > 0, got {attenuation!r}", "fix it")
         key = self.codes(entry, "rgba_key", 4, prefix)
         srgb = self.codes(entry, "display_srgb", 3, prefix)
+        name = self.string(entry, "name", prefix)
         return PrinterMaterial(
             index=index,
-            name=self.string(entry, "name", prefix),
+            name=name,
+            job_name=self.string(entry, "job_name", prefix) if "job_name" in entry else name,
             role=cast(Role, role),
             rgba_key=(key[0], key[1], key[2], key[3]),
             display_srgb=(srgb[0], srgb[1], srgb[2]),
@@ -349,12 +365,12 @@ def _validate(profile: PrinterProfile) -> None:
     for material in materials[1:]:
         if material.role == "void":
             fail(f"materials[{material.index}].role", "'void' appears twice", "keep one, first")
-    if profile.slice_format == "gcvf" and materials[0].rgba_key != BACKGROUND_KEY:
+    if profile.slice_format == "gcvf" and materials[0].rgba_key not in BACKGROUND_KEYS:
         fail(
             "materials[0].rgba_key",
-            f"must be the .gcvf background {list(BACKGROUND_KEY)}, "
+            f"must be a .gcvf background (air) key, {' or '.join(map(str, BACKGROUND_KEYS))}, "
             f"got {list(materials[0].rgba_key)}",
-            "use 0 0 0 255",
+            "use 0 0 0 0 (transparent air)",
         )
     seen: dict[tuple[int, int, int, int], int] = {}
     for material in materials:

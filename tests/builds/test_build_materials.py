@@ -157,9 +157,46 @@ def test_gcvf_parses_back_and_agrees_with_materials_tif(job):
             assert np.array_equal(pixels.reshape(n_y, n_x, 4), expected[::-1])
     for key, (_, voxels) in keys.items():
         assert voxels == seen.get(key, 0)
-    assert {m["name"] for m in manifest["materials"] if m["index"]} == {
+    assert {m["job_name"] for m in manifest["materials"] if m["index"]} == {
         name for name, _ in keys.values()
     }
+
+
+def test_the_jobs_box_height_map_and_surface_are_the_builds(job):
+    # Read back with zipfile, numpy, Pillow and trimesh; compared with materials.tif
+    # (tifffile) and the sphere that was built.
+    out, _ = job
+    materials = _read(out / "materials.tif")
+    n_z, n_y, n_x = materials.shape
+    with zipfile.ZipFile(out / "job.gcvf") as archive:
+        names = archive.namelist()
+        box = np.frombuffer(archive.read("MeshBbx.ktn"), "<f4")
+        with Image.open(io.BytesIO(archive.read("Zbuffer.png"))) as image:
+            assert image.mode.startswith("I;16")
+            zbuffer = np.asarray(image)
+        surface = trimesh.load(io.BytesIO(archive.read("Mesh.stl")), file_type="stl")
+        n_slices = int(
+            ET.fromstring(archive.read("ConfigFile.xml")).findtext("SliceRange/NumberOfSlices")
+        )
+    assert names[-4:] == ["MeshBbx.ktn", "Zbuffer.png", "Mesh.stl", "ConfigFile.xml"]
+    assert box.tolist() == [0, 0, 0, n_x, n_y, n_slices]
+    solid = materials != 0
+    top = np.where(solid.any(axis=0), n_z - 1 - np.argmax(solid[::-1], axis=0), 0)
+    np.testing.assert_array_equal(zbuffer, top[::-1])  # row 0 is the largest y
+    # The sphere in mm, its box's corner the corner of voxel (0, 0, 0).
+    manifest = json.loads((out / "manifest.json").read_text())
+    grid = manifest["grid"]
+    corner = np.asarray(grid["origin_mm"]) - 0.5 * np.asarray(grid["voxel_size_mm"])
+    sphere = _sphere()
+    assert len(surface.faces) == len(sphere.faces) and surface.is_watertight
+    np.testing.assert_allclose(
+        surface.bounds,
+        [sphere.vertices.min(0) - corner, sphere.vertices.max(0) - corner],
+        atol=1e-5,
+    )
+    # The surface sits where the voxels are: its top at the height map's highest slice.
+    top_mm = float(surface.bounds[1, 2])
+    assert abs(top_mm / grid["voxel_size_mm"][2] - (top.max() + 0.5)) <= 1.0
 
 
 def test_materials_follow_the_layers(job):
@@ -208,10 +245,10 @@ def test_default_model_job(tmp_path, capsys):
     config, slices = _gcvf(out / "job.gcvf")
     materials = _read(out / "materials.tif")
     assert len(slices) == int(config.findtext("SliceRange/NumberOfSlices")) >= materials.shape[0]
-    totals = {m["name"]: m["voxels"] for m in manifest["materials"]}
+    totals = {m["job_name"]: m["voxels"] for m in manifest["materials"]}
     for material in config.iter("Material"):
         assert int(material.findtext("VoxelCount")) == totals[material.findtext("Name")]
-    index = {m.name: m.index for m in J750.materials}
+    index = {m.job_name: m.index for m in J750.materials}
     for name, voxels in totals.items():
         assert int(np.count_nonzero(materials == index[name])) == voxels
     report = manifest["colour_report"]

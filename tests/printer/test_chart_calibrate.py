@@ -265,7 +265,8 @@ def test_chart_command_writes_job(tmp_path, capsys):
             assert layer["thickness_mm"] > 0
         last = patch["layers"][-1]
         assert list(last["fractions"].values()) == [1.0]
-        assert next(iter(last["fractions"])) in ("VeroUltraWhite", "VeroBlack")
+        backing = {load_profile("j750").material(role).name for role in ("white", "black")}
+        assert next(iter(last["fractions"])) in backing
         assert last["thickness_mm"] >= 0.99
     chart = read_chart(out / "chart.json")
     assert [p.patch_id for p in chart.patches] == ids

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from pipeline.errors import InputError
-from pipeline.printer import BACKGROUND_KEY, load_profile, parse_profile, shipped_profiles
+from pipeline.printer import BACKGROUND_KEYS, load_profile, parse_profile, shipped_profiles
 
 REPO = Path(__file__).resolve().parents[2]
 PROFILES = REPO / "pipeline" / "printer" / "profiles"
@@ -31,7 +31,8 @@ def test_j750_matches_the_facts_file():
     assert profile.slice_format == "gcvf"
     assert profile.max_materials == 6
     assert profile.min_slices == 30
-    assert profile.materials[0].rgba_key == (0, 0, 0, 255)
+    # air is transparent black ("air color in Red/Green/Blue/Alpha order": 0 0 0 0)
+    assert profile.materials[0].rgba_key == (0, 0, 0, 0)
     by_role = {m.role: m for m in profile.materials}
     # reference sRGB (astro3D, "from the Voxel Printing guide")
     assert by_role["cyan"].display_srgb == (0, 89, 158)
@@ -39,9 +40,18 @@ def test_j750_matches_the_facts_file():
     assert by_role["yellow"].display_srgb == (213, 178, 0)
     assert by_role["black"].display_srgb == (30, 30, 30)
     assert by_role["white"].display_srgb == (220, 222, 216)
-    # black needs a key other than the background's, e.g. 1 1 1
-    assert by_role["black"].rgba_key == (1, 1, 1, 255)
+    # transparent air frees opaque black for black material
+    assert by_role["black"].rgba_key == (0, 0, 0, 255)
     assert by_role["cyan"].name == "VeroCyan-V"
+    # GrabCAD's short names, as OpenVCAD writes them (slice2vox agrees on the first three)
+    short = {role: by_role[role].job_name for role in ("cyan", "magenta", "yellow", "black")}
+    assert short == {
+        "cyan": "VeroCY-V",
+        "magenta": "VeroMGT-V",
+        "yellow": "VeroYL-V",
+        "black": "VeroBlack",
+    }
+    assert (by_role["white"].name, by_role["white"].job_name) == ("VeroPureWhite", "VeroPureWht")
     assert by_role["clear"].name in ("VeroUltraClear", "VeroClear")
     assert len(profile.materials) - 1 <= 6
     assert profile.backing_role == "white"
@@ -59,7 +69,7 @@ def test_user_file_loads_and_role_lookup(tmp_path):
     profile = load_profile(path)
     assert profile.name == "mine"
     assert profile.source == str(path)
-    assert profile.material("white").name == "VeroUltraWhite"
+    assert profile.material("white").name == "VeroPureWhite"
     with pytest.raises(KeyError, match="support"):
         profile.material("support")
 
@@ -76,8 +86,8 @@ def _edited(tmp_path: Path, old: str, new: str, count: int = 1) -> Path:
     ("old", "new", "match"),
     [
         (
-            "rgba_key = [1, 1, 1, 255]",
             "rgba_key = [0, 0, 0, 255]",
+            "rgba_key = [0, 0, 0, 0]",
             r"materials\[4\]\.rgba_key.*void",
         ),
         (
@@ -108,11 +118,24 @@ def test_bad_profiles_name_file_and_key(tmp_path, old, new, match):
     assert raised.value.fix
 
 
-def test_void_key_must_be_the_gcvf_background(tmp_path):
-    path = _edited(tmp_path, "rgba_key = [0, 0, 0, 255]", "rgba_key = [2, 2, 2, 255]")
+def test_void_key_must_be_a_gcvf_background(tmp_path):
+    path = _edited(tmp_path, "rgba_key = [0, 0, 0, 0]", "rgba_key = [2, 2, 2, 255]")
     with pytest.raises(InputError, match=r"materials\[0\]\.rgba_key.*background"):
         load_profile(path)
-    assert BACKGROUND_KEY == (0, 0, 0, 255)
+    assert BACKGROUND_KEYS == ((0, 0, 0, 0), (0, 0, 0, 255))
+
+
+def test_opaque_black_air_and_no_job_names_still_load(tmp_path):
+    # A profile as slice2vox writes jobs: opaque black air, black keyed 1 1 1, long names.
+    text = (PROFILES / "j750.toml").read_text()
+    text = text.replace("rgba_key = [0, 0, 0, 255]", "rgba_key = [1, 1, 1, 255]")
+    text = text.replace("rgba_key = [0, 0, 0, 0]", "rgba_key = [0, 0, 0, 255]")
+    text = "\n".join(line for line in text.splitlines() if not line.startswith("job_name"))
+    path = tmp_path / "slice2vox.toml"
+    path.write_text(text)
+    profile = load_profile(path)
+    assert profile.materials[0].rgba_key == (0, 0, 0, 255)
+    assert all(m.job_name == m.name for m in profile.materials)
 
 
 def test_unknown_name_and_missing_file(tmp_path):

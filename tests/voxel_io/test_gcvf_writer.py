@@ -26,14 +26,14 @@ from voxel.io import GcvfJobError, GcvfWriter, TiffStackWriter
 
 J750 = load_profile("j750").voxel_mm
 GRID = GridSpec((-3.0, 1.0, 0.5), J750, (37, 29, 53))
-BACKGROUND = (0, 0, 0, 255)
+BACKGROUND = (0, 0, 0, 0)  # air, transparent
 TABLE = [
     (0, "void", BACKGROUND),
-    (1, "VeroCyan-V", (0, 255, 255, 255)),
-    (2, "VeroMagenta-V", (255, 0, 255, 255)),
-    (3, "VeroYellow-V", (255, 255, 0, 255)),
-    (4, "VeroBlack", (1, 1, 1, 255)),
-    (5, "VeroPureWhite", (255, 255, 255, 255)),
+    (1, "VeroCY-V", (0, 255, 255, 255)),
+    (2, "VeroMGT-V", (255, 0, 255, 255)),
+    (3, "VeroYL-V", (255, 255, 0, 255)),
+    (4, "VeroBlack", (0, 0, 0, 255)),
+    (5, "VeroPureWht", (255, 255, 255, 255)),
     (7, "VeroClear", (137, 137, 137, 255)),
 ]
 KEY = {index: key for index, _, key in TABLE}
@@ -68,7 +68,7 @@ def _read(path):
         config = ET.fromstring(job.read("ConfigFile.xml"))
         images, modes = {}, {}
         for name in job.namelist():
-            if name.endswith(".png"):
+            if name.startswith("layer_") and name.endswith(".png"):
                 with Image.open(io.BytesIO(job.read(name))) as image:
                     modes[name] = image.mode
                     images[name] = np.asarray(image.convert("RGBA"))
@@ -104,7 +104,7 @@ def test_job_reads_back_as_the_volume(tmp_path, first_row):
     assert config.findtext("ImageFilePrefix") == "layer_"
     assert config.findtext("MaxNumberOfColors") == "6"
     assert config.findtext("BitDepth") == "4"
-    assert config.findtext("MaterialList/BackGroundMaterialRGBA") == "0 0 0 255"
+    assert config.findtext("MaterialList/BackGroundMaterialRGBA") == "0 0 0 0"
 
     # Contiguous, unpadded names from 0; every slice RGBA (never a palette) of the declared size.
     assert sorted(images) == sorted(f"layer_{z}.png" for z in range(n_z))
@@ -132,11 +132,11 @@ def test_job_reads_back_as_the_volume(tmp_path, first_row):
         if index and np.any(volume == index)
     ]
     assert [name for name, _, _ in listed] == [
-        "VeroCyan-V",
-        "VeroMagenta-V",
-        "VeroYellow-V",
+        "VeroCY-V",
+        "VeroMGT-V",
+        "VeroYL-V",
         "VeroBlack",
-        "VeroPureWhite",
+        "VeroPureWht",
         "VeroClear",
     ]
     assert summary.n_slices == n_z and summary.n_padding_slices == 0
@@ -155,8 +155,8 @@ def test_orientation_of_one_voxel(tmp_path):
     # Only the materials used are listed.
     listed = config.findall("MaterialList/Material")
     assert [(m.findtext("Name"), m.findtext("VoxelCount")) for m in listed] == [
-        ("VeroCyan-V", "1"),
-        ("VeroMagenta-V", "1"),
+        ("VeroCY-V", "1"),
+        ("VeroMGT-V", "1"),
     ]
     first, last = images["layer_0.png"], images[f"layer_{GRID.shape_zyx[0] - 1}.png"]
     assert tuple(first[-1, 0]) == KEY[1]
@@ -202,7 +202,7 @@ def test_short_jobs_are_padded_to_30_slices(tmp_path):
         m.findtext("Name"): int(m.findtext("VoxelCount"))
         for m in config.findall("MaterialList/Material")
     }
-    assert counts["VeroPureWhite"] == int(np.count_nonzero(volume == 5))
+    assert counts["VeroPureWht"] == int(np.count_nonzero(volume == 5))
 
 
 def test_too_many_materials_are_refused_before_writing(tmp_path):
@@ -217,7 +217,7 @@ def test_too_many_materials_are_refused_before_writing(tmp_path):
 @pytest.mark.parametrize(
     ("table", "message"),
     [
-        ([(1, "VeroBlack", (0, 0, 0, 255))], "background .* key"),
+        ([(1, "VeroBlack", (0, 0, 0, 0))], "background .* key"),
         ([(1, "A", (1, 2, 3, 255)), (2, "B", (1, 2, 3, 255))], "keys repeat"),
         ([(1, "A", (1, 2, 3, 255)), (1, "B", (4, 5, 6, 255))], "indices repeat"),
         ([(1, "A", (1, 2, 300, 255))], "0..255"),
@@ -310,9 +310,51 @@ def test_parallel_encoding_writes_the_same_bytes(tmp_path):
     _write(tmp_path / "three.gcvf", volume, threads=3, bounds=(0, 1, 2, 37))
     assert (tmp_path / "one.gcvf").read_bytes() == (tmp_path / "three.gcvf").read_bytes()
     with zipfile.ZipFile(tmp_path / "one.gcvf") as job:
-        # PNGs are stored (already deflated); the config is last.
+        # PNGs are stored (already deflated); the box and height map follow, the config is last.
         infos = job.infolist()
-        assert infos[-1].filename == "ConfigFile.xml"
+        assert [i.filename for i in infos[-3:]] == ["MeshBbx.ktn", "Zbuffer.png", "ConfigFile.xml"]
         assert {i.compress_type for i in infos[:-1]} == {zipfile.ZIP_STORED}
         header = job.read("ConfigFile.xml")[:60]
     assert re.match(rb'<\?xml version="1.0" encoding="UTF-8"\?>\n<GCVF>', header)
+
+
+def test_box_height_map_and_surface_read_back_as_the_build(tmp_path):
+    import trimesh
+
+    volume = _volume(seed=5)
+    volume[:, 3, 4] = 0
+    volume[7, 3, 4] = 2  # a column whose only material is low
+    # The surface: a box around the ellipsoid, in the grid's world frame (mm).
+    corner = np.asarray(GRID.origin_mm) - 0.5 * np.asarray(GRID.voxel_mm)
+    box = trimesh.creation.box(extents=(1.0, 0.5, 0.25))
+    box.apply_translation(corner + np.array([1.0, 1.0, 0.5]))
+    surface = (np.asarray(box.vertices), np.asarray(box.faces, np.int64))
+    _write(tmp_path / "job.gcvf", volume, surface=surface)
+    n_z, n_y, n_x = GRID.shape_zyx
+    with zipfile.ZipFile(tmp_path / "job.gcvf") as job:
+        box_values = np.frombuffer(job.read("MeshBbx.ktn"), "<f4")
+        with Image.open(io.BytesIO(job.read("Zbuffer.png"))) as image:
+            zbuffer = np.asarray(image)
+            mode = image.mode
+        stl = trimesh.load(io.BytesIO(job.read("Mesh.stl")), file_type="stl")
+    assert box_values.tolist() == [0, 0, 0, n_x, n_y, n_z]
+    assert mode.startswith("I;16") and zbuffer.shape == (n_y, n_x)
+    # The highest slice with material per column (row 0 is the largest y, as the slices).
+    solid = volume != 0
+    top = np.where(solid.any(0), n_z - 1 - np.argmax(solid[::-1], axis=0), 0)
+    np.testing.assert_array_equal(zbuffer, top[::-1])
+    assert zbuffer[n_y - 1 - 3, 4] == 7
+    # The surface in mm with the job box's corner at the origin.
+    np.testing.assert_allclose(stl.bounds, box.bounds - corner, atol=1e-5)
+    assert len(stl.faces) == len(box.faces) and stl.is_watertight
+
+
+def test_a_job_is_the_same_bytes_each_time(tmp_path):
+    import trimesh
+
+    box = trimesh.creation.box(extents=(1.0, 0.5, 0.25))
+    surface = (np.asarray(box.vertices), np.asarray(box.faces, np.int64))
+    volume = _volume(seed=8)
+    _write(tmp_path / "a.gcvf", volume, surface=surface)
+    _write(tmp_path / "b.gcvf", volume, surface=surface, threads=1, bounds=(0, 37))
+    assert (tmp_path / "a.gcvf").read_bytes() == (tmp_path / "b.gcvf").read_bytes()

@@ -1,48 +1,82 @@
-"""What a GrabCAD Voxel Print job says besides its slices (see :mod:`voxel.io._gcvf_writer`).
+"""What a GrabCAD Voxel Print job holds besides its slices (see :mod:`voxel.io._gcvf_writer`).
+
+No specification is public. *Known* below means two or more public writers or readers do
+it; *inferred* means one writer does it, or none states it and this module chose
+(``../shared/printing/voxel-print-facts.md`` gathers the sources).
 
 ``ConfigFile.xml`` (written last, once every VoxelCount is known)
 -----------------------------------------------------------------
-Element names and nesting as slice2vox writes and voxelprint-preview parses them:
+Element names and nesting as slice2vox and OpenVCAD write it and voxelprint-preview
+parses it (known):
 
-- ``Version`` 2: what slice2vox writes (meaning not documented).
+- ``Version`` 2 (meaning not documented).
 - ``Resolution``: ``XDpi`` 600, ``YDpi`` 300, ``SliceThicknessNanoMeter`` 27000, the
   J750/J850 grid (600 x 300 dpi, 27 um layers); the grid's voxel size must match them.
 - ``SliceDimensions``: ``SliceWidth``, ``SliceHeight`` in pixels (x, y).
 - ``SliceRange``: ``StartIndex`` 0, ``NumberOfSlices`` (padding included).
-- ``BitDepth`` 4: what slice2vox writes; its meaning is not documented publicly.
-- ``MaxNumberOfColors``: `max_materials` (6, what slice2vox writes; *inferred* that it
-  is the material limit, so 3 for high-speed mode).
-- ``DataSemantics`` ``Materials``, ``CreationMode`` ``MODEL_ONLY``,
-  ``ImageFilePrefix`` ``layer_``: as slice2vox writes.
-- ``MaterialList``: ``BackGroundMaterialRGBA`` (void; ``0 0 0 255`` by default, so
-  black material needs another key, e.g. ``1 1 1 255``), then one ``Material`` per
-  material used (``Name``, ``RGBA`` as four integers, ``VoxelCount`` = its pixels over
-  all slices), in the table's order. Keys are arbitrary: they are mapped to the
-  printer's materials in the import GUI, by name.
+- ``BitDepth`` 4 (meaning not documented publicly).
+- ``MaxNumberOfColors``: `max_materials` (6; *inferred* that it is the material limit,
+  so 3 for high-speed mode).
+- ``DataSemantics`` ``Materials``, ``CreationMode`` ``MODEL_ONLY``, ``ImageFilePrefix``
+  ``layer_`` (slice2vox's prefix; OpenVCAD names its slices ``gcvf_export_N.png`` and
+  declares that prefix, so the prefix is read from here: *inferred*).
+- ``MaterialList``: ``BackGroundMaterialRGBA``, the key of air: ``0 0 0 0`` (transparent,
+  as OpenVCAD writes it and as the format's own template comment reads, "air color in
+  Red/Green/Blue/Alpha order"), which leaves opaque black ``0 0 0 255`` to black
+  material; then one ``Material`` per material used (``Name``, ``RGBA`` as four integers,
+  ``VoxelCount`` = its pixels over all slices), in the table's order. The names are
+  GrabCAD's short names (``VeroCY-V``, ``VeroMGT-V``, ``VeroYL-V``: slice2vox and OpenVCAD
+  agree, known; ``VeroBlack``, ``VeroPureWht``: OpenVCAD, inferred), which the printer
+  profile gives per material (``job_name``). Keys are arbitrary: the import GUI maps them.
+
+The box, the height map and the surface (OpenVCAD's jobs hold them; inferred)
+------------------------------------------------------------------------------
+- ``MeshBbx.ktn`` (:func:`box_bytes`): six little-endian float32, ``0 0 0 W H N``, the
+  job's box in voxels (slice width, slice height, number of slices).
+- ``Zbuffer.png`` (:func:`zbuffer_png`): 16-bit greyscale, ``W x H``, rows in the slices'
+  order: per pixel the highest slice index that holds material (a height map of the part
+  seen from above); 0 where no slice does (*inferred*: the value of an empty column is
+  not known).
+- ``Mesh.stl`` (:func:`surface_stl`): binary STL of the part's surface in millimetres, in
+  the job's frame (the box's corner, the outer corner of voxel ``(0, 0, 0)``, at the
+  origin): the input surface as built, not one taken from the voxels.
+
+Whether GrabCAD Print needs these three files could not be checked (no GrabCAD here).
 
 Limits, checked before anything is written
 ------------------------------------------
 At most `max_materials` (6; 3 in high-speed mode) non-background materials per job
 (vdbmat-utils, citing the Stratasys guide), at least `min_slices` (30) slices (padded),
-keys distinct and none equal to the background, a voxel size that matches the dpi and
-layer thickness, and optionally the printer's tray. Violations raise
-:class:`GcvfJobError` (a ``ValueError`` naming the problem and the fix).
+at most 65,535 slices (the height map's 16 bits), keys distinct and none equal to the
+background, a voxel size that matches the dpi and layer thickness, and optionally the
+printer's tray. Violations raise :class:`GcvfJobError` (a ``ValueError`` naming the
+problem and the fix).
 """
 
 from __future__ import annotations
 
+import io
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import trimesh
+from numpy.typing import NDArray
+from PIL import Image
 
+from voxel._compiled import kernel
 from voxel.grid import GridSpec
 
 MM_PER_INCH = 25.4
 IMAGE_PREFIX = "layer_"
 #: Relative tolerance between the grid's voxel size and the job's dpi and layer thickness.
 VOXEL_SIZE_RTOL = 1e-6
+
+#: Slices a job may have: the height map holds a slice index in 16 bits.
+MAX_SLICES = 65535
+#: The job's extra files (besides the slices and ``ConfigFile.xml``).
+BOX_NAME, ZBUFFER_NAME, SURFACE_NAME = "MeshBbx.ktn", "Zbuffer.png", "Mesh.stl"
 
 RGBA = tuple[int, int, int, int]
 
@@ -220,3 +254,79 @@ def check_grid(
                 f"printer's tray {tray_mm[0]:g} x {tray_mm[1]:g} x {tray_mm[2]:g} mm",
                 "scale the model down or split it",
             )
+    if max(grid.shape_zyx[0], min_slices) > MAX_SLICES:
+        raise GcvfJobError(
+            f"the job would have {grid.shape_zyx[0]} slices, more than {MAX_SLICES}",
+            "scale the model down or split it",
+        )
+
+
+@kernel
+def raise_heights(heights: NDArray[np.int32], occupied: NDArray[np.uint8], z_start: int) -> None:
+    """Set ``heights[y, x]`` to ``z_start + z`` for every ``occupied[z, y, x] != 0`` (in place).
+
+    Slabs given in z order leave `heights` the highest occupied slice of each column.
+
+    Parameters
+    ----------
+    heights : (Y, X) int32
+        The height map so far (-1: nothing yet).
+    occupied : (Zs, Y, X) uint8
+        Nonzero where a voxel holds material.
+    z_start : int
+        Slice index of ``occupied[0]``.
+    """
+    n_z, n_y, n_x = occupied.shape
+    for z in range(n_z):
+        level = z_start + z
+        for y in range(n_y):
+            for x in range(n_x):
+                if occupied[z, y, x] != 0:
+                    heights[y, x] = level
+
+
+def box_bytes(width: int, height: int, n_slices: int) -> bytes:
+    """Return ``MeshBbx.ktn``: six little-endian float32, ``0 0 0 width height n_slices``.
+
+    Examples
+    --------
+    >>> np.frombuffer(box_bytes(53, 29, 37), "<f4").tolist()
+    [0.0, 0.0, 0.0, 53.0, 29.0, 37.0]
+    """
+    return np.array([0, 0, 0, width, height, n_slices], dtype="<f4").tobytes()
+
+
+def zbuffer_png(heights: NDArray[np.int32], *, bottom_up: bool) -> bytes:
+    """Return ``Zbuffer.png``: the height map as a 16-bit greyscale PNG (Pillow).
+
+    Parameters
+    ----------
+    heights : (Y, X) int32
+        Highest slice index holding material per column, -1 where none (written as 0).
+    bottom_up : bool
+        Image row 0 is the largest y (as the slices' ``first_row="max_y"``).
+    """
+    rows = heights[::-1] if bottom_up else heights
+    image = Image.fromarray(np.ascontiguousarray(np.clip(rows, 0, None), dtype=np.uint16))
+    buffer = io.BytesIO()
+    image.save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def surface_stl(
+    vertices_mm: NDArray[np.float64], faces: NDArray[np.int64], grid: GridSpec
+) -> bytes:
+    """Return ``Mesh.stl``: the surface as binary STL (trimesh) in the job's frame.
+
+    Parameters
+    ----------
+    vertices_mm : (V, 3) float64, mm
+        The surface as built (the grid's world frame).
+    faces : (F, 3) int64
+    grid : GridSpec
+        The job's grid: the outer corner of its voxel ``(0, 0, 0)`` becomes the origin.
+    """
+    corner = np.asarray(grid.origin_mm) - 0.5 * np.asarray(grid.voxel_mm)
+    mesh = trimesh.Trimesh(np.asarray(vertices_mm) - corner, faces, process=False)
+    data: bytes = trimesh.exchange.stl.export_stl(mesh)
+    return data

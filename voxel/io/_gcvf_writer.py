@@ -1,11 +1,13 @@
 """GrabCAD Voxel Print jobs (``.gcvf``) streamed slab by slab (serialisation only).
 
-A job is a zip of one PNG per slice and ``ConfigFile.xml``. No specification is
-public; what follows is what public writers and readers do (jackcrane/slice2vox
-``buildGCVF.js`` writes jobs, jackcrane/voxelprint-preview ``parseGCVF.js`` reads them,
-iwaag/vdbmat-utils ``docs/print-slices.md`` cites Stratasys's *Guide to Voxel Printing*;
-see ``../shared/printing/voxel-print-facts.md``). *Inferred* marks what none of them
-states and this writer chose.
+A job is a zip of one PNG per slice, a box, a height map and a surface mesh, and
+``ConfigFile.xml``. No specification is public; what follows is what public writers and
+readers do (jackcrane/slice2vox ``buildGCVF.js`` and OpenVCAD 3.1 write jobs,
+jackcrane/voxelprint-preview ``parseGCVF.js`` reads them, iwaag/vdbmat-utils
+``docs/print-slices.md`` cites Stratasys's *Guide to Voxel Printing*; see
+``../shared/printing/voxel-print-facts.md``). *Inferred* marks what none of them states
+and this writer chose. Every entry has one fixed timestamp: equal builds give equal jobs,
+byte for byte.
 
 Slices
 ------
@@ -31,7 +33,8 @@ Slices
 - Fewer than `min_slices` (30) slices are padded with empty slices on top (higher z);
   :attr:`GcvfWriter.n_padding_slices` and the summary report how many.
 
-``ConfigFile.xml``, the material table and the limits: :mod:`voxel.io._gcvf_job`.
+``ConfigFile.xml``, the material table, the box, height map and surface, and the limits:
+:mod:`voxel.io._gcvf_job`.
 """
 
 from __future__ import annotations
@@ -47,13 +50,20 @@ from numpy.typing import NDArray
 
 from voxel.grid import GridSpec
 from voxel.io._gcvf_job import (
+    BOX_NAME,
     IMAGE_PREFIX,
     RGBA,
+    SURFACE_NAME,
+    ZBUFFER_NAME,
     Material,
+    box_bytes,
     check_grid,
     config_xml,
     key_rgba,
     material_table,
+    raise_heights,
+    surface_stl,
+    zbuffer_png,
 )
 from voxel.io._png_encode import encode_indexed_png
 from voxel.io._slab_thread import FirstRow, SliceWriter
@@ -79,6 +89,8 @@ class GcvfSummary:
         The materials listed in ``ConfigFile.xml`` with their ``VoxelCount``.
     voxel_counts : dict of int to int
         Voxels per material index over the model's slices (index 0: void).
+    files : tuple of str
+        The zip's entries besides the slices, in order.
     """
 
     n_slices: int
@@ -87,6 +99,7 @@ class GcvfSummary:
     slice_height: int
     materials: tuple[tuple[Material, int], ...]
     voxel_counts: dict[int, int]
+    files: tuple[str, ...] = ()
 
 
 class GcvfWriter(SliceWriter):
@@ -102,9 +115,10 @@ class GcvfWriter(SliceWriter):
         be ``25.4 / dpi`` mm in x and y and the slice thickness in z.
     materials : sequence of (int, str, (4,) int)
         ``(index, name, rgba_key)`` of every material the voxels may hold: index 1..255,
-        keys 0..255. Index 0 is void; it may be listed only with the background key.
+        keys 0..255; the name is the one the job lists (GrabCAD's short name). Index 0 is
+        void; it may be listed only with the background key.
     background_rgba : (4,) int
-        Key of void voxels (``BackGroundMaterialRGBA``).
+        Key of void voxels (``BackGroundMaterialRGBA``): transparent black by default.
     dpi : (2,) int
         ``(XDpi, YDpi)``.
     slice_thickness_nm : int
@@ -117,6 +131,8 @@ class GcvfWriter(SliceWriter):
         Printer build volume ``(x, y, z)``; a larger job is refused.
     first_row : {"max_y", "min_y"}
         Which end of the y axis is image row 0 (see Orientation in the module docstring).
+    surface : ((V, 3) float64 mm, (F, 3) int64), optional
+        The part's surface in the grid's world frame, written as ``Mesh.stl``.
     threads : int
         Slices encoded in parallel (zlib releases the GIL).
     level : int
@@ -131,7 +147,7 @@ class GcvfWriter(SliceWriter):
 
     Examples
     --------
-    >>> table = [(1, "VeroCyan-V", (0, 255, 255, 255)), (2, "VeroPureWhite", (255,) * 4)]
+    >>> table = [(1, "VeroCY-V", (0, 255, 255, 255)), (2, "VeroPureWht", (255,) * 4)]
     >>> with GcvfWriter(path, grid, table) as job:  # doctest: +SKIP
     ...     for slab in slabs:
     ...         job.write_slab(slab)
@@ -144,13 +160,14 @@ class GcvfWriter(SliceWriter):
         grid: GridSpec,
         materials: Sequence[tuple[int, str, Sequence[int]]],
         *,
-        background_rgba: Sequence[int] = (0, 0, 0, 255),
+        background_rgba: Sequence[int] = (0, 0, 0, 0),
         dpi: tuple[int, int] = (600, 300),
         slice_thickness_nm: int = 27000,
         max_materials: int = 6,
         min_slices: int = 30,
         tray_mm: tuple[float, float, float] | None = None,
         first_row: FirstRow = "max_y",
+        surface: tuple[NDArray[np.float64], NDArray[np.int64]] | None = None,
         threads: int = 2,
         level: int | None = None,
         queue_slabs: int = 2,
@@ -175,6 +192,8 @@ class GcvfWriter(SliceWriter):
         self._indices = (0, *(m.index for m in self.materials))
         self._known[list(self._indices)] = True
         self._counts = np.zeros(256, dtype=np.int64)
+        self._heights = np.full(grid.shape_zyx[1:], -1, dtype=np.int32)
+        self._surface = surface
         self._next_z = 0
         self.summary: GcvfSummary | None = None
         # Every check is done: now the file is created.
@@ -221,11 +240,15 @@ class GcvfWriter(SliceWriter):
                 f"indices {unknown.tolist()} that are not in the material table "
                 f"{[m.index for m in self.materials]}"
             )
-        self._thread.put((self._next_z, np.ascontiguousarray(materials)))
+        slab = np.ascontiguousarray(materials)
+        self._thread.put((self._next_z, slab))
+        raise_heights(self._heights, slab, self._next_z)
         self._counts += counts
         self._next_z += len(materials)
 
-    def write_encoded(self, slices: list[bytes], counts: NDArray[np.int64]) -> None:
+    def write_encoded(
+        self, slices: list[bytes], counts: NDArray[np.int64], materials: NDArray[np.uint8]
+    ) -> None:
         """Queue the next slices, already encoded by :attr:`slice_encoder`.
 
         Parameters
@@ -234,7 +257,14 @@ class GcvfWriter(SliceWriter):
             The PNG files of the next ``Zs`` slices, in z order.
         counts : (256,) int64
             Voxels of each material index in those slices.
+        materials : (Zs, Y, X) uint8
+            Their material indices (for the height map, ``Zbuffer.png``).
         """
+        if materials.shape != (len(slices), *self.grid.shape_zyx[1:]):
+            raise ValueError(
+                f"materials must be ({len(slices)}, {self.grid.shape_zyx[1]}, "
+                f"{self.grid.shape_zyx[2]}), got {materials.shape}"
+            )
         if self._next_z + len(slices) > self.grid.shape_zyx[0]:
             raise ValueError(f"more than Z={self.grid.shape_zyx[0]} slices written")
         if self._zip is None:
@@ -247,11 +277,12 @@ class GcvfWriter(SliceWriter):
                 f"{[m.index for m in self.materials]}"
             )
         self._thread.put((self._next_z, slices))
+        raise_heights(self._heights, np.ascontiguousarray(materials, np.uint8), self._next_z)
         self._counts += counts
         self._next_z += len(slices)
 
     def close(self) -> GcvfSummary:
-        """Write the padding and ``ConfigFile.xml`` and finish the zip.
+        """Write the padding, the box, height map and surface, ``ConfigFile.xml``; finish.
 
         Returns
         -------
@@ -277,15 +308,18 @@ class GcvfWriter(SliceWriter):
                 empty = self._encode(np.zeros((n_y, n_x), dtype=np.uint8))
                 for z in range(self.grid.shape_zyx[0], self.n_slices):
                     self._add(f"{IMAGE_PREFIX}{z}.png", empty)
+            self._add(BOX_NAME, box_bytes(n_x, n_y, self.n_slices))
+            bottom_up = self.first_row == "max_y"
+            self._add(ZBUFFER_NAME, zbuffer_png(self._heights, bottom_up=bottom_up))
+            if self._surface is not None:
+                self._add(SURFACE_NAME, surface_stl(*self._surface, self.grid), deflate=True)
             listed = tuple(
                 (material, int(self._counts[material.index]))
                 for material in self.materials
                 if self._counts[material.index] > 0
             )
-            info = _zip_info(CONFIG_NAME)
-            info.compress_type = zipfile.ZIP_DEFLATED
-            self._zip.writestr(
-                info,
+            self._add(
+                CONFIG_NAME,
                 config_xml(
                     self.grid,
                     self.dpi,
@@ -295,6 +329,7 @@ class GcvfWriter(SliceWriter):
                     self.background,
                     listed,
                 ),
+                deflate=True,
             )
             self._zip.close()
             self._zip = None
@@ -309,6 +344,12 @@ class GcvfWriter(SliceWriter):
             slice_height=n_y,
             materials=listed,
             voxel_counts={int(i): int(self._counts[i]) for i in np.flatnonzero(self._counts)},
+            files=(
+                BOX_NAME,
+                ZBUFFER_NAME,
+                *([SURFACE_NAME] * (self._surface is not None)),
+                CONFIG_NAME,
+            ),
         )
         return self.summary
 
@@ -328,9 +369,13 @@ class GcvfWriter(SliceWriter):
     def _store(self, z: int, data: bytes) -> None:
         self._add(f"{IMAGE_PREFIX}{z}.png", data)
 
-    def _add(self, name: str, data: bytes) -> None:
+    def _add(self, name: str, data: bytes, *, deflate: bool = False) -> None:
+        """Store `data` as entry `name` (deflated when asked: text and meshes)."""
         assert self._zip is not None
-        self._zip.writestr(_zip_info(name), data)
+        info = _zip_info(name)
+        if deflate:
+            info.compress_type = zipfile.ZIP_DEFLATED
+        self._zip.writestr(info, data)
 
 
 @dataclass(frozen=True, eq=False)
