@@ -6,8 +6,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT="${1:-/work/layout-ref/before}"
-MESHES="${MESHES:-/work/shared/meshes}"
-SV=.venv/bin/shellvox
+MESHES="${MESHES:-$(pwd)/../shared/meshes}"
+SV="${SV:-.venv/bin/shellvox}"
 rm -rf "$OUT"; mkdir -p "$OUT"
 # 1. the default model on the J750 (as `make demo`)
 $SV build data/colour_target/colour_target.obj -o "$OUT/default" --printer j750 --no-progress
