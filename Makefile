@@ -22,16 +22,16 @@ demo: setup
 test: setup
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/mypy
+	bash scripts/typecheck.sh
 	$(BIN)/python -m pytest -n auto --dist loadgroup --max-worker-restart=0 --durations=25
 
 # The quick loop: lint, types, the doctests and the tests not marked slow.
 test-fast: setup
 	$(BIN)/ruff check .
-	$(BIN)/mypy
+	bash scripts/typecheck.sh
 	$(BIN)/python -m pytest -m "not slow"
 
-# The long fuzz run of every loader (tests/test_fuzz_loaders.py; `make test` runs a short one):
+# The long fuzz run of every loader (tests/loading/test_fuzz_loaders.py; `make test` runs a short one):
 # FUZZ_CASES damaged files a format in one process; the counts per format are printed and
 # written to out/fuzz/report.txt, every failing case is kept in out/fuzz/kept/.
 FUZZ_CASES ?= 10000
@@ -40,11 +40,11 @@ fuzz: setup
 	rm -rf out/fuzz && mkdir -p out/fuzz
 	SHELLVOX_FUZZ=long SHELLVOX_FUZZ_CASES=$(FUZZ_CASES) SHELLVOX_FUZZ_SEED=$(FUZZ_SEED) \
 	SHELLVOX_FUZZ_KEEP=out/fuzz/kept SHELLVOX_FUZZ_REPORT=out/fuzz/report.txt \
-	$(BIN)/python -m pytest tests/test_fuzz_loaders.py -p no:xdist -p no:cacheprovider
+	$(BIN)/python -m pytest tests/loading/test_fuzz_loaders.py -p no:xdist -p no:cacheprovider
 
 lint: setup
 	$(BIN)/ruff check .
-	$(BIN)/mypy
+	bash scripts/typecheck.sh
 
 clean:
 	rm -rf out .pytest_cache .mypy_cache .ruff_cache

@@ -39,13 +39,13 @@ sys.path.insert(0, str(ROOT / "tests"))  # vdb_checks, openvdb_module
 
 from openvdb_module import load_openvdb  # noqa: E402
 
-from pipeline.build import build_stack  # noqa: E402
-from pipeline.config import BuildConfig, LoadOptions  # noqa: E402
-from pipeline.loading import load_model  # noqa: E402
-from pipeline.model import ColouredMesh  # noqa: E402
-from pipeline.printer import load_profile  # noqa: E402
-from pipeline.run import resolve_workers  # noqa: E402
-from voxel.geometry import winding_numbers  # noqa: E402
+from shellvox.config import BuildConfig, LoadOptions  # noqa: E402
+from shellvox.loading import load_model  # noqa: E402
+from shellvox.model import ColouredMesh  # noqa: E402
+from shellvox.printer import load_profile  # noqa: E402
+from shellvox.run import resolve_workers  # noqa: E402
+from shellvox.stack import build_stack  # noqa: E402
+from shellvox.voxel.geometry import winding_numbers  # noqa: E402
 
 MESHES = ROOT.parent / "shared" / "meshes"
 MODELS = {

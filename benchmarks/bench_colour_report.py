@@ -23,7 +23,7 @@ from pathlib import Path
 
 from report_models import MODELS, ROOT
 
-from pipeline.loading import load_model
+from shellvox.loading import load_model
 
 KEYS = ("in_gamut_samples", "in_gamut", "reproduction_inside_colour_regions", "gamut")
 
@@ -41,7 +41,7 @@ def main() -> None:
             command = [
                 sys.executable,
                 "-m",
-                "pipeline.cli",
+                "shellvox.cli",
                 "build",
                 str(path),
                 "--printer",

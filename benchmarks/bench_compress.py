@@ -33,7 +33,7 @@ try:  # not a dependency (see voxel/io/_compression.py): measured where installe
 except ImportError:
     isal_zlib = None
 
-from voxel.io import compress, zlib_compress
+from shellvox.voxel.io import compress, zlib_compress
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results" / "bench_compress.json"

@@ -10,7 +10,7 @@ ratio ``2 * alone / together`` (2.0 is perfect scaling):
 
 - ``arithmetic``: a compiled loop on registers (no memory traffic);
 - ``memory``: a compiled pass over 512 MB (streaming reads and writes);
-- ``slab``: :func:`voxel.slab.compute_slab` on the same 24 rows of spot on the J750 grid
+- ``slab``: :func:`shellvox.voxel.slab.compute_slab` on the same 24 rows of spot on the J750 grid
   (the build's own per-slab work; the model is built before the fork).
 """
 
@@ -84,12 +84,12 @@ def main() -> None:
     b = np.empty_like(a)
     record["memory"] = _probe(lambda: _memory(a, b, 6))
     if SPOT.is_file():
-        from pipeline.build import grid_for
-        from pipeline.config import BuildConfig, LoadOptions
-        from pipeline.loading import load_model
-        from pipeline.printer import load_profile
-        from voxel.geometry import SurfaceIndex
-        from voxel.slab import StackModel, compute_slab
+        from shellvox.config import BuildConfig, LoadOptions
+        from shellvox.loading import load_model
+        from shellvox.printer import load_profile
+        from shellvox.stack import grid_for
+        from shellvox.voxel.geometry import SurfaceIndex
+        from shellvox.voxel.slab import StackModel, compute_slab
 
         mesh = load_model(SPOT, LoadOptions(scale=args.size_mm / 1.75))
         profile = load_profile("j750")

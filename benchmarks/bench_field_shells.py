@@ -35,9 +35,9 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from offset.intersections import intersecting_pairs
-from pipeline.loading import load_model
-from voxel.geometry._nearest import SurfaceIndex, distance_to_surface, winding_numbers
+from shellvox.loading import load_model
+from shellvox.offset.intersections import intersecting_pairs
+from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface, winding_numbers
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
@@ -64,7 +64,7 @@ MESHES = {
 def run_shells(model: Path, out: Path, extra: list[str]) -> float:
     """Run ``shellvox shells`` as a child process and return its wall time (s)."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    command = [sys.executable, "-m", "pipeline.cli", "shells", str(model), "-o", str(out)]
+    command = [sys.executable, "-m", "shellvox.cli", "shells", str(model), "-o", str(out)]
     start = time.perf_counter()
     subprocess.run(
         [*command, "--thickness", THICKNESS, "--no-baselines", "--method", "field", *extra],

@@ -23,11 +23,11 @@ import numpy as np
 from report_models import MODELS, ROOT
 from scipy.spatial import cKDTree
 
-from pipeline.config import MaterialSettings
-from pipeline.loading import load_model
-from pipeline.printer import build_material_plan, layer_model, load_profile
-from pipeline.thickness import DEFAULT_RULE
-from voxel.colour import observer, sample_surface, srgb_to_lab_d50
+from shellvox.config import MaterialSettings
+from shellvox.loading import load_model
+from shellvox.printer import build_material_plan, layer_model, load_profile
+from shellvox.thickness import DEFAULT_RULE
+from shellvox.voxel.colour import observer, sample_surface, srgb_to_lab_d50
 
 SAMPLES = 5_000
 RANDOM_MIXES = 40_000  # per concentration

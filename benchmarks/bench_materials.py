@@ -30,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.config import MaterialSettings
-from pipeline.printer import build_material_plan, load_profile
-from voxel.colour import materials_for_slab
+from shellvox.config import MaterialSettings
+from shellvox.printer import build_material_plan, load_profile
+from shellvox.voxel.colour import materials_for_slab
 
 ROOT = Path(__file__).resolve().parents[1]
 SHAPE = (64, 512, 512)

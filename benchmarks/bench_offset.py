@@ -16,7 +16,7 @@ depth, as a ratio. A benchmark, not a test. Results are merged into --out (JSON)
 
 flat: the default model (data/colour_target, 3468 faces, 2364 of them in 174 flat
 patches) and the airplane at 100 mm, two layers of 0.5 mm, with one prism per flat patch
-(offset.planar) and, in the same process, with per-face prisms only: time, CPU time,
+(shellvox.offset.planar) and, in the same process, with per-face prisms only: time, CPU time,
 pieces, shell faces and volumes (which must agree).
 """
 
@@ -35,10 +35,10 @@ from typing import Any
 import numpy as np
 import trimesh
 
-import offset.band as band
-from offset import offset_shells, shell_report
-from offset.intersections import intersecting_pairs
-from offset.robust import ShellDefectWarning
+import shellvox.offset.band as band
+from shellvox.offset import offset_shells, shell_report
+from shellvox.offset.intersections import intersecting_pairs
+from shellvox.offset.robust import ShellDefectWarning
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from openvdb_module import load_openvdb
@@ -80,7 +80,7 @@ def inputs() -> dict[str, trimesh.Trimesh]:
 
 
 def quality_row(mesh: trimesh.Trimesh, method: str) -> dict[str, Any]:
-    """Offset `mesh` with `method` and summarise :func:`offset.shell_report` per layer."""
+    """Offset `mesh` with `method` and summarise :func:`shellvox.offset.shell_report` per layer."""
     v = np.asarray(mesh.vertices, dtype=np.float64)
     f = np.asarray(mesh.faces, dtype=np.int64)
     start = time.perf_counter()

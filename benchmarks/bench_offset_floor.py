@@ -3,14 +3,14 @@
 Usage: .venv/bin/python benchmarks/bench_offset_floor.py [--depth 0.5] [--cgal-pieces 250]
        [--out benchmarks/results/bench_offset.json]
 
-The robust shells (:mod:`offset.robust`) are the part minus the union of one prism per
+The robust shells (:mod:`shellvox.offset.robust`) are the part minus the union of one prism per
 face, one sector per bending edge and one cap per vertex. This times, in one process on
 the issue's 93,696-face spot (Loop x2, 50 mm):
 
 - OpenVDB's ``createLevelSetFromPolygons`` at 0.05 mm with a band reaching `--depth`
   (as ``bench_offset.py --part speed``), before and after the rest;
 - the union of the face prisms alone (no sectors, caps, cut or checks), the cheapest
-  input any union of per-face pieces has, with :func:`offset.union.union_pieces`;
+  input any union of per-face pieces has, with :func:`shellvox.offset.union.union_pieces`;
 - the exact alternative for resolving an overlapping surface, libigl's CGAL
   ``mesh_boolean`` self-union, against manifold3d on the first `--cgal-pieces` prisms
   along the Morton curve.
@@ -32,8 +32,8 @@ import numpy as np
 from bench_offset import load_shared
 from openvdb_module import load_openvdb
 
-import offset.band as band
-from offset.union import morton_order, union_pieces
+import shellvox.offset.band as band
+from shellvox.offset.union import morton_order, union_pieces
 
 ROOT = Path(__file__).resolve().parents[1]
 VOXEL_MM = 0.05

@@ -6,7 +6,7 @@ Usage: .venv/bin/python benchmarks/bench_optical_rule.py
 For the default model, spot (30 mm) and the duck (30 mm) on the J750, with the profile's
 optics and with every material's scattering scaled by 0.5 and by 2 (the rule and the
 separation recomputed for each): the thickness of the optical rule, then at 20,000
-surface samples (:func:`voxel.colour._depth_effect.depth_effect`): the share of the
+surface samples (:func:`shellvox.voxel.colour._depth_effect.depth_effect`): the share of the
 surface within delta_e of its settled colour with the rule's depths and with one
 constant depth of the same mean, and the mean depth each needs for 95 % of the surface.
 The model only, no voxels: what the rule is meant to do. A benchmark, not a test.
@@ -24,12 +24,12 @@ from typing import Any
 from report_models import MODELS as ALL_MODELS
 from report_models import ROOT
 
-from pipeline.config import MaterialSettings
-from pipeline.loading import load_model
-from pipeline.model import ColouredMesh
-from pipeline.printer import PrinterProfile, build_material_plan, layer_model, load_profile
-from pipeline.thickness import DEFAULT_RULE, face_thickness
-from voxel.colour import depth_effect, sample_surface
+from shellvox.config import MaterialSettings
+from shellvox.loading import load_model
+from shellvox.model import ColouredMesh
+from shellvox.printer import PrinterProfile, build_material_plan, layer_model, load_profile
+from shellvox.thickness import DEFAULT_RULE, face_thickness
+from shellvox.voxel.colour import depth_effect, sample_surface
 
 MODELS = {name: ALL_MODELS[name] for name in ("default", "spot_30mm", "duck_30mm")}
 

@@ -11,15 +11,15 @@ py="$here/.venv/bin/python"
 model="$here/../shared/meshes/spot/spot_triangulated.obj"
 args=(build "$model" --scale 17.46309 --printer j750 --no-progress)
 out="$(mktemp -d)"
-PYTHONPATH="$here" "$py" -m pipeline.cli "${args[@]}" -o "$out/warm" > /dev/null
-PYTHONPATH="$before" "$py" -m pipeline.cli "${args[@]}" -o "$out/warm0" > /dev/null
+PYTHONPATH="$here" "$py" -m shellvox.cli "${args[@]}" -o "$out/warm" > /dev/null
+PYTHONPATH="$before" "$py" -m shellvox.cli "${args[@]}" -o "$out/warm0" > /dev/null
 results=()
 for round in $(seq "$rounds"); do
   for side in before after; do
     tree="$here"; [ "$side" = before ] && tree="$before"
     rm -rf "$out/$side"
     start=$(date +%s.%N)
-    PYTHONPATH="$tree" "$py" -m pipeline.cli "${args[@]}" -o "$out/$side" > /dev/null
+    PYTHONPATH="$tree" "$py" -m shellvox.cli "${args[@]}" -o "$out/$side" > /dev/null
     end=$(date +%s.%N)
     results+=("{\"round\": $round, \"code\": \"$side\", \"wall_s\": $(echo "$end - $start" | bc)}")
   done

@@ -6,7 +6,7 @@ Usage: .venv/bin/python benchmarks/bench_robust_agreement.py
 ``shellvox shells`` of spot with two Loop subdivisions (93,696 faces) at 100 mm, layers
 0.5 + 1.0 mm, by the default method (``field``) and by ``--method robust`` (minutes), each a
 child process; the files are read back with trimesh and compared per layer: volumes, and
-distances (libigl's exact point-to-surface distance, :mod:`voxel.geometry._nearest`) from
+distances (libigl's exact point-to-surface distance, :mod:`shellvox.voxel.geometry._nearest`) from
 200,000 area-weighted samples and every vertex of each shell to the other, both ways
 (p50, p99, max; the Hausdorff distance is the larger maximum). Merged into the results
 JSON under ``--key``. A benchmark, not a test.
@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from voxel.geometry._nearest import SurfaceIndex, distance_to_surface
+from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))

@@ -94,7 +94,7 @@ def run_config(
     """
     with tempfile.TemporaryDirectory(prefix="bench_scale_") as folder:
         out = Path(folder) / "out"
-        argv = [sys.executable, "-m", "pipeline.cli", "build", *map(str, models), "-o", str(out),
+        argv = [sys.executable, "-m", "shellvox.cli", "build", *map(str, models), "-o", str(out),
                 "--scale", f"{scale:.8g}", "--no-progress", *options]  # fmt: skip
         env = dict(os.environ, PYTHONPATH=str(REPO))
         started = time.perf_counter()

@@ -7,12 +7,12 @@ Usage (from the repository root)::
 Slices are 1322 x 1176 voxels (x, y: the grid of spot scaled to 100 mm on the J750) with
 a synthetic model: an elliptic section whose size varies with z, a white core, and a
 1 mm skin halftoned at random among five materials (the worst case for compression).
-Measured: one slice encoded by :func:`voxel.io._png_encode.encode_png` and by Pillow
-(``compress_level=1``); :class:`voxel.io._gcvf_writer.GcvfWriter` with 1 and 2 encoding
+Measured: one slice encoded by :func:`shellvox.voxel.io._png_encode.encode_png` and by Pillow
+(``compress_level=1``); :class:`shellvox.voxel.io._gcvf_writer.GcvfWriter` with 1 and 2 encoding
 threads (slices/s, MB/s of RGBA pixels, bytes per slice); the peak of traced memory
 (numpy allocations) while writing `--slices` and four times as many, which must not
-grow with the height; :class:`voxel.io._png_slices.PngSliceWriter`; and the time the
-``material`` grid adds to :class:`voxel.io.vdb._writer.VdbStackWriter`.
+grow with the height; :class:`shellvox.voxel.io._png_slices.PngSliceWriter`; and the time the
+``material`` grid adds to :class:`shellvox.voxel.io.vdb._writer.VdbStackWriter`.
 """
 
 from __future__ import annotations
@@ -33,10 +33,10 @@ from PIL import Image
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from pipeline.printer import load_profile  # noqa: E402
-from voxel.grid import GridSpec  # noqa: E402
-from voxel.io import GcvfWriter, PngSliceWriter, encode_png  # noqa: E402
-from voxel.io.vdb import VdbStackWriter  # noqa: E402
+from shellvox.printer import load_profile  # noqa: E402
+from shellvox.voxel.grid import GridSpec  # noqa: E402
+from shellvox.voxel.io import GcvfWriter, PngSliceWriter, encode_png  # noqa: E402
+from shellvox.voxel.io.vdb import VdbStackWriter  # noqa: E402
 
 N_Y, N_X = 1176, 1322
 TABLE = [

@@ -3,7 +3,7 @@
 The run grids of ``volume.vdb`` (``density``, ``layer``: float32 runs) compress each
 8^3 leaf's active values as its own zlib stream. This builds a model with
 ``--format vdb --workers 1`` (in this process), records every batch of leaf buffers the
-writer hands to :func:`voxel.io._deflate.compress_segments`, then compresses the same
+writer hands to :func:`shellvox.voxel.io._deflate.compress_segments`, then compresses the same
 leaves, in the same run, with:
 
 - ``run encoder``: ``compress_segments(raw, bounds, period=4)``, one compiled call a batch
@@ -11,7 +11,7 @@ leaves, in the same run, with:
 - ``zlib-ng Z_RLE``: ``zlib_ng.compressobj(1, DEFLATED, wbits, memLevel, Z_RLE)`` per leaf
   (a Python loop, as ``zipped`` does for the other grids), with zlib's default window and
   memory (15, 8) and with the smallest (9, 1), which Z_RLE (distance 1 only) does not need;
-- ``zlib-ng 2``: the build's fast setting (``voxel.io.compress``) per leaf, for reference.
+- ``zlib-ng 2``: the build's fast setting (``shellvox.voxel.io.compress``) per leaf, for reference.
 
 Every stream is inflated with Python's zlib and compared with its leaf's bytes. Times
 are the best of ``--repeat`` rounds, the encoders alternating within each round; MB/s
@@ -42,10 +42,10 @@ from zlib_ng import zlib_ng
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import voxel.io.vdb._leaves as leaves_module  # noqa: E402
-from pipeline.cli import main as shellvox  # noqa: E402
-from voxel.io import compress  # noqa: E402
-from voxel.io._deflate import compress_segments  # noqa: E402
+import shellvox.voxel.io.vdb._leaves as leaves_module  # noqa: E402
+from shellvox.cli import main as shellvox  # noqa: E402
+from shellvox.voxel.io import compress  # noqa: E402
+from shellvox.voxel.io._deflate import compress_segments  # noqa: E402
 
 RESULTS = REPO / "benchmarks" / "results" / "bench_vdb_leaves.json"
 MODEL = REPO / "data" / "colour_target" / "colour_target.obj"

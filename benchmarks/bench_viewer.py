@@ -45,8 +45,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from pipeline.output import file_summary  # noqa: E402
-from pipeline.viewer import BuildFolder, ViewerServer  # noqa: E402
+from shellvox.output import file_summary  # noqa: E402
+from shellvox.viewer import BuildFolder, ViewerServer  # noqa: E402
 
 MODES = {
     "colour": ("layers", "colour"),

@@ -47,7 +47,7 @@ def build(model: Path, scale: float, formats: str, out: Path) -> dict[str, Any]:
     """Run one build as a child process and return its measurements."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     command = [
-        "/usr/bin/time", "-v", sys.executable, "-m", "pipeline.cli", "build", str(model),
+        "/usr/bin/time", "-v", sys.executable, "-m", "shellvox.cli", "build", str(model),
         "-o", str(out), "--scale", repr(scale), "--format", formats, "--no-progress",
     ]  # fmt: skip
     load_before = os.getloadavg()[0]

@@ -19,13 +19,13 @@ from typing import Any
 
 from bench_build import MODELS, ROOT, _TreeRss, scaled_model
 
-from pipeline.build import build_stack
-from pipeline.cli.buildargs import add_build_arguments, config_from_args
-from pipeline.cli.thicknessargs import choose_thickness
-from pipeline.cli.values import parse_lengths
-from pipeline.config import LoadOptions
-from pipeline.loading import load_model
-from pipeline.printer import load_profile
+from shellvox.cli.buildargs import add_build_arguments, config_from_args
+from shellvox.cli.thicknessargs import choose_thickness
+from shellvox.cli.values import parse_lengths
+from shellvox.config import LoadOptions
+from shellvox.loading import load_model
+from shellvox.printer import load_profile
+from shellvox.stack import build_stack
 
 ALL_MODELS = {**MODELS, "colour_target": ROOT / "data" / "colour_target" / "colour_target.obj"}
 
@@ -47,14 +47,14 @@ def instrument() -> dict[str, list[float]]:
     jobs on the machine. With ``--workers 1`` every part runs in this process.
     Returns ``{part: [cpu_s, wall_s, calls]}``, filled as the build runs.
     """
-    import pipeline.build._stack as build_module
-    import pipeline.run._task as runner
-    from pipeline.build import ColourCheck
-    from pipeline.output import OutputFolder, StackOutputs, Tally
-    from voxel.colour import ModelReport
-    from voxel.io import GcvfWriter, PngSliceWriter, TiffStackWriter
-    from voxel.io.vdb import VdbStackWriter
-    from voxel.sampler import LayerSampler
+    import shellvox.run._task as runner
+    import shellvox.stack._stack as build_module
+    from shellvox.output import OutputFolder, StackOutputs, Tally
+    from shellvox.stack import ColourCheck
+    from shellvox.voxel.colour import ModelReport
+    from shellvox.voxel.io import GcvfWriter, PngSliceWriter, TiffStackWriter
+    from shellvox.voxel.io.vdb import VdbStackWriter
+    from shellvox.voxel.sampler import LayerSampler
 
     totals: dict[str, list[float]] = collections.defaultdict(lambda: [0.0, 0.0, 0])
     lock = threading.Lock()

@@ -13,9 +13,11 @@ is deterministic.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import colour
 import numpy as np
+from numpy.typing import NDArray
 from PIL import Image
 
 HALF_MM = np.array([12.0, 8.0, 3.0])
@@ -24,7 +26,9 @@ TILE = 128  # pixels per face tile; the atlas is 3 x 2 tiles
 OUT = Path(__file__).resolve().parent / "colour_target"
 
 
-def _axis_coordinates(half: float, radius: float, n_round: int = 5, n_flat: int = 8):
+def _axis_coordinates(
+    half: float, radius: float, n_round: int = 5, n_flat: int = 8
+) -> NDArray[np.float64]:
     """Grid coordinates along one axis: dense on the rounded edges, sparse between."""
     inner = half - radius
     angles = np.linspace(0.0, np.pi / 2, n_round + 1)[1:]
@@ -33,15 +37,16 @@ def _axis_coordinates(half: float, radius: float, n_round: int = 5, n_flat: int 
     return np.concatenate([-rounded[::-1], flat, rounded])
 
 
-def _patches(lightness, chroma, hue_deg) -> np.ndarray:
+def _patches(lightness: Any, chroma: Any, hue_deg: Any) -> NDArray[np.uint8]:
     """sRGB uint8 colours of CIE LCh(ab) patches (D65), clipped into gamut."""
     lch = np.stack(np.broadcast_arrays(lightness, chroma, hue_deg), axis=-1)
-    xyz = colour.Lab_to_XYZ(colour.LCHab_to_Lab(lch))
+    xyz = colour.Lab_to_XYZ(colour.LCHab_to_Lab(lch))  # type: ignore[attr-defined]
     rgb = colour.XYZ_to_sRGB(xyz)
-    return np.rint(np.clip(rgb, 0, 1) * 255).astype(np.uint8)
+    patches: NDArray[np.uint8] = np.rint(np.clip(rgb, 0, 1) * 255).astype(np.uint8)
+    return patches
 
 
-def _tile(kind: int) -> np.ndarray:
+def _tile(kind: int) -> NDArray[np.uint8]:
     """One 4 x 4 patch tile of the atlas, with thin neutral grey gaps between patches."""
     lightness = np.linspace(12, 96, 4)
     if kind == 0:  # lightness x hue at moderate chroma
@@ -66,7 +71,9 @@ def _tile(kind: int) -> np.ndarray:
     return image
 
 
-def build():
+def build() -> tuple[
+    NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], NDArray[np.uint8]
+]:
     """Return vertices (V, 3), faces (F, 3), per-corner UVs (F, 3, 2) and the atlas image."""
     coords = [_axis_coordinates(h, RADIUS_MM) for h in HALF_MM]
     inner = HALF_MM - RADIUS_MM
@@ -111,6 +118,7 @@ def build():
 
 
 def write(out: Path = OUT) -> None:
+    """Write the OBJ, MTL and PNG into `out`."""
     vertices, faces, corner_uv, atlas = build()
     out.mkdir(parents=True, exist_ok=True)
     Image.fromarray(atlas).save(out / "colour_target.png", optimize=True)

@@ -2,11 +2,11 @@
 
 Lengths are millimetres; points are ``(x, y, z)``; signed distance is negative inside.
 This package never imports :mod:`pipeline`; of :mod:`voxel` it uses only
-:mod:`voxel.geometry._nearest`, the one wrapper of libigl's point queries (exact nearest points and
-generalised winding numbers), which imports nothing of :mod:`offset`.
+:mod:`shellvox.voxel.geometry._nearest`, the one wrapper of libigl's point queries (exact nearest
+points and generalised winding numbers), which imports nothing of :mod:`offset`.
 """
 
-from offset.report import shell_report
-from offset.shells import METHODS, Shell, offset_shells
+from shellvox.offset.report import shell_report
+from shellvox.offset.shells import METHODS, Shell, offset_shells
 
 __all__ = ["METHODS", "Shell", "offset_shells", "shell_report"]

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from offset._validate import FloatArray, IntArray
+from shellvox.offset._validate import FloatArray, IntArray
 
 
 @dataclass(frozen=True)

@@ -7,8 +7,8 @@ import numpy.typing as npt
 import shapely
 import trimesh
 
-from offset._validate import FloatArray, IntArray
-from offset.adjacency import face_normals
+from shellvox.offset._validate import FloatArray, IntArray
+from shellvox.offset.adjacency import face_normals
 
 
 def vertex_normal_offset(

@@ -1,6 +1,6 @@
 """Remove degenerate triangles from a closed shell without changing its topology.
 
-The robust shells (:mod:`offset.robust`) are exact where flat faces meet: where more than
+The robust shells (:mod:`shellvox.offset.robust`) are exact where flat faces meet: where more than
 three moved face planes nearly meet in one point (a vertex of valence above three, e.g.
 every vertex of an icosphere), the exact offset has a cluster of vertices joined by edges
 of 1e-10 to 1e-3 mm, and where the pieces' facets nearly coincide (reflex edges and
@@ -19,7 +19,7 @@ tests of other tools see crossings among the slivers.
 A collapse is refused where it would make the mesh non-manifold (the link condition) or
 turn a face over; a flip where it would duplicate an edge or turn a face over; the rounds
 repeat until nothing changes. :func:`clean_shell` then checks the result with the
-crossing test of :mod:`offset.intersections` and for faces folded flat onto a neighbour
+crossing test of :mod:`shellvox.offset.intersections` and for faces folded flat onto a neighbour
 (:func:`folded_faces`, a double layer that test does not see: flips and collapses among
 slivers made a few on the bunny's shells) and, where it finds either, freezes the
 vertices around them and cleans again, so the result is never less valid than the
@@ -38,9 +38,9 @@ import scipy.sparse
 import scipy.sparse.csgraph
 import scipy.spatial
 
-from offset._validate import FloatArray, IntArray
-from offset.adjacency import edge_adjacency
-from offset.clean_steps import (
+from shellvox.offset._validate import FloatArray, IntArray
+from shellvox.offset.adjacency import edge_adjacency
+from shellvox.offset.clean_steps import (
     MAX_CLUSTER,
     collapse_clusters,
     count_degenerate,
@@ -48,8 +48,8 @@ from offset.clean_steps import (
     flip_low_faces,
     unit_normals,
 )
-from offset.intersections import intersecting_pairs
-from offset.shells import Shell
+from shellvox.offset.intersections import intersecting_pairs
+from shellvox.offset.shells import Shell
 
 BoolArray = npt.NDArray[np.bool_]
 
@@ -107,7 +107,7 @@ def clean_offset_shell(
     Parameters
     ----------
     shell : Shell
-        From :func:`offset.offset_shells`.
+        From :func:`shellvox.offset.offset_shells`.
     fraction : float, optional
         Tolerance as a fraction of ``shell.depth_mm.min()``; must be > 0.
 
@@ -130,7 +130,7 @@ def clean_offset_shell(
 def clean_shell(vertices: FloatArray, faces: IntArray, *, tol: float) -> CleanedMesh:
     """Return the shell cleaned by :func:`clean_degenerate` with no new crossings.
 
-    Where the cleaned mesh has more crossing triangle pairs (:func:`offset.intersections.
+    Where the cleaned mesh has more crossing triangle pairs (:func:`shellvox.offset.intersections.
     intersecting_pairs`) or more folded faces (:func:`folded_faces`) than the input, the
     input vertices within ``2 * MAX_CLUSTER * tol`` of them are frozen and the mesh is
     cleaned again; after :data:`MAX_FREEZES` attempts the input is returned unchanged.

@@ -1,8 +1,8 @@
-"""The steps of :func:`offset.clean.clean_degenerate`: collapse short-edge clusters, flip low faces.
+"""The steps of :func:`~shellvox.offset.clean.clean_degenerate`: collapse short edges, flip faces.
 
 Both work on whole arrays of one closed, manifold, consistently oriented mesh and refuse
 what would break that (the link condition, faces turned over, duplicated edges); see
-:mod:`offset.clean` for the procedure and its tolerances.
+:mod:`shellvox.offset.clean` for the procedure and its tolerances.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy.typing as npt
 import scipy.sparse
 import scipy.sparse.csgraph
 
-from offset._validate import FloatArray, IntArray
+from shellvox.offset._validate import FloatArray, IntArray
 
 BoolArray = npt.NDArray[np.bool_]
 

@@ -1,11 +1,11 @@
-"""Compiled narrow phase of :func:`offset.intersections.intersecting_pairs` (numba).
+"""Compiled narrow phase of :func:`shellvox.offset.intersections.intersecting_pairs` (numba).
 
 The triangle-triangle test runs once per candidate pair, tens of millions of times on a
 shell of a million triangles; as numpy passes over ``(P, 3, 3)`` temporaries it took
 three quarters of the check. Here the pairs of one hash-grid cell are walked and tested
 in one compiled loop without materialising them (:func:`cell_pair_hits`), and the test
 (:func:`crossing_kernel`) is the interval test of Moeller [1]_ exactly as documented in
-:func:`offset.intersections.intersecting_pairs`.
+:func:`shellvox.offset.intersections.intersecting_pairs`.
 
 Nothing here checks its input.
 
@@ -22,11 +22,11 @@ from typing import Any
 
 import numpy as np
 
-from voxel._compiled import kernel
+from shellvox.voxel._compiled import kernel
 
 
 def _jit(function: Callable[..., Any]) -> Callable[..., Any]:
-    """Compile ``function`` with :func:`voxel._compiled.kernel` (the Python one stays callable)."""
+    """Compile ``function`` with :func:`~shellvox.voxel._compiled.kernel` (the Python one stays)."""
     compiled: Callable[..., Any] = kernel(function)
     return compiled
 

@@ -1,6 +1,6 @@
 """Exact confirmation of triangle pairs that a floating-point test reports as crossing.
 
-The compiled narrow phase of :func:`offset.intersections.intersecting_pairs` works in
+The compiled narrow phase of :func:`shellvox.offset.intersections.intersecting_pairs` works in
 float64 with a tolerance of ``1e-10`` of the mesh extent. Where many vertices gather within
 about a micrometre of one point (the shells meshed from the layer field put several
 vertices within ``1e-5`` of a grid step of a node where the field is nearly zero), its

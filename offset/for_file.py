@@ -1,13 +1,13 @@
 """A shell made ready for a file: cleaned, then its coplanar pairs jittered.
 
-A shell (:func:`offset.offset_shells`) is exact in float64 but carries clusters of
+A shell (:func:`shellvox.offset.offset_shells`) is exact in float64 but carries clusters of
 vertices and slivers far below a micrometre; written in float32 (trimesh's PLY export)
 they become zero-area faces and coincident vertices. Its flat regions are also exactly
 coplanar, which a triangle test without a coplanarity tolerance (MeshLab's) reads as
 crossings at random. :func:`shell_for_file` cleans the shell
-(:func:`offset.clean.clean_offset_shell`) and moves the vertices of coplanar triangle pairs
-by a tiny random amount (:func:`offset.jitter.jitter_vertices`, 1e-8 of the extent, seed 0:
-reproducible). The voxels never use these shells; :mod:`pipeline.output._shells` writes them.
+(:func:`shellvox.offset.clean.clean_offset_shell`) and moves the vertices of coplanar triangle pairs
+by a tiny random amount (:func:`shellvox.offset.jitter.jitter_vertices`, 1e-8 of the extent, seed 0:
+reproducible). The voxels never use these shells; :mod:`shellvox.output._shells` writes them.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any, NamedTuple
 
-from offset.clean import clean_offset_shell
-from offset.jitter import jitter_vertices
-from offset.shells import Shell
+from shellvox.offset.clean import clean_offset_shell
+from shellvox.offset.jitter import jitter_vertices
+from shellvox.offset.shells import Shell
 
 
 class ShellForFile(NamedTuple):
@@ -29,9 +29,9 @@ class ShellForFile(NamedTuple):
         The cleaned faces and the jittered vertices; the same layer and depths.
     cleaning : dict
         ``tol_mm``, ``collapsed_vertices``, ``flipped_edges``, ``max_move_mm``,
-        ``short_edges_left``, ``thin_faces_left`` (see :class:`offset.clean.CleanedMesh`),
+        ``short_edges_left``, ``thin_faces_left`` (see :class:`shellvox.offset.clean.CleanedMesh`),
         then ``jitter_mm``, ``jitter_moved_vertices``, ``jitter_kept_vertices`` and
-        ``coplanar_pairs_left`` (see :class:`offset.jitter.JitteredMesh`); a vertex moved
+        ``coplanar_pairs_left`` (see :class:`shellvox.offset.jitter.JitteredMesh`); a vertex moved
         at most ``max_move_mm + jitter_mm`` in all.
     """
 

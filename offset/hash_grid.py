@@ -1,6 +1,6 @@
 """A hierarchical hash grid over axis-aligned boxes: the candidate pairs of the crossing test.
 
-Used by :func:`offset.intersections.intersecting_pairs`: boxes are binned into the cells of
+Used by :func:`shellvox.offset.intersections.intersecting_pairs`: boxes are binned into the cells of
 a fine grid or of the first coarser level that holds them, so every pair of overlapping
 boxes meets in exactly one cell of one grid (see :func:`hash_grids`).
 """
@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from offset._validate import FloatArray, IntArray
-from voxel._compiled import kernel
+from shellvox.offset._validate import FloatArray, IntArray
+from shellvox.voxel._compiled import kernel
 
 #: Boxes spanning at most this many cells of the fine grid (3 per axis) are binned there;
 #: larger ones in coarser grids (see :func:`hash_grids`).

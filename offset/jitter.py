@@ -1,6 +1,6 @@
 """Move a shell's vertices by a tiny random amount so that no disjoint faces are coplanar.
 
-A robust shell (:mod:`offset.robust`) is made of flat regions, one per moved face plane,
+A robust shell (:mod:`shellvox.offset.robust`) is made of flat regions, one per moved face plane,
 each triangulated into many triangles whose vertices lie on the plane to within
 round-off (about ``1e-16`` of the coordinates). Two triangles of one plane that share no
 vertex and whose bounding boxes overlap are disjoint, but a triangle-triangle test
@@ -15,16 +15,16 @@ coplanar, disjoint face), and a different number in a process that had loaded an
 mesh first.
 
 :func:`jitter_vertices` removes the cause rather than the symptom: the vertices of every
-such pair (:func:`offset.intersections.coplanar_pairs`; except in planes ``x_k = c`` held
+such pair (:func:`shellvox.offset.intersections.coplanar_pairs`; except in planes ``x_k = c`` held
 exactly, where every test computes exact zeros) move by ``amplitude`` in a random
 direction, so corners lie ``~amplitude`` off the other triangles' planes, 1e8 times the
 round-off, and any floating-point test decides correctly; vertices elsewhere stay.
 Two triangles farther apart than ``2 * amplitude`` cannot come to meet, and a face at
-least ``tol`` high (:mod:`offset.clean`) turns by at most ``2 * amplitude / tol`` (1e-3
+least ``tol`` high (:mod:`shellvox.offset.clean`) turns by at most ``2 * amplitude / tol`` (1e-3
 rad at the defaults), so only configurations that already touch can change: a face
 folded flat onto its neighbour, or lying on another along a line. Those are found (new
-crossing pairs of :func:`offset.intersections.intersecting_pairs`, new folds of
-:func:`offset.clean.folded_faces`), their vertices are kept in place, and the rest are
+crossing pairs of :func:`shellvox.offset.intersections.intersecting_pairs`, new folds of
+:func:`shellvox.offset.clean.folded_faces`), their vertices are kept in place, and the rest are
 moved again; if that does not settle after :data:`MAX_FREEZES` attempts, the input is
 returned unchanged. A crossing smaller than the crossing test's tolerance (1e-10 of the
 extent) would go unseen; at 100 times that amplitude none was left on the icosphere,
@@ -44,9 +44,9 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from offset._validate import FloatArray, IntArray
-from offset.clean import folded_faces
-from offset.intersections import coplanar_pairs, intersecting_pairs
+from shellvox.offset._validate import FloatArray, IntArray
+from shellvox.offset.clean import folded_faces
+from shellvox.offset.intersections import coplanar_pairs, intersecting_pairs
 
 #: Default amplitude as a fraction of the mesh extent: 0.5 nm on a 50 mm part, 1e8 times
 #: the round-off of its coordinates, 1/2000 of the cleaning tolerance (1 um at 0.5 mm)
@@ -73,7 +73,7 @@ class JitteredMesh:
         Vertices of coplanar pairs kept in place because moving them made faces cross
         or fold.
     coplanar_pairs : int
-        Pairs of :func:`offset.intersections.coplanar_pairs` left, but for those in a
+        Pairs of :func:`shellvox.offset.intersections.coplanar_pairs` left, but for those in a
         plane ``x_k = c`` held exactly.
     """
 

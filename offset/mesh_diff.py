@@ -1,7 +1,7 @@
 """Which faces of a mesh are unchanged from an earlier version of it (exact coordinates).
 
-A robust shell is repaired in a few places (:func:`offset.core_cut.patch_core`, or simplified
-where a few sub-micrometre triangles cross); the faces outside those places come out of
+A robust shell is repaired in a few places (:func:`shellvox.offset.core_cut.patch_core`, or
+simplified where a few sub-micrometre triangles cross); the faces outside those places come out of
 manifold3d with the same coordinates. A pair of such faces was already tested for
 crossing, so only pairs involving a new face (or one that crossed before) need testing
 again.
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from offset._validate import FloatArray, IntArray
+from shellvox.offset._validate import FloatArray, IntArray
 
 
 def face_origin(

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from offset._validate import FloatArray, IntArray
-from offset.adjacency import edge_adjacency, face_normals
+from shellvox.offset._validate import FloatArray, IntArray
+from shellvox.offset.adjacency import edge_adjacency, face_normals
 
 #: Three-plane systems with ``|det|`` below this (unit normals) count as singular.
 SINGULAR_DET = 1e-6

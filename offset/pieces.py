@@ -1,4 +1,4 @@
-"""Convex pieces whose union is the band removed by :mod:`offset.robust`.
+"""Convex pieces whose union is the band removed by :mod:`shellvox.offset.robust`.
 
 Every function returns same-topology pieces as ``points (N, P, 3) float64 mm`` plus one
 shared triangle list ``tris (T, 3) int64`` (outward), or a list of such groups.
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from offset._validate import FloatArray, IntArray
+from shellvox.offset._validate import FloatArray, IntArray
 
 #: Pieces reach this fraction of their depth outside the surface (avoids coplanar caps).
 OUTSIDE_FRACTION = 0.05

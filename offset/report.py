@@ -9,11 +9,11 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from offset._validate import FloatArray, IntArray, check_mesh, check_thickness
-from offset.baselines import slicer_thickness, vertex_normal_offset
-from offset.intersections import count_self_intersections
-from offset.quality import equidistance, mesh_checks, nested_in, percentiles
-from offset.shells import Shell
+from shellvox.offset._validate import FloatArray, IntArray, check_mesh, check_thickness
+from shellvox.offset.baselines import slicer_thickness, vertex_normal_offset
+from shellvox.offset.intersections import count_self_intersections
+from shellvox.offset.quality import equidistance, mesh_checks, nested_in, percentiles
+from shellvox.offset.shells import Shell
 
 
 def shell_report(
@@ -39,7 +39,7 @@ def shell_report(
     thickness : (K, F) or (K,) array_like of float, mm
         The thickness the shells were made with.
     shells : sequence of Shell
-        ``K`` shells from :func:`offset.offset_shells`, outside in.
+        ``K`` shells from :func:`shellvox.offset.offset_shells`, outside in.
     baselines : bool, optional
         Also measure the vertex-normal offset and the slicer's 2D contour offset.
     layer_height_mm : float, optional
@@ -49,7 +49,7 @@ def shell_report(
     seed : int, optional
         Sampling seed.
     checks : sequence of dict, optional
-        :func:`offset.quality.mesh_checks` of each shell when already measured (on its
+        :func:`shellvox.offset.quality.mesh_checks` of each shell when already measured (on its
         file read back); default: measured here.
     crossing_free : bool, optional
         The shells, exactly as given and all together, were already tested with no
@@ -61,9 +61,9 @@ def shell_report(
     dict
         Plain JSON types. ``input_self_intersections`` counts crossing face pairs of the
         input (a self-intersecting input bounds no well-defined solid).
-        ``layers[k]["shell"]`` holds :func:`offset.quality.mesh_checks`
+        ``layers[k]["shell"]`` holds :func:`shellvox.offset.quality.mesh_checks`
         keys, ``nested`` (inside the previous shell, or the surface for layer 1) and
-        ``equidistance`` (:func:`offset.quality.equidistance`); ``layers[k]["baselines"]``
+        ``equidistance`` (:func:`shellvox.offset.quality.equidistance`); ``layers[k]["baselines"]``
         the same for ``vertex_normal`` and the thickness error of ``slicer_contour``.
     """
     v, f = check_mesh(vertices, faces)

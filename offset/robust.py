@@ -4,13 +4,13 @@ The layer-``k`` core is ``{x in P : dist(x, T_f) >= D_k(f) for every face f}`` (
 face's band, each of its own depth, removed from the solid ``P``); its boundary is shell
 ``k``. This is the classical offset-by-Minkowski-sum definition [1]_ with a per-face
 radius. We realise it with mesh Booleans (manifold3d [2]_, float64 input and output)
-rather than by intersecting neighbour planes (:mod:`offset.paper`) or on a grid: the
+rather than by intersecting neighbour planes (:mod:`shellvox.offset.paper`) or on a grid: the
 Boolean output is closed and oriented by construction, where the depth exceeds the local
 thickness the core is simply empty there (the band fills the part), and layer ``k``'s core
 is cut from layer ``k - 1``'s, so the shells are nested by construction. A level set [3]_
 would also be robust but chamfers convex creases to the voxel size, which breaks the exact
 flat faces and creases asked for here. The removed set is the union of convex pieces
-(:mod:`offset.band`, :mod:`offset.pieces`):
+(:mod:`shellvox.offset.band`, :mod:`shellvox.offset.pieces`):
 
 * a prism per face, ``T_f`` swept along its normal to ``-D_k(f)``: its cap is exactly the
   moved plane, so flat regions and convex creases come out exact (at a convex edge the
@@ -32,8 +32,8 @@ about 0.5 % D); face interiors and convex creases are exact.
 Depth steps: where neighbouring faces take different depths, each face's prism goes to
 its own depth, so the shell steps sharply at the shared edge (moved by the overlap
 ``GROW_FRACTION * D``), as the voxel layers do: they take the depth of the nearest face
-(:mod:`voxel.geometry._layer_kernel`). The core as defined above would instead round the deeper
-face's band under its shallower neighbour (a whole cylinder about the edge, a ball
+(:mod:`shellvox.voxel.geometry._layer_kernel`). The core as defined above would instead round the
+deeper face's band under its shallower neighbour (a whole cylinder about the edge, a ball
 about each corner): on a flat top with a 1.0 / 0.3 mm step the two differ by up to
 0.7 mm next to the edge. Shells and voxels are kept to one rule, the voxels'; sectors
 and caps at reflex features take the larger depth of their faces.
@@ -42,28 +42,28 @@ Pieces overlap their neighbours by ``GROW_FRACTION * D`` along the surface (sliv
 triangles' corners by at most ten times that) so that no surface edge lies exactly on a
 piece boundary; without it, Booleans left slivers of material along reflex edges.
 
-The union is built bottom-up along a Morton curve (:mod:`offset.union`): runs of 16
+The union is built bottom-up along a Morton curve (:mod:`shellvox.offset.union`): runs of 16
 neighbouring pieces first, then neighbouring results pairwise, each Boolean evaluated
 eagerly so that every Boolean joins two neighbouring regions. Coplanar neighbouring
-faces of equal depth share one prism (:mod:`offset.planar`).
+faces of equal depth share one prism (:mod:`shellvox.offset.planar`).
 
 manifold3d guarantees a manifold result, but not an embedded or exact one: near-coplanar
 overlaps of pieces (nearly flat reflex edges) can leave sub-micrometre crossing
 triangles, a folded triangle or a thin crack cut into the core, and which ones depends
-on the order of the Booleans. Hence the guards (:mod:`offset.guards`), in this order:
+on the order of the Booleans. Hence the guards (:mod:`shellvox.offset.guards`), in this order:
 
 1. components of about zero volume are dropped (:func:`drop_slivers`);
 2. where part of the previous boundary survived the cut (a mis-classified region), the
-   nearby pieces are subtracted once more (:data:`offset.core_cut.REPAIR_ROUNDS`);
-3. a shell with crossing triangles (:func:`offset.intersections.intersecting_pairs`) is
-   simplified to ``offset.core_cut.SIMPLIFY_FRACTION * D`` (manifold3d's edge collapse);
+   nearby pieces are subtracted once more (:data:`shellvox.offset.core_cut.REPAIR_ROUNDS`);
+3. a shell with crossing triangles (:func:`shellvox.offset.intersections.intersecting_pairs`) is
+   simplified to ``shellvox.offset.core_cut.SIMPLIFY_FRACTION * D`` (manifold3d's edge collapse);
 4. where triangles still cross, or lie deeper than any piece reaches
-   (:func:`offset.guards.too_deep`; a fold between layers that only touch is caught
+   (:func:`shellvox.offset.guards.too_deep`; a fold between layers that only touch is caught
    here, not by the crossing test), the core is recomputed locally (:func:`patch_core`): in
    boxes around them, from the previous core and the pieces reaching into the boxes,
    united in another order; the boxes grow each round (:data:`PATCH_ROUNDS`). After a
    simplification or a patch only pairs with a new triangle, or one that crossed
-   before, are tested again (:mod:`offset.mesh_diff`);
+   before, are tested again (:mod:`shellvox.offset.mesh_diff`);
 5. a shell still defective after the patches is recomputed with another leaf size of
    the union tree (:data:`LEAF_SIZES`); the best attempt is kept, and a
    :class:`ShellDefectWarning` names what remains.
@@ -92,12 +92,12 @@ import manifold3d as m3d
 import numpy as np
 import numpy.typing as npt
 
-from offset._validate import FloatArray, IntArray
-from offset.band import features, layer_pieces
-from offset.core_cut import cut_core, patch_core, uncross
-from offset.guards import Surface, too_deep
-from offset.pieces import Group
-from offset.union import LEAF, to_manifold
+from shellvox.offset._validate import FloatArray, IntArray
+from shellvox.offset.band import features, layer_pieces
+from shellvox.offset.core_cut import cut_core, patch_core, uncross
+from shellvox.offset.guards import Surface, too_deep
+from shellvox.offset.pieces import Group
+from shellvox.offset.union import LEAF, to_manifold
 
 #: Leaf sizes of the union tree tried in turn while a layer's shell crosses itself.
 LEAF_SIZES = (LEAF, 13, 11, 19)
@@ -135,7 +135,7 @@ def robust_offset(
     -----
     ShellDefectWarning
         When a shell still has crossing triangles, or triangles deeper than asked (see
-        :func:`offset.guards.too_deep_count`), after every union order was tried.
+        :func:`shellvox.offset.guards.too_deep_count`), after every union order was tried.
     """
     solid = to_manifold(vertices, faces)
     if solid.status() != m3d.Error.NoError:
@@ -173,7 +173,7 @@ class _Attempt(NamedTuple):
     crossing : int
         Crossing triangle pairs.
     deep_tri : (m,) bool
-        Triangles deeper than asked (:func:`offset.guards.too_deep`).
+        Triangles deeper than asked (:func:`shellvox.offset.guards.too_deep`).
     """
 
     vert: FloatArray
@@ -226,7 +226,7 @@ def _patched(
     A fold or crack deeper than the pieces reach, or crossing triangles: the core is
     recomputed in boxes around them (padded by ``round * PATCH_PAD * max(d)``) from the
     previous core and the pieces there alone, united in another order
-    (:func:`offset.core_cut.patch_core`). A round's result is kept unless it has more
+    (:func:`shellvox.offset.core_cut.patch_core`). A round's result is kept unless it has more
     defects; the rounds end when none are left or after :data:`PATCH_ROUNDS`.
     """
     d_min, d_max = float(d.min()), float(d.max())

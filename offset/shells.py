@@ -8,10 +8,16 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from offset._validate import FloatArray, IntArray, check_choice, check_mesh, check_thickness
-from offset.adjacency import edge_adjacency
-from offset.paper import paper_offset
-from offset.robust import robust_offset
+from shellvox.offset._validate import (
+    FloatArray,
+    IntArray,
+    check_choice,
+    check_mesh,
+    check_thickness,
+)
+from shellvox.offset.adjacency import edge_adjacency
+from shellvox.offset.paper import paper_offset
+from shellvox.offset.robust import robust_offset
 
 Method = Literal["robust", "paper"]
 METHODS: tuple[str, ...] = ("robust", "paper")
@@ -58,8 +64,8 @@ def offset_shells(
         Layer ``k`` is at cumulative depth ``D_k(f) = sum_{j <= k} t_j(f)``.
     method : {"robust", "paper"}, optional
         ``"robust"`` (default): closed, oriented, self-intersection-free, nested shells,
-        see :mod:`offset.robust`. ``"paper"``: the reference construction of Zhu and Chen,
-        see :mod:`offset.paper`.
+        see :mod:`shellvox.offset.robust`. ``"paper"``: the reference construction of Zhu and Chen,
+        see :mod:`shellvox.offset.paper`.
 
     Returns
     -------

@@ -12,7 +12,7 @@ from __future__ import annotations
 import manifold3d as m3d
 import numpy as np
 
-from offset._validate import FloatArray, IntArray
+from shellvox.offset._validate import FloatArray, IntArray
 
 #: Pieces united by one manifold3d batch Boolean at the leaves of the union tree.
 LEAF = 16

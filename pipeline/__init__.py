@@ -1,22 +1,36 @@
-"""shellvox pipeline: model loading, thickness, printers, outputs, runs, builds, the CLI.
+"""shellvox: per-face colour-layer shells and layered voxel stacks for full-colour 3D printing.
 
-Subpackages by stage, each importing only the layers below it (``tests/test_layout.py``
-checks the imports):
+Load a coloured model, give each face its own layer thickness, offset the faces inward
+into nested shells, voxelise at the printer's resolution with a colour and a material per
+voxel, and write printer jobs, image stacks, OpenVDB grids, an OME-Zarr store and reports::
 
-0. this package's bottom: :mod:`~pipeline.errors`, :mod:`~pipeline.config`,
-   :mod:`~pipeline.faults` (exit statuses, signals), :mod:`~pipeline.atomic` (files that
-   appear whole);
-1. :mod:`pipeline.model` the coloured mesh;
-2. :mod:`pipeline.loading` (every format to a mesh), :mod:`pipeline.thickness` (per-face
-   layer thickness), :mod:`pipeline.printer` (profiles, the material plan);
-3. :mod:`pipeline.output` the output folder, its streams, manifest, shells and PLY;
-4. :mod:`pipeline.run` the slab task, where it runs, checkpoints;
-5. :mod:`pipeline.build` one model's build; 6. :mod:`pipeline.tray` several models;
-7. :mod:`pipeline.cli` the command line.
+    import shellvox
 
-:mod:`pipeline.report` (previews, the thickness picture) and :mod:`pipeline.viewer` read an
-output folder: they import the bottom and :mod:`pipeline.output` only (the previews also
-the viewer's stack reader).
+    result = shellvox.build("model.obj", "out")  # as `shellvox build model.obj -o out`
+    stack = result.open()  # the voxels, lazily, with their grid
+    stack.sample([[0.0, 0.0, 1.0]]).layer  # what lies at a point (mm)
+
+The names of this package are loaded on first use (``import shellvox`` imports none of
+the heavy libraries). Its parts, each importing only those below it
+(``tests/test_layout.py``):
+
+- :mod:`shellvox.voxel` voxel grids, the compiled kernels, colour, separation and the
+  writers; :mod:`shellvox.offset` the shells of the paper's per-face offset;
+- the stages: :mod:`~shellvox.errors`, :mod:`~shellvox.config`, :mod:`~shellvox.faults`
+  (exit statuses, signals), :mod:`~shellvox.atomic` (files that appear whole);
+  :mod:`shellvox.model` the coloured mesh; :mod:`shellvox.loading` (every format to a
+  mesh), :mod:`shellvox.thickness` (per-face layer thickness), :mod:`shellvox.printer`
+  (profiles, materials, charts); :mod:`shellvox.output` the output folder, its streams,
+  manifest, shells and PLY, and :mod:`shellvox.fdm` FDM slicer projects;
+  :mod:`shellvox.run` the slab task and where it runs; :mod:`shellvox.stack` one model's
+  build; :mod:`shellvox.tray` several models in one job; :mod:`shellvox.api` each command
+  as a function; :mod:`shellvox.cli` the command line;
+- readers of a finished build: :mod:`shellvox.reading` (arrays), :mod:`shellvox.report`
+  (previews) and :mod:`shellvox.viewer` (the browser viewer).
 """
 
+import lazy_loader
+
 __version__ = "0.1.0"
+
+__getattr__, __dir__, __all__ = lazy_loader.attach_stub(__name__, __file__)

@@ -1,7 +1,7 @@
 """Files that appear atomically: write to a temporary name beside the target, then rename.
 
 The writers in :mod:`voxel` only serialise to the path they are given; the commands and
-the build (:mod:`pipeline.output._folder`) give them these temporary names.
+the build (:mod:`shellvox.output._folder`) give them these temporary names.
 """
 
 from __future__ import annotations

@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, get_args
 
-from pipeline.errors import InputError
-from voxel.colour import DEFAULT_TILE, HALFTONES, Halftone
-from voxel.slab import LayerRule
+from shellvox.errors import InputError
+from shellvox.voxel.colour import DEFAULT_TILE, HALFTONES, Halftone
+from shellvox.voxel.slab import LayerRule
 
-#: Material roles of a printer profile (:mod:`pipeline.printer._profile`).
+#: Material roles of a printer profile (:mod:`shellvox.printer._profile`).
 Role = Literal["cyan", "magenta", "yellow", "black", "white", "clear", "support", "void"]
 
 Unit = Literal["micron", "mm", "cm", "m", "inch", "foot"]
@@ -54,7 +54,7 @@ class LoadOptions:
     force : bool
         Lift the loader's limits (:attr:`max_faces`, the texture pixel budget, coordinates
         beyond 1e6 mm) and read referenced files outside the model's folder, with a
-        warning (see :mod:`pipeline.loading`).
+        warning (see :mod:`shellvox.loading`).
     max_faces : int
         Sane face limit without ``force``.
     """
@@ -93,10 +93,10 @@ class ShellConfig:
         Thickness of each layer, outside in (mm), the same for every face (``--thickness``);
         empty when a thickness rule sets it per face.
     method : {"field", "robust", "paper"}
-        Offset construction (see :mod:`pipeline.output._shell_methods`).
+        Offset construction (see :mod:`shellvox.output._shell_methods`).
     step_mm : float or None, mm
         Grid step of the ``field`` method (None: automatic, see
-        :func:`pipeline.output._shell_methods.automatic_step`).
+        :func:`shellvox.output._shell_methods.automatic_step`).
     layer_height_mm : float
         Printer layer height used by the slicer baseline of the report.
     """
@@ -118,7 +118,7 @@ class MaterialSettings:
     Parameters
     ----------
     halftone : {"blue-noise", "error-diffusion"}
-        See :mod:`voxel.colour._materials`.
+        See :mod:`shellvox.voxel.colour._materials`.
     seed : int
         Seed of the blue-noise tile (the halftone is deterministic per seed).
     icc : Path or None
@@ -172,7 +172,7 @@ class BuildConfig:
         anyway; with the ``"distance"`` rule they run beside the voxels, in another
         process, and the manifest reports how well the two realisations agree).
     shell_method : {"field", "robust", "paper"}
-        Offset construction (see :mod:`pipeline.output._shell_methods`; ``field``, the
+        Offset construction (see :mod:`shellvox.output._shell_methods`; ``field``, the
         default, on its default grid step, ``--shell-step`` of ``shellvox shells``).
     margin_mm : float, mm
         Empty space around the model in the grid (at least the level-set half width).
@@ -187,7 +187,7 @@ class BuildConfig:
         Write ``colour.tif`` as RGBA instead of RGB.
     compression_level : int, optional
         zlib level of the TIFFs (1 fast .. 9 small); None (default): the fast
-        setting of :mod:`voxel.io._compression` (zlib-ng's level 2).
+        setting of :mod:`shellvox.voxel.io._compression` (zlib-ng's level 2).
     formats : tuple of {"tiff", "vdb", "gcvf", "png", "zarr"}
         Files to write: ``tiff`` = ``layers.tif``, ``colour.tif`` and ``materials.tif``;
         ``vdb`` = ``volume.vdb``; ``gcvf`` = ``job.gcvf`` (GrabCAD Voxel Print);
@@ -199,7 +199,7 @@ class BuildConfig:
     report_samples : int
         Surface samples of the colour report (0: none).
     optical_depth_mm : float, mm
-        Optical depth ``L`` of the colour report's model (:mod:`voxel.colour._report`).
+        Optical depth ``L`` of the colour report's model (:mod:`shellvox.voxel.colour._report`).
     """
 
     voxel_mm: tuple[float, float, float]

@@ -1,6 +1,6 @@
 """Exit statuses, the one-line message of every failure, and signals turned into exceptions.
 
-The CLI's error boundary (:func:`pipeline.cli.main`) maps every exception to one line on
+The CLI's error boundary (:func:`shellvox.cli.main`) maps every exception to one line on
 stderr and one of these exit statuses:
 
 ==========  ==========================================================================
@@ -30,7 +30,7 @@ import sys
 from collections.abc import Callable, Iterator
 from types import FrameType
 
-from pipeline.errors import InputError, SlabWorkerDied
+from shellvox.errors import InputError, SlabWorkerDied
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
@@ -92,7 +92,7 @@ def signals_raise() -> Iterator[None]:
         yield
     finally:
         sys.unraisablehook = hook
-        # The signals blocked before stay blocked: ``python -m pipeline.cli`` blocks them
+        # The signals blocked before stay blocked: ``python -m shellvox.cli`` blocks them
         # from its first line, so no signal cuts the interpreter's shutdown either.
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         for signum, handler in previous.items():
@@ -133,7 +133,7 @@ class DeferredSignals(contextlib.AbstractContextManager["DeferredSignals"]):
     The signals are also blocked in this thread: child processes and threads started
     meanwhile inherit the mask, so a terminal's Ctrl-C (sent to the whole process group)
     cannot hit a child before it has set up its own handling
-    (:func:`pipeline.run._children.init_child`). The mask alone would not hold them back from
+    (:func:`shellvox.run._children.init_child`). The mask alone would not hold them back from
     this process: any other thread that does not block them receives them, and Python
     runs the handler in the main thread all the same.
     """

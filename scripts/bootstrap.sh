@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need=()
-# libgs-common: Ghostscript's CMYK ICC profiles, for the --icc test (tests/voxel_colour/test_separation.py)
+# libgs-common: Ghostscript's CMYK ICC profiles, for the --icc test (tests/voxel/colour/test_separation.py)
 # chromium: the browser the viewer's test drives (tests/viewer/test_viewer_browser.py, Playwright);
 # Debian packages it, Ubuntu only as a snap: where apt has none, that test skips (fails in CI)
 # prusa-slicer: slices the `shellvox fdm` projects in tests (tests/fdm/test_fdm_prusaslicer.py);
@@ -48,6 +48,6 @@ fi
 # Every package pinned with its hashes (scripts/lock.sh writes the lock with uv).
 .venv/bin/python -m pip install -q --require-hashes -r requirements.lock
 .venv/bin/python -m pip install -q --no-deps -e . >/dev/null 2>&1 || .venv/bin/python -m pip install --no-deps -e .
-PYTHONPATH=tests .venv/bin/python -c "import openvdb_module as m; m.load_openvdb()" \
-    || { echo "shellvox set-up: OpenVDB's Python module does not load in .venv" >&2; exit 1; }
+/usr/bin/python3 -c "import pyopenvdb" \
+    || { echo "shellvox set-up: Debian's OpenVDB module (pyopenvdb) does not load in /usr/bin/python3" >&2; exit 1; }
 echo "$want" > "$stamp"

@@ -264,9 +264,9 @@ def locate(mesh, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def j750_layer_model(rule=None):
     """The optical rule's model of the J750 (its optics, separation and backing)."""
-    from pipeline.config import MaterialSettings
-    from pipeline.printer import build_material_plan, layer_model, load_profile
-    from pipeline.thickness import DEFAULT_RULE
+    from shellvox.config import MaterialSettings
+    from shellvox.printer import build_material_plan, layer_model, load_profile
+    from shellvox.thickness import DEFAULT_RULE
 
     layers = (rule or DEFAULT_RULE).layers
     profile = load_profile("j750")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from voxel.colour import Optics, Patch, predict
+from shellvox.voxel.colour import Optics, Patch, predict
 
 NOISE = 0.002  # reflectance, one sigma
 

@@ -59,7 +59,7 @@ def real_mesh_shells():
 
     import trimesh
 
-    from offset import offset_shells
+    from shellvox.offset import offset_shells
 
     cache: dict[tuple[str, float], tuple[object, list[object], list[warnings.WarningMessage]]] = {}
 
@@ -85,7 +85,7 @@ def small_colour_build(tmp_path_factory):
 
     Read-only: a test that changes a build copies it first.
     """
-    from pipeline.cli import main
+    from shellvox.cli import main
 
     out = tmp_path_factory.mktemp("small_colour_build") / "build"
     model = Path(__file__).resolve().parents[1] / "data" / "colour_target" / "colour_target.obj"
@@ -99,7 +99,7 @@ def small_colour_build(tmp_path_factory):
 def small_zarr_build(tmp_path_factory):
     """The default model on a coarse grid in slabs of 3 rows, TIFFs and the OME-Zarr store
     (materials; no colour report). Read-only: a test that changes it copies it first."""
-    from pipeline.cli import main
+    from shellvox.cli import main
 
     out = tmp_path_factory.mktemp("small_zarr_build") / "build"
     model = Path(__file__).resolve().parents[1] / "data" / "colour_target" / "colour_target.obj"

@@ -86,7 +86,7 @@ class Run:
 
 
 class Command:
-    """A ``python -m pipeline.cli ...`` process in its own session, output to files.
+    """A ``python -m shellvox.cli ...`` process in its own session, output to files.
 
     Output goes to files, not pipes: an orphaned child holding a pipe would block a reader.
     """
@@ -117,7 +117,7 @@ class Command:
 
         self.started = time.monotonic()
         self.popen = subprocess.Popen(
-            [sys.executable, "-m", "pipeline.cli", *self.argv],
+            [sys.executable, "-m", "shellvox.cli", *self.argv],
             stdin=subprocess.DEVNULL,
             stdout=self._out,
             stderr=self._err,

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.model import ColouredMesh
+from shellvox.model import ColouredMesh
 
 PRUSA = shutil.which("prusa-slicer")
 #: Side colours of the box (+x, -x, +y, -y) and its core (first) and top/bottom (white).

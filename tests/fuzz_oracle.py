@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
 
-from pipeline.cli import main
+from shellvox.cli import main
 
 HANG_SECONDS = 10.0
 #: A case stuck this long outside Python ends the run (faulthandler prints the stacks).

@@ -133,7 +133,7 @@ def test_a_disk_error_without_its_text_is_named_by_its_number():
     import errno
     import os
 
-    from pipeline.faults import EXIT_DISK, describe
+    from shellvox.faults import EXIT_DISK, describe
 
     error = OSError(errno.ENOSPC, "No space left on device", "out/layers.tif")
     error.strerror = None

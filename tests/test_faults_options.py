@@ -23,7 +23,7 @@ from fault_harness import (
     wait_for,
 )
 
-from pipeline.run import RUN_FOLDER
+from shellvox.run import RUN_FOLDER
 
 TWO_GB = 2 * 1024**3
 
@@ -106,12 +106,12 @@ def test_long_build_says_what_it_will_cost_first(tmp_path):
         assert left == set(), left
 
 
-#: A program as ``python -m pipeline.cli``, holding an object whose finaliser fails at
+#: A program as ``python -m shellvox.cli``, holding an object whose finaliser fails at
 #: the end of the process (as a library's object left half made by the signal does).
 HALF_MADE = """
 import signal, sys
 signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-from pipeline.cli import main
+from shellvox.cli import main
 class HalfMade:
     def __del__(self):
         raise AttributeError("half made")

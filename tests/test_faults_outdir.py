@@ -88,8 +88,8 @@ def test_concurrent_builds_into_one_folder(tmp_path):
 def test_a_signal_while_the_folder_is_locked_leaves_no_lock(tmp_path, monkeypatch):
     # SIGINT sent while the lock is taken (held back there) raises as that block closes:
     # the folder is then left without the lock file, and a next run is not refused.
-    from pipeline.faults import Interrupted, signals_raise
-    from pipeline.output import _outdir
+    from shellvox.faults import Interrupted, signals_raise
+    from shellvox.output import _outdir
 
     acquire = _outdir._acquire
 

@@ -12,16 +12,16 @@ import time
 import numpy as np
 import pytest
 
-from pipeline.errors import InputError, OutputBusy, SlabWorkerDied
-from pipeline.faults import (
+from shellvox.errors import InputError, OutputBusy, SlabWorkerDied
+from shellvox.faults import (
     DeferredSignals,
     Interrupted,
     describe,
     raise_if_interrupted,
     signals_raise,
 )
-from pipeline.output import LOCK_NAME, OutputFolder, remove_leftovers
-from pipeline.run import ChildCall, ChildDied
+from shellvox.output import LOCK_NAME, OutputFolder, remove_leftovers
+from shellvox.run import ChildCall, ChildDied
 
 
 def _os_error(code, name="out/layers.tif"):

@@ -14,7 +14,7 @@ import numba.core.registry
 import pytest
 from test_layout import MODULES
 
-from voxel._compiled import KERNEL_OPTIONS
+from shellvox.voxel._compiled import KERNEL_OPTIONS
 
 
 def _numba_calls(path) -> list[str]:
@@ -32,13 +32,13 @@ def test_no_module_compiles_but_through_the_decorator():
     users = {
         name: calls
         for name, path in MODULES.items()
-        if name != "voxel._compiled" and (calls := _numba_calls(path))
+        if name != "shellvox.voxel._compiled" and (calls := _numba_calls(path))
     }
     assert users == {}
 
 
 def test_the_decorator_is_what_the_walk_would_catch():
-    assert _numba_calls(MODULES["voxel._compiled"]) == ["numba.njit"]
+    assert _numba_calls(MODULES["shellvox.voxel._compiled"]) == ["numba.njit"]
 
 
 def _options(dispatcher) -> dict:
@@ -76,7 +76,7 @@ def test_every_kernel_has_the_stated_options():
 def test_inline_is_the_one_option_a_kernel_may_add(tmp_path, monkeypatch, inline):
     # numba caches only functions defined in a file: the kernel is written to one.
     (tmp_path / f"plus_one_{inline}.py").write_text(
-        "from voxel._compiled import kernel\n\n\n"
+        "from shellvox.voxel._compiled import kernel\n\n\n"
         f"@kernel(inline={inline!r})\ndef plus_one(x):\n    return x + 1\n"
     )
     monkeypatch.syspath_prepend(str(tmp_path))

@@ -1,23 +1,27 @@
-"""The layout of the packages: import rules, no import circles, sizes (issue 23).
+"""The layout of the package: import rules, no import circles, sizes.
 
-The imports are read with :mod:`ast` from every module of ``pipeline``, ``voxel`` and
-``offset`` (all of them, those under ``if TYPE_CHECKING`` and inside functions too), so a
-rule broken by a lazy import counts.
+The imports are read with :mod:`ast` from every module of ``shellvox`` (the folders
+``pipeline/``, ``offset/`` and ``voxel/``: all modules, those under ``if TYPE_CHECKING``
+and inside functions too), so a rule broken by a lazy import counts.
 
-The layers of ``pipeline``, bottom up (a module imports only its own layer and those below):
+``shellvox.voxel`` (voxels: grids, kernels, colour, writers) and ``shellvox.offset``
+(shell offsetting) are the bottom: neither imports the stages. The stages (the folder
+``pipeline/``), bottom up (a module imports only its own layer and those below):
 
-0. bottom: ``pipeline`` (the version), ``errors``, ``config``, ``faults``, ``atomic``
+0. bottom: ``shellvox`` (the version and the lazy public names), ``errors``, ``config``,
+   ``faults``, ``atomic``
 1. ``model`` (the coloured mesh, textures, topology)
 2. ``loading``, ``thickness``, ``printer`` (side by side: none imports another)
 3. ``output`` (the folder, the streams, the manifest and its checks, shells, PLY) and, beside
    it, ``fdm`` (the 3MF projects for FDM slicers, from the model, thickness and shells)
 4. ``run`` (slab tasks and where they run)
-5. ``build`` (one model's stack)
+5. ``stack`` (one model's build)
 6. ``tray`` (several models, one job)
-7. ``cli``
+7. ``api`` (what each command does, as functions)
+8. ``cli``
 
-``report`` and ``viewer`` read an output folder: they import the bottom, ``output`` and
-(``report``, for the stack pages) ``viewer``, and only ``cli`` imports them.
+``report``, ``viewer`` and ``reading`` read an output folder: they import the bottom and
+``output`` (``report`` also the viewer's stack pages); only ``api`` and ``cli`` import them.
 """
 
 from __future__ import annotations
@@ -28,31 +32,33 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("pipeline", "voxel", "offset")
+#: The folders and the names they have in the package.
+FOLDERS = {"pipeline": "shellvox", "offset": "shellvox.offset", "voxel": "shellvox.voxel"}
+VOXEL, OFFSET = "shellvox.voxel", "shellvox.offset"
 
 LAYERS = {
-    "pipeline": 0, "pipeline.errors": 0, "pipeline.config": 0, "pipeline.faults": 0,
-    "pipeline.atomic": 0, "pipeline.model": 1, "pipeline.loading": 2, "pipeline.thickness": 2,
-    "pipeline.printer": 2, "pipeline.output": 3, "pipeline.fdm": 3, "pipeline.run": 4,
-    "pipeline.build": 5, "pipeline.tray": 6, "pipeline.cli": 7,
+    "shellvox": 0, "shellvox.errors": 0, "shellvox.config": 0, "shellvox.faults": 0,
+    "shellvox.atomic": 0, "shellvox.model": 1, "shellvox.loading": 2, "shellvox.thickness": 2,
+    "shellvox.printer": 2, "shellvox.output": 3, "shellvox.fdm": 3, "shellvox.run": 4,
+    "shellvox.stack": 5, "shellvox.tray": 6, "shellvox.api": 7, "shellvox.cli": 8,
 }  # fmt: skip
-READERS = ("pipeline.report", "pipeline.viewer")
-STAGES = ("model", "loading", "thickness", "printer", "output", "fdm", "run", "build", "tray",
+READERS = ("shellvox.report", "shellvox.viewer", "shellvox.reading")
+STAGES = ("model", "loading", "thickness", "printer", "output", "fdm", "run", "stack", "tray",
           "report", "viewer", "cli")  # fmt: skip
 MAX_TOP_MODULES = {"pipeline": 8, "voxel": 10}
 MAX_LINES = 1000  # a sanity limit: modules are split by concept, not by a count
-#: The one decorator of compiled kernels: every package may import it.
-COMPILED = "voxel._compiled"
+#: The one decorator of compiled kernels: every part of the package may import it.
+COMPILED = "shellvox.voxel._compiled"
 
 
 def _modules() -> dict[str, Path]:
     found = {}
-    for package in PACKAGES:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            parts = path.relative_to(ROOT).with_suffix("").parts
+    for folder, package in FOLDERS.items():
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            parts = path.relative_to(ROOT / folder).with_suffix("").parts
             if parts[-1] == "__init__":
                 parts = parts[:-1]
-            found[".".join(parts)] = path
+            found[".".join((package, *parts))] = path
     return found
 
 
@@ -129,47 +135,53 @@ def _circles() -> list[list[str]]:
     return components
 
 
+def _stage(name: str) -> bool:
+    """Whether `name` is a module of the stages (not of shellvox.voxel or shellvox.offset)."""
+    return not (_within(name, VOXEL) or _within(name, OFFSET))
+
+
 def _broken_rule(name: str, target: str) -> str | None:
     """Return why `name` must not import `target`, or None where it may."""
-    if _within(name, "voxel"):
-        if not _within(target, "voxel"):
-            return "voxel imports neither offset nor pipeline"
+    if _within(name, VOXEL):
+        if not _within(target, VOXEL):
+            return "shellvox.voxel imports neither offset nor the stages"
         if target == COMPILED:
             return None
-        if _within(name, "voxel.io") and not (
-            _within(target, "voxel.io") or target in ("voxel.grid", "voxel.colour._srgb")
+        if _within(name, f"{VOXEL}.io") and not (
+            _within(target, f"{VOXEL}.io") or target in (f"{VOXEL}.grid", f"{VOXEL}.colour._srgb")
         ):
-            return "voxel.io imports only voxel.grid and the sRGB helpers"
-        if _within(name, "voxel.geometry") and not (
-            _within(target, "voxel.geometry") or target == "voxel.grid"
+            return "shellvox.voxel.io imports only voxel.grid and the sRGB helpers"
+        if _within(name, f"{VOXEL}.geometry") and not (
+            _within(target, f"{VOXEL}.geometry") or target == f"{VOXEL}.grid"
         ):
-            return "voxel.geometry imports only voxel.grid"
-        if name == "voxel.slab" and _within(target, "voxel.io"):
-            return "voxel.slab never imports voxel.io"
+            return "shellvox.voxel.geometry imports only voxel.grid"
+        if name == f"{VOXEL}.slab" and _within(target, f"{VOXEL}.io"):
+            return "shellvox.voxel.slab never imports voxel.io"
         return None
-    if _within(name, "offset"):
-        if _within(target, "pipeline"):
-            return "offset never imports pipeline"
-        if _within(target, "voxel") and target not in ("voxel.geometry._nearest", COMPILED):
+    if _within(name, OFFSET):
+        if _stage(target):
+            return "shellvox.offset never imports the stages"
+        if _within(target, VOXEL) and target not in (f"{VOXEL}.geometry._nearest", COMPILED):
             return "offset imports only voxel.geometry._nearest (and the kernels' decorator)"
         return None
-    if not _within(target, "pipeline"):
+    if not _stage(target):
         return None
     reader = next((r for r in READERS if _within(name, r)), None)
     target_reader = next((r for r in READERS if _within(target, r)), None)
     if target_reader is not None and target_reader != reader:
-        if not (_within(name, "pipeline.cli") or (reader, target_reader) == READERS):
-            return f"only cli (and report, of the viewer) imports {target_reader}"
+        allowed = _within(name, "shellvox.cli") or _within(name, "shellvox.api")
+        if not (allowed or (reader, target_reader) == READERS[:2]):
+            return f"only api and cli (and report, of the viewer) import {target_reader}"
         return None
     if reader is not None:
         if target_reader is None and _layer(target) not in (0, 3):
-            return f"{reader} reads the output only (bottom and pipeline.output)"
+            return f"{reader} reads the output only (bottom and shellvox.output)"
         return None
     mine, theirs = _layer(name), _layer(target)
     if mine is None or theirs is None:
         return f"{name if mine is None else target} is in no layer"
     if theirs > mine:
-        return "pipeline depends downward"
+        return "the stages depend downward"
     if theirs == mine == 2 and name.split(".")[1] != target.split(".")[1]:
         return "loading, thickness and printer do not import each other"
     return None
@@ -186,8 +198,8 @@ def _violations() -> list[str]:
 
 def test_the_walk_sees_the_modules() -> None:
     assert len(MODULES) > 100
-    assert "pipeline.run._task" in GRAPH["pipeline.run._runner"]
-    assert "voxel.geometry._nearest" in GRAPH["offset.guards"]
+    assert "shellvox.run._task" in GRAPH["shellvox.run._runner"]
+    assert "shellvox.voxel.geometry._nearest" in GRAPH["shellvox.offset.guards"]
 
 
 def test_no_import_circles() -> None:
@@ -199,14 +211,14 @@ def test_imports_follow_the_rules() -> None:
 
 
 def test_the_rules_catch_a_broken_import() -> None:
-    assert _broken_rule("pipeline.run._runner", "pipeline.build._plan") is not None
-    assert _broken_rule("voxel.slab", "voxel.io._tiff_pages") is not None
-    assert _broken_rule("voxel.geometry._nearest", "pipeline.errors") is not None
-    assert _broken_rule("offset.robust", "voxel.grid") is not None
-    assert _broken_rule("pipeline.config", "pipeline.printer._material_plan") is not None
-    assert _broken_rule("pipeline.viewer._depth", "pipeline.build._stack") is not None
-    assert _broken_rule("pipeline.build._stack", "pipeline.report._previews") is not None
-    assert _broken_rule("pipeline.cli.inspect", "pipeline.report._previews") is None
+    assert _broken_rule("shellvox.run._runner", "shellvox.stack._plan") is not None
+    assert _broken_rule("shellvox.voxel.slab", "shellvox.voxel.io._tiff_pages") is not None
+    assert _broken_rule("shellvox.voxel.geometry._nearest", "shellvox.errors") is not None
+    assert _broken_rule("shellvox.offset.robust", "shellvox.voxel.grid") is not None
+    assert _broken_rule("shellvox.config", "shellvox.printer._material_plan") is not None
+    assert _broken_rule("shellvox.viewer._depth", "shellvox.stack._stack") is not None
+    assert _broken_rule("shellvox.stack._stack", "shellvox.report._previews") is not None
+    assert _broken_rule("shellvox.cli.inspect", "shellvox.report._previews") is None
 
 
 @pytest.mark.parametrize("package", sorted(MAX_TOP_MODULES))
@@ -222,12 +234,12 @@ def test_every_stage_is_a_subpackage() -> None:
         assert (ROOT / "voxel" / part / "__init__.py").is_file(), part
 
 
-def test_no_test_folder_shadows_a_package() -> None:
-    # tests/ is on sys.path (pytest's pythonpath): a folder tests/voxel would be found as a
-    # namespace package ``voxel`` where the editable install's finder comes later.
+def test_no_test_folder_shadows_the_package() -> None:
+    # tests/ is on sys.path (pytest's pythonpath): a folder tests/shellvox would be found as
+    # a namespace package ``shellvox`` where the editable install's finder comes later.
     # And pytest never collects a folder named build or dist (its default norecursedirs).
     folders = {p.name for p in (ROOT / "tests").iterdir() if p.is_dir()}
-    assert folders.isdisjoint({*PACKAGES, "build", "dist"})
+    assert folders.isdisjoint({"shellvox", "build", "dist"})
 
 
 def test_no_module_is_a_monster() -> None:

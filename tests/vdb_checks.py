@@ -5,14 +5,15 @@ from __future__ import annotations
 from typing import Any
 
 
-def describe_grids(grids: Any) -> dict[str, Any]:
-    """Return ``{name: {class, value_type, active_voxels, voxel_size_mm}}`` of OpenVDB grids."""
+def describe_grids(grids: dict[str, Any]) -> dict[str, Any]:
+    """Return ``{name: {class, value_type, active_voxels, voxel_size_mm}}`` of grids read by
+    :func:`openvdb_process.read_vdb`."""
     return {
-        volume.name: {
-            "class": str(volume.gridClass),
-            "value_type": volume.valueTypeName,
-            "active_voxels": int(volume.activeVoxelCount()),
-            "voxel_size_mm": [float(v) for v in volume.transform.voxelSize()],
+        name: {
+            "class": volume.grid_class,
+            "value_type": volume.value_type,
+            "active_voxels": volume.active_voxels,
+            "voxel_size_mm": [float(v) for v in volume.voxel_size],
         }
-        for volume in grids
+        for name, volume in grids.items()
     }

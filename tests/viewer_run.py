@@ -7,7 +7,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from pipeline.viewer import BuildFolder, ViewerServer
+from shellvox.viewer import BuildFolder, ViewerServer
 
 #: The default model (a textured OBJ).
 MODEL = Path(__file__).resolve().parents[1] / "data" / "colour_target" / "colour_target.obj"

@@ -15,15 +15,15 @@ This package never imports :mod:`pipeline` or :mod:`offset`; colour reaches it a
 
 Layout
 ------
-- :mod:`voxel.grid` ``GridSpec`` (index space vs world space).
-- :mod:`voxel.slab` ``compute_slab``: the pure per-slab function (layers, colours, SDF
-  band); :mod:`voxel.tray_slab` a tray's slab, tile by tile; :mod:`voxel.sampler`
-  reproducible samples per layer; :mod:`voxel.agreement` distance layers against shells.
-- :mod:`voxel.geometry` the kernels: inside tests, exact nearest faces within reach,
+- :mod:`shellvox.voxel.grid` ``GridSpec`` (index space vs world space).
+- :mod:`shellvox.voxel.slab` ``compute_slab``: the pure per-slab function (layers, colours, SDF
+  band); :mod:`shellvox.voxel.tray_slab` a tray's slab, tile by tile; :mod:`shellvox.voxel.sampler`
+  reproducible samples per layer; :mod:`shellvox.voxel.agreement` distance layers against shells.
+- :mod:`shellvox.voxel.geometry` the kernels: inside tests, exact nearest faces within reach,
   nearest points (the one module :mod:`offset` uses), the per-voxel layer pass.
-- :mod:`voxel.colour` colour encodings (sRGB, CIELAB), surface colour, separation into
+- :mod:`shellvox.voxel.colour` colour encodings (sRGB, CIELAB), surface colour, separation into
   materials, halftones, the colour report.
-- :mod:`voxel.io` serialisation only: TIFF, PNG, GrabCAD jobs, OpenVDB, previews and the
-  deflate streams; it imports only :mod:`voxel.grid` and the sRGB helpers, and
-  :mod:`voxel.slab` never imports it.
+- :mod:`shellvox.voxel.io` serialisation only: TIFF, PNG, GrabCAD jobs, OpenVDB, previews and the
+  deflate streams; it imports only :mod:`shellvox.voxel.grid` and the sRGB helpers, and
+  :mod:`shellvox.voxel.slab` never imports it.
 """

@@ -56,7 +56,7 @@ def kernel(
 
     Examples
     --------
-    >>> from voxel.sampler import _positions  # a kernel of the project
+    >>> from shellvox.voxel.sampler import _positions  # a kernel of the project
     >>> _positions.targetoptions["nogil"], _positions.targetoptions["error_model"]
     (True, 'numpy')
     """

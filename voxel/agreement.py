@@ -1,10 +1,10 @@
 """How well the distance realisation of the layers agrees with the shell meshes.
 
 The voxel stack takes its layers from exact nearest-surface distances
-(:mod:`voxel.slab`); the offset shells (:mod:`offset`) are a second, independent
+(:mod:`shellvox.voxel.slab`); the offset shells (:mod:`offset`) are a second, independent
 realisation of the same bands. On sampled voxels, the shell realisation's layer is one plus
 the number of shells whose generalised winding number at the voxel centre exceeds 1/2
-(:func:`voxel.geometry._nearest.winding_numbers`).
+(:func:`shellvox.voxel.geometry._nearest.winding_numbers`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.geometry import SurfaceIndex, nearest_faces, winding_numbers
+from shellvox.voxel.geometry import SurfaceIndex, nearest_faces, winding_numbers
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
 

@@ -7,8 +7,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
-from voxel.grid import GridSpec
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.grid import GridSpec
 
 
 class LayerSampler:

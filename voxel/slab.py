@@ -10,8 +10,8 @@ Two layer realisations:
   ``d`` its exact distance to the original surface and ``f`` the face of its nearest
   point; this is the ideal offset (rounded at reflex features, collapsing in thin walls)
   sampled exactly at the voxel centres. Every face is scan-converted into the voxels
-  within the deepest band limit (:mod:`voxel.geometry._distance_scan`, compiled), which gives each
-  of them its exact nearest face; deeper inside voxels are core by the inside test alone.
+  within the deepest band limit (:mod:`shellvox.voxel.geometry._distance_scan`, compiled), which
+  gives each of them its exact nearest face; deeper inside voxels are core by the inside test alone.
 * **shells** (``layer_rule == "shells"``, no ``depth_mm``): a voxel's layer is how many
   of the nested closed surfaces ``surfaces`` contain its centre (exact winding numbers).
 """
@@ -24,8 +24,8 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour import ColourAt, SurfaceColour, nearest_colour, voxel_colours
-from voxel.geometry import (
+from shellvox.voxel.colour import ColourAt, SurfaceColour, nearest_colour, voxel_colours
+from shellvox.voxel.geometry import (
     LayerInputs,
     LayerOutputs,
     SurfaceIndex,
@@ -37,7 +37,7 @@ from voxel.geometry import (
     nearest_within,
     on_faces,
 )
-from voxel.grid import GridSpec
+from shellvox.voxel.grid import GridSpec
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
 
@@ -69,7 +69,7 @@ class StackModel:
         original), refused by ``"shells"``.
     surface_colour : SurfaceColour, optional
         The colour source as arrays: colours by the compiled kernel
-        (:mod:`voxel.colour._surface_colour`), which gives what `colour_at` gives.
+        (:mod:`shellvox.voxel.colour._surface_colour`), which gives what `colour_at` gives.
     layer_rule : {"shells", "distance"}
         How voxels get their layer (see the module).
     """
@@ -175,14 +175,14 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
     """Return layers, colours and the signed-distance band of rows ``z_start..z_stop``.
 
     Needs no halo: inside tests run along x rows and every face within reach of the
-    slab is scan-converted into it (:mod:`voxel.geometry._distance_scan`), so a slab reads
+    slab is scan-converted into it (:mod:`shellvox.voxel.geometry._distance_scan`), so a slab reads
     nothing beyond its own rows and any split into slabs gives the same arrays.
 
     Parameters
     ----------
     model : StackModel
         Surfaces, colour source and options (a tray of models is computed tile by tile
-        with :func:`voxel.tray_slab.compute_tray_slab`, which calls this per tile).
+        with :func:`shellvox.voxel.tray_slab.compute_tray_slab`, which calls this per tile).
     grid : GridSpec
         The voxel grid.
     z_start, z_stop : int

@@ -1,9 +1,9 @@
 """One Z slab of a build tray: several models' stacks pasted into one grid as tiles.
 
-Each model of a tray keeps its own :class:`voxel.slab.StackModel` and its own grid, in its
+Each model of a tray keeps its own :class:`shellvox.voxel.slab.StackModel` and its own grid, in its
 own coordinates, exactly as a build of that model alone would have them; the tray grid
 holds each model grid at an integer voxel offset. :func:`compute_tray_slab` computes the
-rows of every tile that meets the slab with :func:`voxel.slab.compute_slab` and pastes
+rows of every tile that meets the slab with :func:`shellvox.voxel.slab.compute_slab` and pastes
 them into the tray's arrays (void elsewhere), so a tile is byte for byte the model's own
 stack. That equals the stack of all models together where no voxel lies within the
 deepest layer plus the signed-distance band of another model's surface: the tray's
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from voxel.grid import GridSpec
-from voxel.slab import LayerRule, SlabResult, StackModel, compute_slab
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.slab import LayerRule, SlabResult, StackModel, compute_slab
 
 
 class TrayError(ValueError):
@@ -118,7 +118,7 @@ def compute_tray_slab(tray: TrayStack, grid: GridSpec, z_start: int, z_stop: int
     -------
     SlabResult
         Arrays of shape ``(z_stop - z_start, Y, X)``: each tile's rows as
-        :func:`voxel.slab.compute_slab` gives them for its model and grid; outside the
+        :func:`shellvox.voxel.slab.compute_slab` gives them for its model and grid; outside the
         tiles layer 0, colour 0, signed distance ``+half_width`` and no band. Counts and
         diagnostics are the tiles' sums (outside voxels counted in layer 0).
     """

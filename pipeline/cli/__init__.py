@@ -2,7 +2,7 @@
 
 Each subcommand module has ``add_arguments(parser)`` and ``run(args) -> int``. The error
 boundary here turns every failure into one line on stderr and a documented exit status
-(:mod:`pipeline.faults`: 2 bad input, 3 disk, 4 memory, 130/143 interrupted, 1 a bug);
+(:mod:`shellvox.faults`: 2 bad input, 3 disk, 4 memory, 130/143 interrupted, 1 a bug);
 ``--debug`` adds the traceback. SIGINT and SIGTERM stop the run cleanly (temporary files
 removed, workers stopped) with one line.
 """
@@ -20,9 +20,9 @@ from collections.abc import Sequence
 from types import ModuleType
 from typing import NoReturn
 
-from pipeline import __version__
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.faults import (
+from shellvox import __version__
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.faults import (
     EXIT_SIGINT,
     EXIT_SIGTERM,
     DeferredSignals,
@@ -38,9 +38,9 @@ COMMANDS = (
 
 def _subcommands() -> dict[str, ModuleType]:
     return {
-        name: importlib.import_module(f"pipeline.cli.{name}")
+        name: importlib.import_module(f"shellvox.cli.{name}")
         for name in COMMANDS
-        if importlib.util.find_spec(f"pipeline.cli.{name}") is not None
+        if importlib.util.find_spec(f"shellvox.cli.{name}") is not None
     }
 
 
@@ -74,7 +74,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; return the process exit status (see :mod:`pipeline.faults`).
+    """Run the command line; return the process exit status (see :mod:`shellvox.faults`).
 
     Run as the program (`argv` None) and stopped by a signal, without ``--debug``: the
     exceptions of finalisers as the process ends are dropped. A signal can stop a library
@@ -95,8 +95,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.simplefilter("always", ShellvoxWarning)
             # offset's own warning class (offset cannot import pipeline); imported here, not
             # at the top: importing this package must stay light (signals are held back
-            # from the first line of `python -m pipeline.cli`, which imports it first)
-            from offset.robust import ShellDefectWarning
+            # from the first line of `python -m shellvox.cli`, which imports it first)
+            from shellvox.offset.robust import ShellDefectWarning
 
             warnings.simplefilter("always", ShellDefectWarning)
             warnings.showwarning = _show_warning
@@ -116,7 +116,7 @@ def _run(argv: list[str]) -> int:
         try:
             with DeferredSignals():
                 parser = _parser()
-            unblock_signals()  # blocked since the start by python -m pipeline.cli
+            unblock_signals()  # blocked since the start by python -m shellvox.cli
             args = parser.parse_args(argv)
             status: int = args.handler(args)
             return status

@@ -3,35 +3,23 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from pipeline.build import build_stack, report_line, resource_shortfall
-from pipeline.cli.buildargs import add_build_arguments, config_from_args
-from pipeline.cli.loadargs import load_options
-from pipeline.cli.runargs import running_from_args
-from pipeline.cli.thicknessargs import choose_thickness
-from pipeline.cli.values import parse_lengths
-from pipeline.errors import InputError
-from pipeline.loading import load_model
-from pipeline.output import file_summary
-from pipeline.printer import load_profile
-from pipeline.tray import (
-    LayoutMode,
-    ThicknessSource,
-    build_tray,
-    load_tray,
-    plan_tray,
-    tray_from_inputs,
-)
+from shellvox.api import build, build_tray, plan_tray_build
+from shellvox.cli.buildargs import add_build_arguments, options_from_args
+from shellvox.cli.loadargs import load_options
+from shellvox.cli.runargs import running_from_args
+from shellvox.errors import InputError
+from shellvox.output import file_summary
+from shellvox.stack import report_line, resource_shortfall
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add ``build``'s arguments (:mod:`pipeline.cli.buildargs`)."""
+    """Add ``build``'s arguments (:mod:`shellvox.cli.buildargs`)."""
     add_build_arguments(parser)
 
 
@@ -44,38 +32,24 @@ def run(args: argparse.Namespace) -> int:
     one = args.tray is None and len(args.model) == 1 and args.copies == 1
     if not one or args.layout is not None or args.dry_run:
         return run_tray(args)
-    profile = load_profile(args.printer)
-    constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
-    settings = config_from_args(args, profile).material  # bad options fail before loading
+    options = options_from_args(args)  # bad options fail before loading
     running = running_from_args(args)
-    out: Path = args.output
-    if out.exists() and not out.is_dir():
-        raise InputError(out, "exists and is not a folder", "choose another -o DIR")
     started = time.perf_counter()
-    options = load_options(args)
-    mesh = load_model(args.model[0], options)
-    choice = choose_thickness(
-        args, mesh, constant, profile=profile, settings=settings, max_faces=options.max_faces
-    )
-    config = config_from_args(args, profile, choice)
-    load_seconds = time.perf_counter() - started
-    manifest = build_stack(
-        choice.mesh,
-        config,
-        out,
-        thickness=choice.thickness_mm,
-        faces=choice.faces,
-        profile=None if config.material is None else profile,
+    result = build(
+        args.model[0],
+        args.output,
+        options,
+        load=load_options(args),
+        running=running,
         progress=args.progress,
         force=args.force,
         say=_say,
-        running=running,
     )
-    _report(out, manifest, load_seconds)
+    _report(args.output, result.manifest, time.perf_counter() - started)
     return 0
 
 
-def _report(out: Path, manifest: dict[str, Any], load_seconds: float) -> None:
+def _report(out: Path, manifest: dict[str, Any], wall_seconds: float) -> None:
     """Print where the files are, the voxel counts, the colour report and the times."""
     shape = " x ".join(str(n) for n in manifest["grid"]["shape_zyx"])
     print(f"{out}: grid {shape} (z, y, x) voxels")
@@ -86,99 +60,44 @@ def _report(out: Path, manifest: dict[str, Any], load_seconds: float) -> None:
     line = report_line(manifest.get("colour_report"))
     if line is not None:
         print(line)
-    print(f"loaded in {load_seconds:.1f} s, built in {manifest['seconds']['total']:.1f} s")
+    built = manifest["seconds"]["total"]
+    print(f"loaded in {max(0.0, wall_seconds - built):.1f} s, built in {built:.1f} s")
 
 
 def run_tray(args: argparse.Namespace) -> int:
     """Plan a tray (several models, copies, a layout, or a dry run), then build it."""
-    profile = load_profile(args.printer)
-    if args.tray is not None and args.copies != 1:
-        raise InputError("--copies", "is for model files", "set copies in the tray file")
-    if args.layers == "shells" or args.shell_meshes:
-        raise InputError(
-            "--layers shells" if args.layers == "shells" else "--shell-meshes",
-            "a tray is built with distance layers and without shell meshes",
-            "drop it; run `shellvox shells` on each model for its shells",
-        )
-    constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
-    if constant is not None and args.thickness_rule is not None:
-        raise InputError(
-            "--thickness-rule", "cannot be combined with --thickness", "drop one of them"
-        )
-    colour_layers = None
-    if args.colour_layers is not None:
-        colour_layers = config_from_args(args, profile).colour_layers  # checked there
-    base = config_from_args(argparse.Namespace(**{**vars(args), "colour_layers": None}), profile)
-    out: Path = args.output
-    if out.exists() and not out.is_dir():
-        raise InputError(out, "exists and is not a folder", "choose another -o DIR")
+    options = options_from_args(args)
+    models = args.tray if args.tray is not None else args.model
     started = time.perf_counter()
-    spec = (
-        load_tray(args.tray) if args.tray is not None else tray_from_inputs(args.model, args.copies)
-    )
-    options = load_options(args)
-    mode: LayoutMode = args.layout or (
-        "given" if args.tray is not None else "auto" if spec.n_instances > 1 else "keep"
-    )
-    plan = plan_tray(
-        spec,
+    request = plan_tray_build(
+        models,
+        args.output,
         options,
-        base,
-        out,
-        tray_mm=profile.tray_mm,
-        mode=mode,
+        copies=args.copies,
+        layout=args.layout,
         gap_mm=args.gap,
-        default_thickness=ThicknessSource(constant, args.thickness_rule),
-        colour_layers=colour_layers,
+        load=load_options(args),
         force=args.force or args.dry_run,
     )
+    plan = request.plan
     if args.dry_run:
         print("\n".join(plan.lines()))
         print(f"estimate: {plan.estimate.line()}")
-        shortfall = None if args.force else resource_shortfall(plan.estimate, out)
+        shortfall = None if args.force else resource_shortfall(plan.estimate, args.output)
         if shortfall is not None:
             print(f"a build would stop here: {shortfall}")
-        print(f"planned in {time.perf_counter() - started:.1f} s; dry run: nothing built")
+        print(f"planned in {request.seconds:.1f} s; dry run: nothing built")
         return 0
     print("\n".join(plan.lines()), file=sys.stderr)
-    meshes, thickness, faces = [], [], []
-    for part in plan.parts:
-        rule_args = argparse.Namespace(
-            thickness_rule=part.thickness.rule_path, max_edge=args.max_edge
-        )
-        choice = choose_thickness(
-            rule_args,
-            part.mesh,
-            part.thickness.constant_mm,
-            profile=profile,
-            settings=base.material,
-            max_faces=options.max_faces,
-        )
-        meshes.append(choice.mesh)
-        thickness.append(choice.thickness_mm)
-        faces.append(choice.faces)
-    n_layers = plan.parts[0].n_layers
-    config = dataclasses.replace(
-        base,
-        thickness_mm=(1.0,) * n_layers,  # set per face by build_tray
-        colour_layers=plan.parts[0].colour_layers,
-        shell_meshes=False,
-    )
-    load_seconds = time.perf_counter() - started
-    manifest = build_tray(
-        plan,
-        config,
-        out,
-        meshes=meshes,
-        thickness=thickness,
-        faces=faces,
-        profile=None if config.material is None else profile,
+    result = build_tray(
+        request,
+        args.output,
+        running=running_from_args(args),
         progress=args.progress,
         force=args.force,
         say=_say,
-        running=running_from_args(args),
     )
-    _report(out, manifest, load_seconds)
+    _report(args.output, result.manifest, time.perf_counter() - started)
     return 0
 
 

@@ -1,24 +1,23 @@
-"""The options of ``build``: their definitions and the :class:`BuildConfig` they make."""
+"""The options of ``build``: their definitions and the :class:`~shellvox.api.BuildOptions`."""
 
 from __future__ import annotations
 
 import argparse
-import math
+import dataclasses
 from pathlib import Path
 from typing import get_args
 
-import numpy as np
-
-from pipeline.cli.loadargs import add_load_arguments
-from pipeline.cli.runargs import add_running_arguments
-from pipeline.cli.thicknessargs import ThicknessChoice, add_rule_arguments
-from pipeline.cli.values import parse_lengths, parse_voxel_size
-from pipeline.config import FORMATS, BuildConfig, MaterialSettings
-from pipeline.errors import InputError
-from pipeline.output import SHELL_METHODS
-from pipeline.printer import PrinterProfile, load_profile, shipped_profiles
-from voxel.colour import HALFTONES
-from voxel.slab import LayerRule
+from shellvox.api import BuildOptions
+from shellvox.cli.loadargs import add_load_arguments
+from shellvox.cli.runargs import add_running_arguments
+from shellvox.cli.thicknessargs import add_rule_arguments
+from shellvox.cli.values import optional_length, parse_lengths, parse_voxel_size
+from shellvox.config import FORMATS, MaterialSettings
+from shellvox.errors import InputError
+from shellvox.output import SHELL_METHODS
+from shellvox.printer import load_profile, shipped_profiles
+from shellvox.voxel.colour import HALFTONES
+from shellvox.voxel.slab import LayerRule
 
 
 def add_build_arguments(parser: argparse.ArgumentParser) -> None:
@@ -176,47 +175,36 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
     add_running_arguments(parser)
 
 
-def config_from_args(
-    args: argparse.Namespace,
-    profile: PrinterProfile | None = None,
-    choice: ThicknessChoice | None = None,
-) -> BuildConfig:
-    """Turn parsed arguments into a :class:`BuildConfig` (bad values raise InputError).
-
-    `choice` is the thickness chosen for the model (:func:`choose_thickness`); without it
-    ``--thickness`` must be given. :class:`BuildConfig` checks the values.
-    """
-    profile = profile or load_profile(args.printer)
-    voxel = profile.voxel_mm
-    if args.voxel_size is not None:
-        voxel = parse_voxel_size(args.voxel_size)
-    if choice is None or choice.faces is None:
-        thickness = parse_lengths("--thickness", args.thickness or "0.5,0.5")
-        default_colour = "1"
-        source = "--thickness"
-    else:
-        thickness = tuple(float(np.median(row)) for row in choice.thickness_mm)
-        default_colour = ",".join(str(k) for k in choice.faces.rule.layers.colour)
-        source = choice.source
-    text = args.colour_layers or default_colour
-    try:
-        colour_layers = tuple(int(k) for k in text.split(","))
-    except ValueError:
-        raise InputError(
-            "--colour-layers", f"expected layer numbers, got {text!r}", "pass e.g. 1 or 1,3"
-        ) from None
-    return BuildConfig(
-        voxel_mm=voxel,
-        printer=profile.name,
-        thickness_mm=thickness,
-        thickness_source=source,
+def options_from_args(args: argparse.Namespace) -> BuildOptions:
+    """Turn parsed arguments into :class:`~shellvox.api.BuildOptions` (bad values refused)."""
+    formats = None
+    if args.format != "auto":
+        formats = tuple(part.strip() for part in args.format.split(",") if part.strip())
+    colour_layers = None
+    if args.colour_layers is not None:
+        try:
+            colour_layers = tuple(int(k) for k in args.colour_layers.split(","))
+        except ValueError:
+            raise InputError(
+                "--colour-layers",
+                f"expected layer numbers, got {args.colour_layers!r}",
+                "pass e.g. 1 or 1,3",
+            ) from None
+    options = BuildOptions(
+        printer=args.printer,
+        voxel_size_mm=None if args.voxel_size is None else parse_voxel_size(args.voxel_size),
+        formats=formats,
+        thickness_mm=None
+        if args.thickness is None
+        else parse_lengths("--thickness", args.thickness),
+        thickness_rule=args.thickness_rule,
+        max_edge_mm=optional_length("--max-edge", args.max_edge),
         colour_layers=colour_layers,
         layer_rule=args.layers,
         shell_meshes=args.shell_meshes,
         shell_method=args.method,
         alpha=args.alpha,
-        formats=_formats(args, profile, voxel),
-        material=None
+        materials=None
         if args.no_materials
         else MaterialSettings(
             halftone=args.halftone,
@@ -230,30 +218,7 @@ def config_from_args(
         compression_level=args.compression_level,
         workers=args.workers,
     )
-
-
-def _formats(
-    args: argparse.Namespace, profile: PrinterProfile, voxel: tuple[float, float, float]
-) -> tuple[str, ...]:
-    """Return the formats to write (``--format``, ``--no-vdb``, the profile's job format)."""
-    on_printer_grid = all(
-        math.isclose(a, b, rel_tol=1e-9) for a, b in zip(voxel, profile.voxel_mm, strict=True)
-    )
-    if args.format == "auto":
-        chosen = ["tiff", "zarr", "vdb"]
-        if on_printer_grid and not args.no_materials:
-            chosen.append(profile.slice_format)
-    else:
-        chosen = [part.strip() for part in args.format.split(",") if part.strip()]
-        if "gcvf" in chosen and not on_printer_grid:
-            raise InputError(
-                "--format gcvf",
-                f"a .gcvf job needs the printer's grid {profile.voxel_mm} mm, got "
-                f"--voxel-size {voxel}",
-                "drop --voxel-size or the gcvf format",
-            )
-        if args.no_materials and {"gcvf", "png"} & set(chosen):
-            raise InputError("--format", "printer slices need materials", "drop --no-materials")
-    if args.no_vdb and "vdb" in chosen:
-        chosen.remove("vdb")
-    return tuple(dict.fromkeys(chosen))  # unknown names: refused by BuildConfig
+    if args.no_vdb:  # the formats asked for (or the default set) without volume.vdb
+        chosen = options.chosen_formats(load_profile(args.printer))
+        options = dataclasses.replace(options, formats=tuple(f for f in chosen if f != "vdb"))
+    return options

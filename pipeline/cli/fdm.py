@@ -8,22 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-from offset import METHODS
-from pipeline.cli.loadargs import add_load_arguments, load_options
-from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness
-from pipeline.cli.values import parse_lengths
-from pipeline.errors import InputError
-from pipeline.fdm import (
-    SLICERS,
-    FdmSettings,
-    check_slicers,
-    make_project,
-    parse_filaments,
-    write_projects,
-)
-from pipeline.fdm._project import check_filament_count
-from pipeline.loading import load_model
-from pipeline.printer import load_profile
+from shellvox.api import fdm_projects
+from shellvox.cli.loadargs import add_load_arguments, load_options
+from shellvox.cli.thicknessargs import add_rule_arguments
+from shellvox.cli.values import optional_length, parse_lengths
+from shellvox.fdm import SLICERS, FdmSettings, check_slicers, parse_filaments
+from shellvox.fdm._project import check_filament_count
+from shellvox.offset import METHODS
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -84,26 +75,21 @@ def run(args: argparse.Namespace) -> int:
         layer_height_mm=parse_lengths("--layer-height", args.layer_height, 1)[0],
         nozzle_mm=parse_lengths("--nozzle", args.nozzle, 1)[0],
     )
-    out: Path = args.output
-    if out.exists() and not out.is_dir():
-        raise InputError(out, "exists and is not a folder", "choose another -o DIR")
-    options = load_options(args)
-    mesh = load_model(args.model, options)
-    profile = load_profile(args.printer)
-    choice = choose_thickness(args, mesh, constant, profile=profile, max_faces=options.max_faces)
-    project = make_project(
-        choice.mesh,
-        choice.thickness_mm[0],
+    result = fdm_projects(
+        args.model,
+        args.output,
         filaments,
         settings=settings,
         slicers=slicers,
+        thickness_mm=None if constant is None else constant[0],
+        thickness_rule=args.thickness_rule,
+        max_edge_mm=optional_length("--max-edge", args.max_edge),
+        printer=args.printer,
         method=args.method,
         dither=args.dither,
-        lift=choice.faces is not None,
-        name=args.model.stem,
+        load=load_options(args),
     )
-    out.mkdir(parents=True, exist_ok=True)
-    paths = write_projects(out, args.model.stem, project, slicers)
+    project = result.project
     counts = np.bincount(project.face_filament, minlength=len(filaments))
     shares = ", ".join(f"{h} {c:,}" for h, c in zip(filaments.hex, counts, strict=True))
     depth = project.depth_mm
@@ -111,6 +97,6 @@ def run(args: argparse.Namespace) -> int:
         f"faces per filament: {shares}; skin depth {depth.min():.3g}-{depth.max():.3g} mm; "
         f"{len(project.parts)} volumes; {time.perf_counter() - started:.1f} s"
     )
-    for path in paths:
+    for path in result.files:
         print(path)
     return 0

@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 import json
 
-from pipeline.cli.loadargs import add_load_arguments, load_options
-from pipeline.loading import load_model
-from pipeline.model import summarise
+from shellvox.cli.loadargs import add_load_arguments, load_options
+from shellvox.loading import load_model
+from shellvox.model import summarise
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config import UNIT_MM, LoadOptions
-from pipeline.errors import InputError
+from shellvox.config import UNIT_MM, LoadOptions
+from shellvox.errors import InputError
 
 
 def add_load_arguments(parser: argparse.ArgumentParser, *, many: bool = False) -> None:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from pipeline.errors import InputError
-from pipeline.run import RunSettings
+from shellvox.errors import InputError
+from shellvox.run import RunSettings
 
 
 def add_running_arguments(parser: argparse.ArgumentParser) -> None:

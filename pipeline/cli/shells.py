@@ -3,39 +3,15 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-import time
 from pathlib import Path
-from typing import Any
 
-from offset import shell_report
-from pipeline import __version__
-from pipeline.atomic import write_text_atomic
-from pipeline.cli.loadargs import add_load_arguments, load_options
-from pipeline.cli.thicknessargs import (
-    ThicknessChoice,
-    add_rule_arguments,
-    choose_thickness,
-)
-from pipeline.cli.values import parse_lengths
-from pipeline.config import ShellConfig, as_json
-from pipeline.errors import InputError
-from pipeline.loading import load_model
-from pipeline.output import (
-    MAX_FIELD_TRIANGLES,
-    SHELL_METHODS,
-    SHELL_OUTPUTS,
-    SHELL_STEP_MM,
-    OutputFolder,
-    method_shells,
-    ready_for_file,
-    save_shells,
-    sha256,
-    write_thickness_ply,
-)
-from pipeline.printer import load_profile
-from pipeline.thickness import thickness_summary
+from shellvox.api import write_shells
+from shellvox.cli.loadargs import add_load_arguments, load_options
+from shellvox.cli.thicknessargs import add_rule_arguments
+from shellvox.cli.values import optional_length, parse_lengths
+from shellvox.config import ShellConfig
+from shellvox.output import MAX_FIELD_TRIANGLES, SHELL_METHODS, SHELL_STEP_MM
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -100,85 +76,21 @@ def run(args: argparse.Namespace) -> int:
         else parse_lengths("--shell-step", str(args.shell_step), 1)[0],
         layer_height_mm=parse_lengths("--layer-height", str(args.layer_height), 1)[0],
     )
-    out: Path = args.output
-    if out.exists() and not out.is_dir():
-        raise InputError(out, "exists and is not a folder", "choose another -o DIR")
-    options = load_options(args)
-    mesh = load_model(args.model, options)
-    profile = load_profile(args.printer)
-    choice = choose_thickness(args, mesh, constant, profile=profile, max_faces=options.max_faces)
-    with OutputFolder(out, SHELL_OUTPUTS, marker="report.json") as folder:
-        return _write(args, config, choice, out, folder)
-
-
-def _write(
-    args: argparse.Namespace,
-    config: ShellConfig,
-    choice: ThicknessChoice,
-    out: Path,
-    folder: OutputFolder,
-) -> int:
-    mesh = choice.mesh
-    thickness = choice.thickness_mm
-
-    started = time.perf_counter()
-    _say(f"offsetting {len(mesh.faces):,} faces into {len(thickness)} shells ({config.method})")
-    made = method_shells(
-        mesh.vertices, mesh.faces, thickness, method=config.method, step_mm=config.step_mm
+    result = write_shells(
+        args.model,
+        args.output,
+        config,
+        thickness_rule=args.thickness_rule,
+        max_edge_mm=optional_length("--max-edge", args.max_edge),
+        printer=args.printer,
+        baselines=not args.no_baselines,
+        load=load_options(args),
+        say=_say,
     )
-    offset_seconds = time.perf_counter() - started
-    _say("cleaning, writing and reading back the shell files")
-    ready = [ready_for_file(shell, config.method) for shell in made.shells]
-    # the method's test of all shells together holds for shells that go to their files as made
-    as_made = all(r.shell is s for r, s in zip(ready, made.shells, strict=True))
-    written = save_shells(
-        out,
-        [r.shell for r in ready],
-        cleaning=[r.cleaning for r in ready],
-        crossing_free=made.crossing_free and as_made,
-    )
-    _say("measuring the shells" + ("" if args.no_baselines else " and the baselines"))
-    report: dict[str, Any] = {
-        "tool": f"shellvox {__version__}",
-        "input": {"path": str(args.model), "sha256": sha256(args.model)},
-        "config": as_json(config),
-        "seconds": {"offset": offset_seconds},
-        "method": made.record,
-    }
-    report.update(
-        shell_report(
-            mesh.vertices,
-            mesh.faces,
-            thickness,
-            [w.shell for w in written],
-            baselines=not args.no_baselines,
-            layer_height_mm=config.layer_height_mm,
-            checks=[w.checks for w in written],
-            crossing_free=made.crossing_free and as_made and all(w.as_given for w in written),
-        )
-    )
-    for layer, w in zip(report["layers"], written, strict=True):
-        # The report's "shell" entry is measured on the file as read back; this is how
-        # it was written.
-        layer["file"] = {
-            "path": w.path.name,
-            "format": "binary_little_endian PLY, property double x/y/z",
-            "bytes": w.path.stat().st_size,
-            "cleaning": w.cleaning,
-        }
-    files = [w.path for w in written]
-    if choice.faces is not None:
-        report["thickness"] = {"source": choice.source, **thickness_summary(choice.faces)}
-        write_thickness_ply(out / "thickness.ply", mesh, choice.faces)
-        files.append(out / "thickness.ply")
-    report["seconds"]["total"] = time.perf_counter() - started
-    report["files"] = folder.commit(files)
-    write_text_atomic(out / "report.json", json.dumps(report, indent=2))
-    for w in written:
-        print(f"{w.path}: {len(w.shell.faces):,} faces")
-    if choice.faces is not None:
-        print(f"{out / 'thickness.ply'}")
-    print(f"{out / 'report.json'}")
+    for shell, path in zip(result.shells, result.files, strict=False):
+        print(f"{path}: {len(shell.faces):,} faces")
+    for path in result.files[len(result.shells) :]:
+        print(path)
     return 0
 
 

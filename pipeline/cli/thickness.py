@@ -7,15 +7,16 @@ import json
 from pathlib import Path
 from typing import Any
 
-from pipeline.atomic import atomic_path, write_text_atomic
-from pipeline.cli.loadargs import add_load_arguments, load_options
-from pipeline.cli.thicknessargs import add_rule_arguments, choose_thickness
-from pipeline.errors import InputError
-from pipeline.loading import load_model
-from pipeline.output import write_thickness_ply
-from pipeline.printer import load_profile
-from pipeline.report import thickness_image
-from pipeline.thickness import thickness_summary
+from shellvox.api import layer_thickness
+from shellvox.atomic import atomic_path, write_text_atomic
+from shellvox.cli.loadargs import add_load_arguments, load_options
+from shellvox.cli.thicknessargs import add_rule_arguments
+from shellvox.cli.values import optional_length
+from shellvox.errors import InputError
+from shellvox.loading import load_model
+from shellvox.output import write_thickness_ply
+from shellvox.report import thickness_image
+from shellvox.thickness import thickness_summary
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -40,8 +41,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")
     options = load_options(args)
     mesh = load_model(args.model, options)
-    profile = load_profile(args.printer)
-    choice = choose_thickness(args, mesh, profile=profile, max_faces=options.max_faces)
+    choice = layer_thickness(
+        mesh,
+        rule=args.thickness_rule,
+        max_edge_mm=optional_length("--max-edge", args.max_edge),
+        printer=args.printer,
+        max_faces=options.max_faces,
+    )
     faces = choice.faces
     assert faces is not None
     summary = thickness_summary(faces)
@@ -70,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def table_lines(summary: dict[str, Any]) -> list[str]:
-    """Format :func:`pipeline.thickness._face_thickness.thickness_summary` as a text table."""
+    """Format :func:`shellvox.thickness._face_thickness.thickness_summary` as a text table."""
     colour = summary["colour_layer"]
     colour_layers = [str(layer["layer"]) for layer in summary["layers"] if layer["colour"]]
     lines = [

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from pipeline.errors import InputError
+from shellvox.errors import InputError
 
 
 def parse_lengths(option: str, text: str, count: int | None = None) -> tuple[float, ...]:
@@ -54,3 +54,8 @@ def parse_voxel_size(text: str) -> tuple[float, float, float]:
     if len(values) == 1:
         values = values * 3
     return (values[0], values[1], values[2])
+
+
+def optional_length(option: str, text: str | None) -> float | None:
+    """Parse one positive length in mm (:func:`parse_lengths`); None when not given."""
+    return None if text is None else parse_lengths(option, text, 1)[0]

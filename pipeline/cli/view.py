@@ -2,7 +2,7 @@
 
 The page slices along z, y and x at the voxels' true size, zooms to single voxels, shows
 colour, layers, materials, depth and per-face thickness, and reads out a clicked voxel
-(:mod:`pipeline.viewer`). A folder that is not a complete build is refused.
+(:mod:`shellvox.viewer`). A folder that is not a complete build is refused.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import sys
 import webbrowser
 from pathlib import Path
 
-from pipeline.errors import InputError
-from pipeline.faults import Interrupted
-from pipeline.viewer import BuildFolder, ViewerServer
+from shellvox.errors import InputError
+from shellvox.faults import Interrupted
+from shellvox.viewer import BuildFolder, ViewerServer
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

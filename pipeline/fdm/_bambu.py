@@ -12,7 +12,7 @@
 - ``Metadata/project_settings.config``: JSON; ``filament_colour`` one ``#RRGGBB`` per
   filament, ``nozzle_diameter``, ``layer_height``, ``initial_layer_print_height``.
 
-Only serialisation: the parts and settings come ready (:mod:`pipeline.fdm._project`).
+Only serialisation: the parts and settings come ready (:mod:`shellvox.fdm._project`).
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from pipeline import __version__
-from pipeline.fdm._package import CORE_NS, attr, mesh_xml, transform_attr, write_package
-from pipeline.fdm._project import FdmProject
+from shellvox import __version__
+from shellvox.fdm._package import CORE_NS, attr, mesh_xml, transform_attr, write_package
+from shellvox.fdm._project import FdmProject
 
 PRODUCTION_NS = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"
 BAMBU_NS = "http://schemas.bambulab.com/package/2021"

@@ -2,7 +2,7 @@
 
 The nearest filament is the one with the smallest CIEDE2000 difference (colour-science,
 ``colour.delta_E(method="CIE 2000")``) between CIELAB (D65) colours, the conversion
-:mod:`pipeline.thickness._face_colour` uses for the model's faces.
+:mod:`shellvox.thickness._face_colour` uses for the model's faces.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ import colour
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import FdmError
-from voxel._compiled import kernel
-from voxel.colour import srgb8_to_lab
+from shellvox.errors import FdmError
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.colour import srgb8_to_lab
 
 _HEX = re.compile(r"#?([0-9A-Fa-f]{6})")
 

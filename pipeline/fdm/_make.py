@@ -9,12 +9,10 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from offset import offset_shells
-from offset.adjacency import edge_adjacency
-from pipeline.errors import FdmError
-from pipeline.fdm._bambu import write_bambu_3mf
-from pipeline.fdm._filaments import Filaments, nearest_filament
-from pipeline.fdm._project import (
+from shellvox.errors import FdmError
+from shellvox.fdm._bambu import write_bambu_3mf
+from shellvox.fdm._filaments import Filaments, nearest_filament
+from shellvox.fdm._project import (
     MAX_FILAMENTS,
     FdmProject,
     FdmSettings,
@@ -22,9 +20,11 @@ from pipeline.fdm._project import (
     plan_project,
     skin_depth,
 )
-from pipeline.fdm._prusa import write_prusa_3mf
-from pipeline.model import ColouredMesh
-from pipeline.thickness import face_colour
+from shellvox.fdm._prusa import write_prusa_3mf
+from shellvox.model import ColouredMesh
+from shellvox.offset import offset_shells
+from shellvox.offset.adjacency import edge_adjacency
+from shellvox.thickness import face_colour
 
 Slicer = Literal["prusa", "bambu"]
 SLICERS: tuple[str, ...] = tuple(MAX_FILAMENTS)
@@ -73,7 +73,7 @@ def make_project(
         Closed, outward-oriented.
     depth_mm : (F,) array_like of float, mm
         The colour layer's depth per face (the skin's, before the rules of
-        :func:`pipeline.fdm._project.skin_depth`).
+        :func:`shellvox.fdm._project.skin_depth`).
     filaments : Filaments
         The core's first.
     settings : FdmSettings, optional
@@ -81,7 +81,7 @@ def make_project(
     slicers : sequence of {"prusa", "bambu"}
         Checked for the filament count they take.
     method : str
-        :func:`offset.offset_shells`' method for the core.
+        :func:`shellvox.offset.offset_shells`' method for the core.
     dither : bool
         Dither the filament choice over neighbouring faces (CIELAB error diffusion).
     lift : bool

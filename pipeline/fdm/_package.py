@@ -1,6 +1,6 @@
 """The zip container both slicers' 3MF projects share (3MF core spec: OPC parts).
 
-Only serialisation: the geometry comes in as arrays, ready (:mod:`pipeline.fdm._parts`).
+Only serialisation: the geometry comes in as arrays, ready (:mod:`shellvox.fdm._parts`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.atomic import atomic_path
+from shellvox.atomic import atomic_path
 
 CORE_NS = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
 
@@ -62,7 +62,7 @@ def attr(value: object) -> str:
 def write_package(target: str | Path, entries: Mapping[str, str]) -> Path:
     """Write the zip (deflated) with ``[Content_Types].xml``, ``_rels/.rels`` and `entries`.
 
-    The file appears atomically (:func:`pipeline.atomic.atomic_path`).
+    The file appears atomically (:func:`shellvox.atomic.atomic_path`).
     """
     target = Path(target)
     with (

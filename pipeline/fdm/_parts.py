@@ -11,7 +11,7 @@ volumes before it, and a modifier's region is its intersection with the parts be
    walls (the same inner vertex on both sides), so they neither overlap nor leave gaps;
    a modifier only ever changes the body it lies in, so a patch reaching past a thin wall
    prints nothing outside the model;
-3. **core** -- the inner shell at the skin depth (:func:`offset.offset_shells`), a model
+3. **core** -- the inner shell at the skin depth (:func:`shellvox.offset.offset_shells`), a model
    part with filament 1, last: it clips the patches, so the skin ends at the shell and its
    depth is the per-face depth, not the patches' reach.
 """

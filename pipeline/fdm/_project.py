@@ -1,14 +1,14 @@
 """An FDM project: the skin depth per face, the filament per face, the parts, the placement.
 
 Everything the 3MF writers serialise is decided here, as arrays
-(:func:`plan_project`); the writers (:mod:`pipeline.fdm._prusa`, :mod:`pipeline.fdm._bambu`)
+(:func:`plan_project`); the writers (:mod:`shellvox.fdm._prusa`, :mod:`shellvox.fdm._bambu`)
 only format it.
 
 Depth rules (documented in the README):
 
 - the skin's depth per face is the colour layer's (the first row of the thickness); the
   layers behind it are the core's filament, which is what backs the colour;
-- a depth below the nozzle width is refused (:class:`pipeline.errors.FdmError`): the slicer
+- a depth below the nozzle width is refused (:class:`shellvox.errors.FdmError`): the slicer
   cannot lay a line there; one below one extrusion width (``1.125 x`` nozzle, PrusaSlicer's
   default perimeter width) is raised to it when asked (``lift=True``, the thickness rule's
   depths, made for a jetting printer);
@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import FdmError
-from pipeline.fdm._filaments import Filaments
-from pipeline.fdm._parts import FdmPart, face_normals, plan_parts
+from shellvox.errors import FdmError
+from shellvox.fdm._filaments import Filaments
+from shellvox.fdm._parts import FdmPart, face_normals, plan_parts
 
 #: Filaments each slicer's project takes: PrusaSlicer's painting and extruder states stop at
 #: 15 (``EnforcerBlockerType::Extruder15``, ``Model.hpp``); Bambu Studio's AMS slots at 16.
@@ -68,7 +68,7 @@ class FdmProject:
     ----------
     name : str
     parts : tuple of FdmPart
-        In slicing order (:func:`pipeline.fdm._parts.plan_parts`).
+        In slicing order (:func:`shellvox.fdm._parts.plan_parts`).
     filaments : Filaments
     settings : FdmSettings
     placement_mm : (3,) float64, mm
@@ -174,7 +174,7 @@ def plan_project(
     settings : FdmSettings
     shells : callable
         ``shells(depth_mm) -> (vertices, faces)`` of the inner shell at those depths
-        (e.g. :func:`offset.offset_shells` with the chosen method).
+        (e.g. :func:`shellvox.offset.offset_shells` with the chosen method).
     """
     core = shells(depth_mm)
     # The patches reach past the skin by one extrusion width; the core clips them.

@@ -12,7 +12,7 @@
   that is not one (``load_from_gcode_string_legacy``): the header line goes first, and every
   line is at least 10 characters.
 
-Only serialisation: the parts and settings come ready (:mod:`pipeline.fdm._project`).
+Only serialisation: the parts and settings come ready (:mod:`shellvox.fdm._project`).
 """
 
 from __future__ import annotations
@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline import __version__
-from pipeline.fdm._package import CORE_NS, attr, mesh_xml, transform_attr, write_package
-from pipeline.fdm._project import FdmProject
+from shellvox import __version__
+from shellvox.fdm._package import CORE_NS, attr, mesh_xml, transform_attr, write_package
+from shellvox.fdm._project import FdmProject
 
 SLIC3RPE_NS = "http://schemas.slic3r.org/3mf/2017/06"
 VOLUME_TYPES = {"part": "ModelPart", "modifier": "ParameterModifier"}

@@ -1,17 +1,17 @@
-"""Load any coloured model users bring into a :class:`~pipeline.model._mesh.ColouredMesh` in mm.
+"""Load any coloured model users bring into a :class:`~shellvox.model._mesh.ColouredMesh` in mm.
 
 Formats: OBJ (+MTL, textures), PLY, glTF/GLB, 3MF, STL, OFF, VRML 2.0, each a reader
 registered by suffix (:func:`register_format`; :data:`FORMATS`). Every reader returns the
 raw mesh in file units (and the file's own unit where it declares one, as 3MF does); this
 module converts units, applies ``--colour``, checks for NaN/inf and absurd sizes, then
-:func:`pipeline.model._topology.prepare` merges and checks it.
+:func:`shellvox.model._topology.prepare` merges and checks it.
 
-Every problem ends in a correct load, an :class:`~pipeline.errors.InputError` (one line:
-file, problem, fix), or a :class:`~pipeline.errors.ShellvoxWarning` saying what was
+Every problem ends in a correct load, an :class:`~shellvox.errors.InputError` (one line:
+file, problem, fix), or a :class:`~shellvox.errors.ShellvoxWarning` saying what was
 changed. In particular:
 
 - Referenced files (MTL, textures, glTF buffers and images, PLY ``TextureFile``) must lie
-  in the model's folder or below it (:mod:`pipeline.loading._references`); a reference
+  in the model's folder or below it (:mod:`shellvox.loading._references`); a reference
   outside is refused unless ``--force`` (then read with a warning).
 - A declared colour that cannot be used is refused or, with ``--colour``, replaced by that
   colour with a warning; one the format allows but shellvox does not read is named in a
@@ -36,15 +36,15 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.config import UNIT_MM, LoadOptions
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading._images import MAX_TEXTURE_PIXELS
-from pipeline.loading._trimesh_formats import read_with_trimesh
-from pipeline.loading.gltf import read_gltf
-from pipeline.loading.obj import read_obj
-from pipeline.loading.threemf import read_3mf
-from pipeline.loading.vrml import read_vrml
-from pipeline.model import ColouredMesh, prepare
+from shellvox.config import UNIT_MM, LoadOptions
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading._images import MAX_TEXTURE_PIXELS
+from shellvox.loading._trimesh_formats import read_with_trimesh
+from shellvox.loading.gltf import read_gltf
+from shellvox.loading.obj import read_obj
+from shellvox.loading.threemf import read_3mf
+from shellvox.loading.vrml import read_vrml
+from shellvox.model import ColouredMesh, prepare
 
 __all__ = [
     "FORMATS",

@@ -1,10 +1,10 @@
-"""Parts of a model joined into one :class:`pipeline.model._mesh.ColouredMesh`.
+"""Parts of a model joined into one :class:`shellvox.model._mesh.ColouredMesh`.
 
 Every loader reads a file into parts (objects, primitives, face sets) with their own
 vertices and a colour source each; :func:`stack_parts` joins their geometry and
 :func:`corner_colour_mesh` picks face or vertex colour from per-corner colours, for all of
 them. :func:`combine_parts` joins the parts of trimesh-read formats, glTF and VRML (one
-:class:`pipeline.model._texture.Material` or per-corner colours per part); the 3MF reader, whose
+:class:`shellvox.model._texture.Material` or per-corner colours per part); the 3MF reader, whose
 parts index a shared table of materials, joins its own with the two helpers.
 """
 
@@ -18,9 +18,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.model import ColouredMesh, Material
-from voxel.colour import decode_uint8
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.model import ColouredMesh, Material
+from shellvox.voxel.colour import decode_uint8
 
 
 def checked_faces(path: Path, n_vertices: int, faces: NDArray[np.int64]) -> NDArray[np.int64]:

@@ -26,8 +26,8 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image, UnidentifiedImageError
 
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading._references import is_file
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading._references import is_file
 
 #: Most texture pixels accepted over all textures of one model without ``--force``.
 MAX_TEXTURE_PIXELS = 8192 * 8192

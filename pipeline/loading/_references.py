@@ -3,8 +3,8 @@
 A model may only refer to files inside its own folder (the folder of the model file, or
 below it). The check is made on the resolved path, so ``..``, absolute paths and
 symbolic links that lead out of the folder are all outside. A reference outside is
-refused with an :class:`~pipeline.errors.InputError`, unless the user passes ``--force``
-(:attr:`~pipeline.config.LoadOptions.force`): then the file is read, with a warning.
+refused with an :class:`~shellvox.errors.InputError`, unless the user passes ``--force``
+(:attr:`~shellvox.config.LoadOptions.force`): then the file is read, with a warning.
 A model downloaded from elsewhere thus cannot make shellvox read (and print into
 colours) an arbitrary file of the user's, such as ``map_Kd ../../secret/x.png``.
 ``data:`` URIs (glTF) and entries inside a 3MF package are not files and always allowed.
@@ -15,7 +15,7 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
-from pipeline.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, ShellvoxWarning
 
 
 def is_file(candidate: Path) -> bool:

@@ -2,12 +2,12 @@
 
 trimesh parses the geometry; this module turns its visuals into shellvox's colour
 sources: textures with per-corner UVs (a PLY ``comment TextureFile``, read here under
-the path policy and pixel budget of :mod:`pipeline.loading._references` and
-:mod:`pipeline.loading._images`, not by trimesh), vertex colours, face colours, or none.
+the path policy and pixel budget of :mod:`shellvox.loading._references` and
+:mod:`shellvox.loading._images`, not by trimesh), vertex colours, face colours, or none.
 A PLY colour that cannot be used (a ``TextureFile`` without texture coordinates, colour
 properties other than ``red green blue [alpha]``) gives a one-line warning. An STL is
 checked to be binary or ASCII STL before trimesh sees it; the parts are joined by
-:func:`pipeline.loading._combine.combine_parts`.
+:func:`shellvox.loading._combine.combine_parts`.
 """
 
 from __future__ import annotations
@@ -20,12 +20,12 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from pipeline.config import LoadOptions
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading._combine import checked_faces, combine_parts
-from pipeline.loading._images import TextureRef, read_textures
-from pipeline.loading._references import check_inside, is_file
-from pipeline.model import ColouredMesh, Material
+from shellvox.config import LoadOptions
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading._combine import checked_faces, combine_parts
+from shellvox.loading._images import TextureRef, read_textures
+from shellvox.loading._references import check_inside, is_file
+from shellvox.model import ColouredMesh, Material
 
 #: PLY properties that look like colour but are not the ``red green blue`` trimesh reads.
 PLY_COLOURISH = {

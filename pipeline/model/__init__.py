@@ -1,17 +1,17 @@
 """The coloured model every stage works on.
 
-- :mod:`~pipeline.model._mesh` ``ColouredMesh`` and the one function that colours the surface;
-- :mod:`~pipeline.model._texture` materials and texture sampling;
-- :mod:`~pipeline.model._topology` seams merged, degenerate faces dropped, closed, oriented;
-- :mod:`~pipeline.model._summary` what ``shellvox info`` reports.
+- :mod:`~shellvox.model._mesh` ``ColouredMesh`` and the one function that colours the surface;
+- :mod:`~shellvox.model._texture` materials and texture sampling;
+- :mod:`~shellvox.model._topology` seams merged, degenerate faces dropped, closed, oriented;
+- :mod:`~shellvox.model._summary` what ``shellvox info`` reports.
 """
 
 from __future__ import annotations
 
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._summary import summarise
-from pipeline.model._texture import FilterMode, Material, WrapMode
-from pipeline.model._topology import (
+from shellvox.model._mesh import ColouredMesh
+from shellvox.model._summary import summarise
+from shellvox.model._texture import FilterMode, Material, WrapMode
+from shellvox.model._topology import (
     edge_report,
     face_areas,
     merge_by_position,

@@ -8,8 +8,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.model._texture import Material
-from voxel.colour import (
+from shellvox.model._texture import Material
+from shellvox.voxel.colour import (
     CONSTANT,
     FACE,
     FILTER_CODES,
@@ -167,7 +167,7 @@ class ColouredMesh:
     def surface_colour(self) -> SurfaceColour:
         """Return the colour source as arrays, for the compiled voxel colour kernel.
 
-        :func:`voxel.colour._surface_colour.voxel_colours` gives the same colours as
+        :func:`shellvox.voxel.colour._surface_colour.voxel_colours` gives the same colours as
         :meth:`colour_at` at the exact nearest points.
         """
         n_faces = self.n_faces

@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.model._mesh import ColouredMesh
-from pipeline.model._topology import edge_report, signed_volume
+from shellvox.model._mesh import ColouredMesh
+from shellvox.model._topology import edge_report, signed_volume
 
 
 def summarise(mesh: ColouredMesh) -> dict[str, Any]:

@@ -8,7 +8,7 @@ to this convention once, when they read the file.
 
 Filtering happens in linear light (decode sRGB, weight, encode), as GPUs do for sRGB
 textures, so a bilinear blend of two texels never darkens their mid-point (the sRGB
-transfer is :mod:`voxel.colour._srgb`'s).
+transfer is :mod:`shellvox.voxel.colour._srgb`'s).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour import decode_uint8
+from shellvox.voxel.colour import decode_uint8
 
 WrapMode = Literal["repeat", "clamp", "mirror"]
 FilterMode = Literal["linear", "nearest"]

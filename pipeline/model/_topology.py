@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.model._mesh import ColouredMesh
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.model._mesh import ColouredMesh
 
 CORNER_FIELDS = ("corner_rgba", "corner_uv")
 FACE_FIELDS = ("face_rgba", "face_material")

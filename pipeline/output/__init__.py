@@ -1,31 +1,32 @@
 """An output folder and what is written into it.
 
-- :mod:`~pipeline.output._outdir` one complete run or none (claiming, replacing, refusing);
-- :mod:`~pipeline.output._folder` a build's folder: temporary names, shells, thickness, manifest;
-- :mod:`~pipeline.output._streams` the streaming writers fed one slab at a time;
-- :mod:`~pipeline.output._manifest` what ``manifest.json`` says; :mod:`~pipeline.output._checks`
+- :mod:`~shellvox.output._outdir` one complete run or none (claiming, replacing, refusing);
+- :mod:`~shellvox.output._folder` a build's folder: temporary names, shells, thickness, manifest;
+- :mod:`~shellvox.output._streams` the streaming writers fed one slab at a time;
+- :mod:`~shellvox.output._manifest` what ``manifest.json`` says; :mod:`~shellvox.output._checks`
   reading it back and checking the files it lists;
-- :mod:`~pipeline.output._shell_methods` the shells by method (robust, field, paper);
-- :mod:`~pipeline.output._shells` shell meshes as files; :mod:`~pipeline.output._ply` the
+- :mod:`~shellvox.output._shell_methods` the shells by method (robust, field, paper);
+- :mod:`~shellvox.output._shells` shell meshes as files; :mod:`~shellvox.output._ply` the
   float64 PLY with per-face values.
 """
 
 from __future__ import annotations
 
-from pipeline.output._checks import check_files, file_summary, read_manifest, verify_files
-from pipeline.output._folder import BuildFolder
-from pipeline.output._manifest import Tally, stack_manifest
-from pipeline.output._outdir import LOCK_NAME, SHELL_OUTPUTS, OutputFolder, remove_leftovers, sha256
-from pipeline.output._ply import read_face_ply, write_ply, write_thickness_ply
-from pipeline.output._shell_methods import (
+from shellvox.output._checks import check_files, file_summary, read_manifest, verify_files
+from shellvox.output._folder import BuildFolder
+from shellvox.output._manifest import Tally, stack_manifest
+from shellvox.output._outdir import LOCK_NAME, SHELL_OUTPUTS, OutputFolder, remove_leftovers, sha256
+from shellvox.output._ply import read_face_ply, write_ply, write_thickness_ply
+from shellvox.output._shell_methods import (
     MAX_FIELD_TRIANGLES,
     SHELL_METHODS,
     SHELL_STEP_MM,
+    ShellMethod,
     method_shells,
     ready_for_file,
 )
-from pipeline.output._shells import read_ply, save_shells, write_shell
-from pipeline.output._streams import StackOutputs, gcvf_slices, gcvf_writer, zarr_shards
+from shellvox.output._shells import read_ply, save_shells, write_shell
+from shellvox.output._streams import StackOutputs, gcvf_slices, gcvf_writer, zarr_shards
 
 __all__ = [
     "LOCK_NAME",
@@ -35,6 +36,7 @@ __all__ = [
     "SHELL_STEP_MM",
     "BuildFolder",
     "OutputFolder",
+    "ShellMethod",
     "StackOutputs",
     "Tally",
     "check_files",

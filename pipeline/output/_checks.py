@@ -1,9 +1,9 @@
 """A build folder's manifest: read it, and check the files it lists (sizes, checksums).
 
 ``manifest.json`` is written last by ``shellvox build`` and lists every file with its
-size and SHA-256 (:mod:`pipeline.output._outdir`). A folder without a valid manifest, or whose
+size and SHA-256 (:mod:`shellvox.output._outdir`). A folder without a valid manifest, or whose
 listed files are missing, of another size or outside the folder, is not a complete
-build; each check raises :class:`~pipeline.errors.InputError` naming the file.
+build; each check raises :class:`~shellvox.errors.InputError` naming the file.
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ import stat
 from pathlib import Path
 from typing import Any
 
-from pipeline.errors import InputError
-from pipeline.output._outdir import sha256
+from shellvox.errors import InputError
+from shellvox.output._outdir import sha256
 
 #: The stacks every build writes, as TIFFs or in the OME-Zarr store: a manifest must list
 #: (and so verify) one or the other.

@@ -1,10 +1,10 @@
 """The output folder of one build: temporary names, shell and thickness files, the manifest.
 
-Every file of a build is written under a temporary name (:func:`pipeline.atomic.atomic_path`)
+Every file of a build is written under a temporary name (:func:`shellvox.atomic.atomic_path`)
 entered into the build's :class:`contextlib.ExitStack`: they are renamed together when the
 stack closes after the last slab, and removed if anything fails first. Then
 :meth:`BuildFolder.commit` removes the older build's outputs, records the size and SHA-256
-of every file (:meth:`pipeline.output._outdir.OutputFolder.commit`) and writes ``manifest.json``
+of every file (:meth:`shellvox.output._outdir.OutputFolder.commit`) and writes ``manifest.json``
 last, so a folder with a manifest always holds one complete build.
 """
 
@@ -17,13 +17,13 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from offset.shells import Shell
-from pipeline.atomic import atomic_path, write_text_atomic
-from pipeline.model import ColouredMesh
-from pipeline.output._outdir import OutputFolder
-from pipeline.output._ply import write_thickness_ply
-from pipeline.output._shells import save_shells
-from pipeline.thickness import FaceThickness
+from shellvox.atomic import atomic_path, write_text_atomic
+from shellvox.model import ColouredMesh
+from shellvox.offset.shells import Shell
+from shellvox.output._outdir import OutputFolder
+from shellvox.output._ply import write_thickness_ply
+from shellvox.output._shells import save_shells
+from shellvox.thickness import FaceThickness
 
 
 class BuildFolder:
@@ -59,7 +59,7 @@ class BuildFolder:
     def write_shells(self, shells: Sequence[Shell]) -> list[Shell]:
         """Write ``shells/shell_<k>.ply`` as given; return the shells as read back.
 
-        The shells come ready for their files (:func:`offset.for_file.shell_for_file`).
+        The shells come ready for their files (:func:`shellvox.offset.for_file.shell_for_file`).
         """
         (self.path / "shells").mkdir(exist_ok=True)
         files = save_shells(self.path / "shells", shells, stack=self.stack)

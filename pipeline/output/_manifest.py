@@ -2,7 +2,7 @@
 
 :class:`Tally` counts the voxels of the slabs as they come (per layer, per layer and
 material, and the slabs' diagnostics); :func:`stack_manifest` assembles the whole manifest
-from the build's results, which :meth:`pipeline.output._folder.BuildFolder.commit` completes
+from the build's results, which :meth:`shellvox.output._folder.BuildFolder.commit` completes
 with the files (and the total time) and writes.
 """
 
@@ -15,15 +15,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from offset.shells import Shell
-from pipeline import __version__
-from pipeline.config import BuildConfig, as_json
-from pipeline.model import ColouredMesh
-from pipeline.output._outdir import sha256
-from pipeline.printer import PrinterProfile
-from pipeline.thickness import FaceThickness, thickness_summary
-from voxel.grid import GridSpec
-from voxel.slab import SlabResult
+from shellvox import __version__
+from shellvox.config import BuildConfig, as_json
+from shellvox.model import ColouredMesh
+from shellvox.offset.shells import Shell
+from shellvox.output._outdir import sha256
+from shellvox.printer import PrinterProfile
+from shellvox.thickness import FaceThickness, thickness_summary
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.slab import SlabResult
 
 
 class Tally:

@@ -3,7 +3,7 @@
 :class:`OutputFolder` is the transaction around a run that writes into a folder:
 
 * **Lock.** An exclusive ``flock`` on ``DIR/.shellvox.lock`` (non-blocking): a second run
-  into the same folder is refused at once (:class:`pipeline.errors.OutputBusy`) instead of
+  into the same folder is refused at once (:class:`shellvox.errors.OutputBusy`) instead of
   mixing its files with the first one's.
 * **Leftovers.** Holding the lock, the run removes what an earlier run that was killed
   (SIGKILL, power loss) left behind: temporary files (``.NAME.*.partial``) and spool
@@ -34,8 +34,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from pipeline.errors import InputError, OutputBusy
-from pipeline.faults import DeferredSignals
+from shellvox.errors import InputError, OutputBusy
+from shellvox.faults import DeferredSignals
 
 LOCK_NAME = ".shellvox.lock"
 

@@ -20,9 +20,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.atomic import atomic_path
-from pipeline.model import ColouredMesh
-from pipeline.thickness import FaceThickness
+from shellvox.atomic import atomic_path
+from shellvox.model import ColouredMesh
+from shellvox.thickness import FaceThickness
 
 
 def write_ply(
@@ -38,7 +38,7 @@ def write_ply(
     Parameters
     ----------
     path : str or Path
-        Target file (e.g. a temporary name from :func:`pipeline.atomic.atomic_path`).
+        Target file (e.g. a temporary name from :func:`shellvox.atomic.atomic_path`).
     vertices : (V, 3) float64, mm
     faces : (F, 3) int64
         Indices below ``2**31`` (stored as ``int``).

@@ -4,7 +4,7 @@
 (density, layer, color, sdf and material grids), ``job.gcvf`` (GrabCAD Voxel Print),
 ``slices/`` (RGBA colour-and-translucency PNGs) and ``stack.ome.zarr/`` (OME-Zarr: colour,
 materials and layers), as ``BuildConfig.formats`` chooses. Each file is written under a
-temporary name of the build's folder (:meth:`pipeline.output._folder.BuildFolder.temporary`)
+temporary name of the build's folder (:meth:`shellvox.output._folder.BuildFolder.temporary`)
 and appears only when the whole build succeeded; the writers only serialise.
 """
 
@@ -16,14 +16,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline import __version__
-from pipeline.config import BuildConfig
-from pipeline.errors import InputError
-from pipeline.output._folder import BuildFolder
-from pipeline.printer import PrinterProfile
-from voxel.colour import MaterialPlan
-from voxel.grid import GridSpec
-from voxel.io import (
+from shellvox import __version__
+from shellvox.config import BuildConfig
+from shellvox.errors import InputError
+from shellvox.output._folder import BuildFolder
+from shellvox.printer import PrinterProfile
+from shellvox.voxel.colour import MaterialPlan
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io import (
     BAND_RGB,
     CORE_RGB,
     RGBA,
@@ -39,8 +39,8 @@ from voxel.io import (
     key_rgba,
     material_table,
 )
-from voxel.io.vdb import GridSpool, VdbStackWriter
-from voxel.slab import SlabResult
+from shellvox.voxel.io.vdb import GridSpool, VdbStackWriter
+from shellvox.voxel.slab import SlabResult
 
 
 class StackOutputs:
@@ -158,11 +158,11 @@ class StackOutputs:
     ) -> None:
         """Write one slab (in z order) to every open writer.
 
-        `vdb`: the slab's VDB leaves already encoded (:class:`voxel.io.vdb._encode.VdbEncoder`);
-        `pages`: its TIFF pages and job slices already encoded, by file name
-        (:class:`voxel.io._tiff_pages.PageEncoder`, made with this build's levels and
-        :func:`gcvf_slices`); `counts`: its voxels per layer and material ``(L, 256)``,
-        which the job's slices need with them.
+        `vdb`: the slab's VDB leaves already encoded
+        (:class:`shellvox.voxel.io.vdb._encode.VdbEncoder`); `pages`: its TIFF pages and job slices
+        already encoded, by file name (:class:`shellvox.voxel.io._tiff_pages.PageEncoder`, made with
+        this build's levels and :func:`gcvf_slices`); `counts`: its voxels per layer and material
+        ``(L, 256)``, which the job's slices need with them.
         """
         pages = pages or {}
         stacks = (

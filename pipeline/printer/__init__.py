@@ -2,24 +2,25 @@
 
 from __future__ import annotations
 
-from pipeline.printer._cgats import CgatsError, Readings, read_cgats, write_cgats
-from pipeline.printer._chart import ChartLayout, chart_json, chart_layout, chart_slab
-from pipeline.printer._chart_file import chart_readings, read_chart
-from pipeline.printer._chart_preview import chart_preview
-from pipeline.printer._material_plan import build_material_plan, layer_model
-from pipeline.printer._profile import (
+from shellvox.printer._cgats import CgatsError, Readings, read_cgats, write_cgats
+from shellvox.printer._chart import ChartLayout, chart_json, chart_layout, chart_slab
+from shellvox.printer._chart_file import ChartFile, chart_readings, read_chart
+from shellvox.printer._chart_preview import chart_preview
+from shellvox.printer._material_plan import build_material_plan, layer_model
+from shellvox.printer._profile import (
     BACKGROUND_KEYS,
     PrinterProfile,
     load_profile,
     parse_profile,
     shipped_profiles,
 )
-from pipeline.printer._profile_toml import profile_text, profile_with_optics
-from pipeline.printer._table_cache import DiskTables
+from shellvox.printer._profile_toml import profile_text, profile_with_optics
+from shellvox.printer._table_cache import DiskTables
 
 __all__ = [
     "BACKGROUND_KEYS",
     "CgatsError",
+    "ChartFile",
     "ChartLayout",
     "DiskTables",
     "PrinterProfile",

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pipeline.errors import InputError
+from shellvox.errors import InputError
 
 _SPECTRAL = re.compile(r"^(?:SPECTRAL_NM|SPECTRAL_|SPEC_|NM|R_)(\d{3})$", re.IGNORECASE)
 _ID_FIELDS = ("SAMPLE_ID", "SAMPLEID", "SAMPLE_NAME")

@@ -1,6 +1,6 @@
 """The calibration chart: printable patches of known stacks, laid out on the printer's tray.
 
-The patches are :func:`voxel.colour._calibration.chart_patches` made printable: every
+The patches are :func:`shellvox.voxel.colour._calibration.chart_patches` made printable: every
 patch whose last layer is not pure white or pure black stands on :data:`BASE_MM` of
 black, so that what lies beneath its last layer reflects (almost) nothing, as the model
 assumes (``chart.json`` lists that base as the patch's last layer). Every layer is a
@@ -13,9 +13,9 @@ top first from its own top surface down (patches differ in height); below each p
 :data:`LABEL_PLATE_MM` tall carries the patch's label (``P001``, the id up to its first
 ``-``) in black in its top :data:`LABEL_TEXT_MM`; cells are :data:`GAP_MM` apart in rows
 of ``columns``, with :data:`MARGIN_MM` of void around the chart. A mixed layer is
-halftoned with the blue-noise tile (:mod:`voxel.colour._blue_noise`) at the voxel's
+halftoned with the blue-noise tile (:mod:`shellvox.voxel.colour._blue_noise`) at the voxel's
 global index: material ``j`` where the threshold first falls below the cumulative share
-(the rule of :mod:`voxel.colour._materials`).
+(the rule of :mod:`shellvox.voxel.colour._materials`).
 
 Measure each patch in its middle with a d/8 spectrophotometer, specular included (SCI),
 the chart lying on a black surface.
@@ -31,9 +31,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.printer._profile import PrinterProfile
-from voxel.colour import DEFAULT_TILE, Patch, blue_noise_tile, chart_patches
-from voxel.grid import GridSpec
+from shellvox.printer._profile import PrinterProfile
+from shellvox.voxel.colour import DEFAULT_TILE, Patch, blue_noise_tile, chart_patches
+from shellvox.voxel.grid import GridSpec
 
 PATCH_MM = 8.0
 GAP_MM = 2.0

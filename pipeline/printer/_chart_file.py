@@ -1,9 +1,9 @@
 """``chart.json`` read back and checked, and a chart's readings matched to its patches.
 
-What ``shellvox calibrate`` needs from a chart (:func:`pipeline.printer._chart.chart_json`
+What ``shellvox calibrate`` needs from a chart (:func:`shellvox.printer._chart.chart_json`
 writes it): the printer profile's TOML text, the optics the chart was made with (the
 fit's start) and every patch's layers, top first, nothing beneath the last one.
-Anything malformed is refused with one :class:`pipeline.errors.InputError` naming the
+Anything malformed is refused with one :class:`shellvox.errors.InputError` naming the
 file and the patch or key.
 """
 
@@ -19,9 +19,9 @@ from typing import Any, NoReturn, TypeGuard
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
-from pipeline.printer._cgats import read_cgats
-from voxel.colour import Optics, Patch
+from shellvox.errors import InputError
+from shellvox.printer._cgats import read_cgats
+from shellvox.voxel.colour import Optics, Patch
 
 #: How far a layer's fractions may sum from 1.
 FRACTION_TOLERANCE = 1e-4
@@ -165,7 +165,7 @@ def chart_readings(chart: ChartFile, measured: str | Path) -> NDArray[np.float64
     Raises
     ------
     InputError
-        The file cannot be read (:class:`pipeline.printer._cgats.CgatsError`), a patch has
+        The file cannot be read (:class:`shellvox.printer._cgats.CgatsError`), a patch has
         no reading, or a reading names no patch of the chart (each named).
     """
     ids = [p.patch_id for p in chart.patches]

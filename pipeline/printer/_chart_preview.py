@@ -7,9 +7,9 @@ from typing import Any
 import colour
 import numpy as np
 
-from pipeline.printer._chart import ChartLayout
-from pipeline.printer._profile import PrinterProfile
-from voxel.colour import observer, predict
+from shellvox.printer._chart import ChartLayout
+from shellvox.printer._profile import PrinterProfile
+from shellvox.voxel.colour import observer, predict
 
 #: Preview pixels per mm.
 PIXELS_PER_MM = 8

@@ -1,4 +1,4 @@
-"""The :class:`voxel.colour._materials.MaterialPlan` built from a profile and the settings.
+"""The :class:`shellvox.voxel.colour._materials.MaterialPlan` built from a profile and the settings.
 
 The separation's columns (and so the halftone's stacking order) are the profile's
 opaque colour materials in the order black, cyan, magenta, yellow, white, then clear
@@ -7,7 +7,7 @@ the tile, the best spread, and go to black (the most visible on white) and clear
 (translucency). With ``--icc`` the order is cyan, magenta, yellow, black, white, clear.
 
 The separation inverts the two-flux model of the profile's optics
-(:mod:`voxel.colour._model_separation`), or follows a CMYK ICC profile with ``--icc``.
+(:mod:`shellvox.voxel.colour._model_separation`), or follows a CMYK ICC profile with ``--icc``.
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from pipeline.config import MaterialSettings, Role
-from pipeline.errors import InputError
-from pipeline.printer._profile import PrinterProfile
-from pipeline.printer._table_cache import DiskTables
-from voxel.colour import (
+from shellvox.config import MaterialSettings, Role
+from shellvox.errors import InputError
+from shellvox.printer._profile import PrinterProfile
+from shellvox.printer._table_cache import DiskTables
+from shellvox.voxel.colour import (
     LayerModel,
     MaterialPlan,
     Separation,

@@ -12,7 +12,7 @@
     #   km_s_per_mm = [...]           # scattering per band, 1/mm
 
 A profile whose materials carry no ``km_k_per_mm`` and ``km_s_per_mm`` gets *assumed*
-optics (:func:`voxel.colour._optics.assumed_optics`: from the display colours and an
+optics (:func:`shellvox.voxel.colour._optics.assumed_optics`: from the display colours and an
 assumed scattering per role), recorded as assumed in the manifest and the report until a
 printed, measured chart replaces them (``shellvox calibrate``).
 """
@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from voxel.colour import K1_DEFAULT, K2_DEFAULT, WAVELENGTHS_NM, Optics, assumed_optics
+from shellvox.voxel.colour import K1_DEFAULT, K2_DEFAULT, WAVELENGTHS_NM, Optics, assumed_optics
 
 #: Keys of the ``[optics]`` table.
 OPTICS_KEYS = {"model", "wavelengths_nm", "k1", "k2"}

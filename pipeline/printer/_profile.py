@@ -26,10 +26,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal, NoReturn, cast, get_args
 
-from pipeline.config import Role
-from pipeline.errors import InputError
-from pipeline.printer._optics_table import MATERIAL_KEYS, OpticsReader, profile_optics
-from voxel.colour import Optics, assumed_optics
+from shellvox.config import Role
+from shellvox.errors import InputError
+from shellvox.printer._optics_table import MATERIAL_KEYS, OpticsReader, profile_optics
+from shellvox.voxel.colour import Optics, assumed_optics
 
 MM_PER_INCH = 25.4
 
@@ -119,7 +119,8 @@ class PrinterProfile:
         File the profile was read from (for messages).
     optics : Optics or None
         Two-flux parameters of the printed materials (row ``i`` is material ``i + 1``);
-        None: assumed from the display colours (:func:`voxel.colour._optics.assumed_optics`).
+        None: assumed from the display colours
+        (:func:`shellvox.voxel.colour._optics.assumed_optics`).
 
     Raises
     ------
@@ -180,7 +181,7 @@ class PrinterProfile:
 
 def shipped_profiles() -> list[str]:
     """Return the names of the profiles shipped in ``pipeline/printer/profiles``."""
-    folder = resources.files("pipeline.printer") / "profiles"
+    folder = resources.files("shellvox.printer") / "profiles"
     return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
@@ -210,7 +211,7 @@ def load_profile(name_or_path: str | Path) -> PrinterProfile:
                 path, f"cannot read printer profile ({error})", "check the file"
             ) from None
         return parse_profile(text, source=str(path))
-    shipped = resources.files("pipeline.printer") / "profiles" / f"{text_name.lower()}.toml"
+    shipped = resources.files("shellvox.printer") / "profiles" / f"{text_name.lower()}.toml"
     if not shipped.is_file():
         raise InputError(
             text_name,

@@ -3,7 +3,7 @@
 :func:`profile_with_optics` writes the whole profile (every key of the original, its
 materials in order) with the ``[optics]`` table and each printed material's
 ``km_k_per_mm`` and ``km_s_per_mm`` of the given optics, as TOML that :mod:`tomllib` and
-:func:`pipeline.printer._profile.parse_profile` read back. Comments of the original are
+:func:`shellvox.printer._profile.parse_profile` read back. Comments of the original are
 not kept (a header says where the profile came from).
 """
 
@@ -15,9 +15,9 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from pipeline.errors import InputError
-from pipeline.printer._optics_table import MATERIAL_KEYS, optics_toml
-from voxel.colour import Optics
+from shellvox.errors import InputError
+from shellvox.printer._optics_table import MATERIAL_KEYS, optics_toml
+from shellvox.voxel.colour import Optics
 
 
 def profile_text(name_or_path: str | Path) -> str:
@@ -25,7 +25,7 @@ def profile_text(name_or_path: str | Path) -> str:
     path = Path(name_or_path)
     if path.is_file():
         return path.read_text(encoding="utf-8")
-    shipped = resources.files("pipeline.printer") / "profiles" / f"{str(name_or_path).lower()}.toml"
+    shipped = resources.files("shellvox.printer") / "profiles" / f"{str(name_or_path).lower()}.toml"
     return shipped.read_text(encoding="utf-8")
 
 

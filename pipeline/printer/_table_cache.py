@@ -1,7 +1,7 @@
 """Solved lookup tables kept between runs, in ``$XDG_CACHE_HOME/shellvox``.
 
-:class:`DiskTables` is the store :func:`voxel.colour._separation.mixing_separation` reads its
-solved mixing table from and writes it to (about two seconds to solve); ``voxel``
+:class:`DiskTables` is the store :func:`shellvox.voxel.colour._separation.mixing_separation` reads
+its solved mixing table from and writes it to (about two seconds to solve); ``voxel``
 itself does no file I/O beyond its writers. An unreadable or unwritable cache only
 costs the solve.
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.atomic import atomic_path
+from shellvox.atomic import atomic_path
 
 
 @dataclass(frozen=True)

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from pipeline.report._previews import write_previews
-from pipeline.report._thickness_picture import COLOUR_MAP, thickness_image
+from shellvox.report._previews import write_previews
+from shellvox.report._thickness_picture import COLOUR_MAP, thickness_image
 
 __all__ = [
     "COLOUR_MAP",

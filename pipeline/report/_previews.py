@@ -2,7 +2,7 @@
 
 - ``section_xy.png``, ``section_xz.png``, ``section_yz.png``: on each axis the section
   with the most vivid colour-layer voxels among the planes that cross the part
-  (:class:`pipeline.viewer.SectionCounts`, which also picks ``shellvox view``'s opening
+  (:class:`shellvox.viewer.SectionCounts`, which also picks ``shellvox view``'s opening
   slice), drawn as its colour beside its layers, and below both a square of voxels at
   voxel scale where the colour is densest.
 - ``outer_views.png``: the outer colour layer seen from the six sides, orthographic,
@@ -13,7 +13,7 @@
   colour beside the halftoned materials.
 
 One pass reads the stacks page by page (memory: a page and the view images), then the
-chosen sections are read lazily (:class:`~pipeline.viewer._stacks.TiffStack`).
+chosen sections are read lazily (:class:`~shellvox.viewer._stacks.TiffStack`).
 """
 
 from __future__ import annotations
@@ -26,9 +26,9 @@ import tifffile
 from numpy.typing import NDArray
 from PIL import Image
 
-from pipeline.atomic import atomic_path
-from pipeline.viewer import Axis, SectionCounts, TiffStack
-from voxel.io import (
+from shellvox.atomic import atomic_path
+from shellvox.viewer import Axis, SectionCounts, TiffStack
+from shellvox.voxel.io import (
     boundary_depths,
     halftone_image,
     histogram_image,

@@ -1,19 +1,19 @@
 """Where the slabs run: the task, the runner and its executors, checkpoints.
 
-- :mod:`~pipeline.run._task` the slab task and the vocabulary every executor shares;
-- :mod:`~pipeline.run._runner` ``SlabRunner``: picks the executor, yields slabs in z order;
-- :mod:`~pipeline.run._fork` forked workers, handing slabs back through
-  :mod:`~pipeline.run._slots` (shared memory); :mod:`~pipeline.run._children` children that
+- :mod:`~shellvox.run._task` the slab task and the vocabulary every executor shares;
+- :mod:`~shellvox.run._runner` ``SlabRunner``: picks the executor, yields slabs in z order;
+- :mod:`~shellvox.run._fork` forked workers, handing slabs back through
+  :mod:`~shellvox.run._slots` (shared memory); :mod:`~shellvox.run._children` children that
   die with their parent;
-- :mod:`~pipeline.run._cluster` a Dask cluster; :mod:`~pipeline.run._chunks` a slab as bytes;
-- :mod:`~pipeline.run._checkpoints` the run folder that lets a killed build resume.
+- :mod:`~shellvox.run._cluster` a Dask cluster; :mod:`~shellvox.run._chunks` a slab as bytes;
+- :mod:`~shellvox.run._checkpoints` the run folder that lets a killed build resume.
 
-Nothing here imports :mod:`pipeline.build`.
+Nothing here imports :mod:`shellvox.stack`.
 """
 
 from __future__ import annotations
 
-from pipeline.run._checkpoints import (
+from shellvox.run._checkpoints import (
     CHECKPOINT_AFTER_S,
     JOURNAL,
     RUN_FOLDER,
@@ -24,11 +24,11 @@ from pipeline.run._checkpoints import (
     model_key,
     run_key,
 )
-from pipeline.run._children import ChildCall, ChildDied
-from pipeline.run._chunks import decode_chunk, encode_chunk
-from pipeline.run._runner import SlabRunner
-from pipeline.run._slots import EXTRA_SLOTS, SlabSlots
-from pipeline.run._task import (
+from shellvox.run._children import ChildCall, ChildDied
+from shellvox.run._chunks import decode_chunk, encode_chunk
+from shellvox.run._runner import SlabRunner
+from shellvox.run._slots import EXTRA_SLOTS, SlabSlots
+from shellvox.run._task import (
     SLAB_ARRAYS,
     SlabJob,
     StackSlab,

@@ -7,19 +7,19 @@ A build that checkpoints keeps a run folder, ``DIR/.shellvox-run/``, beside its 
   face, the configuration except ``workers``, the printer and material plan, the grid and
   the slab height), each part a SHA-256;
 - ``slab_<z_start>_<z_stop>.npz``, one chunk per finished slab
-  (:mod:`pipeline.run._chunks`), each put in place atomically.
+  (:mod:`shellvox.run._chunks`), each put in place atomically.
 
 ``--resume`` reads the finished slabs back and computes only the others; all slabs go
 through the same writers in z order, so the files come out as an uninterrupted run's.
 Resuming is refused, naming what differs, when the key is not the same. The folder is
 removed once the build has committed (its manifest written), and by a run without
 ``--resume`` (which starts afresh). A run that fails removes it too (one complete build or
-none: the contract of :mod:`pipeline.output._outdir`), except when a rerun can get past the
+none: the contract of :mod:`shellvox.output._outdir`), except when a rerun can get past the
 failure (SIGINT or SIGTERM, a slab worker killed, the Dask cluster lost, a full disk) and a
 slab has finished: then the finished slabs stay for ``--resume``, and the error line says
 so. What cannot clean up (SIGKILL, power loss, the kernel's OOM killer) leaves the run
 folder, and ``--resume`` continues from it.
-The output folder's lock (:mod:`pipeline.output._outdir`) covers it, and temporary chunk names
+The output folder's lock (:mod:`shellvox.output._outdir`) covers it, and temporary chunk names
 (``.*.partial``) are among the leftovers every run removes first.
 """
 
@@ -38,17 +38,17 @@ from typing import Any
 
 import numpy as np
 
-from pipeline import __version__
-from pipeline.atomic import write_text_atomic
-from pipeline.config import BuildConfig, as_json
-from pipeline.errors import ClusterError, InputError, SlabWorkerDied
-from pipeline.faults import Interrupted, os_error
-from pipeline.model import ColouredMesh
-from pipeline.output import sha256
-from pipeline.run._chunks import decode_chunk, encode_chunk, save_chunk
-from pipeline.run._task import Rows, StackSlab
-from voxel.grid import GridSpec
-from voxel.io import STORE_LAYOUT
+from shellvox import __version__
+from shellvox.atomic import write_text_atomic
+from shellvox.config import BuildConfig, as_json
+from shellvox.errors import ClusterError, InputError, SlabWorkerDied
+from shellvox.faults import Interrupted, os_error
+from shellvox.model import ColouredMesh
+from shellvox.output import sha256
+from shellvox.run._chunks import decode_chunk, encode_chunk, save_chunk
+from shellvox.run._task import Rows, StackSlab
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io import STORE_LAYOUT
 
 #: The run folder's name inside the output folder.
 RUN_FOLDER = ".shellvox-run"
@@ -107,7 +107,7 @@ class RunFolder:
         save_chunk(self.chunk_path(rows), encode_chunk(done, send))
 
     def save_bytes(self, rows: Rows, data: bytes) -> None:
-        """Checkpoint a slab already encoded (:func:`pipeline.run._chunks.encode_chunk`)."""
+        """Checkpoint a slab already encoded (:func:`shellvox.run._chunks.encode_chunk`)."""
         save_chunk(self.chunk_path(rows), data)
 
     def load(self, rows: Rows) -> StackSlab:

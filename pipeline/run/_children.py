@@ -2,7 +2,7 @@
 
 A terminal's Ctrl-C reaches every process of the foreground group; the children ignore
 it and leave the parent to stop them (no tracebacks from workers). They start with
-SIGINT and SIGTERM blocked (:class:`pipeline.faults.DeferredSignals`), so neither can hit
+SIGINT and SIGTERM blocked (:class:`shellvox.faults.DeferredSignals`), so neither can hit
 a child before :func:`init_child` has set its dispositions. ``PR_SET_PDEATHSIG`` (Linux)
 sends them SIGKILL when the parent dies for any reason, SIGKILL included, so no worker is
 ever left orphaned. :class:`ChildPool` (forked slab workers) and :class:`ChildCall` (one
@@ -26,7 +26,7 @@ from multiprocessing.connection import Connection
 from multiprocessing.reduction import ForkingPickler
 from typing import Any, Generic, TypeVar
 
-from pipeline.faults import DeferredSignals
+from shellvox.faults import DeferredSignals
 
 _PR_SET_PDEATHSIG = 1
 _STOP = {signal.SIGINT, signal.SIGTERM}

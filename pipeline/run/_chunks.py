@@ -1,7 +1,7 @@
 """A finished slab as bytes: the checkpoint of a resumable build and the Dask wire format.
 
-:func:`encode_chunk` packs everything :meth:`pipeline.build._stack._Job._stream` consumes of a
-:class:`~pipeline.run._task.StackSlab` (the slab's arrays and counters, its materials
+:func:`encode_chunk` packs everything :meth:`shellvox.stack._stack._Job._stream` consumes of a
+:class:`~shellvox.run._task.StackSlab` (the slab's arrays and counters, its materials
 and tally, its encoded VDB leaves and pages) into a zip of ``.npy`` members (the arrays
 deflated at zlib level 1, the leaves and pages stored as they are, being compressed
 already; no pickles: :func:`decode_chunk` reads it with ``allow_pickle=False``), and
@@ -24,15 +24,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.run._task import SLAB_ARRAYS, StackSlab
-from voxel.io.vdb import GridSpool
-from voxel.slab import SlabResult
+from shellvox.run._task import SLAB_ARRAYS, StackSlab
+from shellvox.voxel.io.vdb import GridSpool
+from shellvox.voxel.slab import SlabResult
 
 #: zlib level of the chunks: slabs are mostly runs, which level 1 packs nearly as well.
 CHUNK_LEVEL = 1
 
 _ARRAYS = ("layers", "rgba", "sdf", "sdf_band", "layer_counts")
-#: The voxel arrays a chunk with pages may leave out (:data:`pipeline.run._task.SLAB_ARRAYS`).
+#: The voxel arrays a chunk with pages may leave out (:data:`shellvox.run._task.SLAB_ARRAYS`).
 _LEFT_OUT = SLAB_ARRAYS
 _COUNTERS = (
     "z_start",
@@ -153,7 +153,7 @@ def save_chunk(path: Path, data: bytes) -> None:
     """Write `data` to `path` atomically: a temporary name, fsync, then rename.
 
     The temporary name (``.NAME.*.partial``) is one that
-    :func:`pipeline.output._outdir.remove_leftovers` removes when a killed run left it.
+    :func:`shellvox.output._outdir.remove_leftovers` removes when a killed run left it.
     """
     handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     try:

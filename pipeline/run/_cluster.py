@@ -1,10 +1,10 @@
 """Slab tasks on a Dask distributed cluster (``--scheduler ADDRESS`` or ``local``).
 
-The same task as the local workers (:func:`pipeline.run._task.stack_slab`: voxels,
+The same task as the local workers (:func:`shellvox.run._task.stack_slab`: voxels,
 materials when the halftone is order-independent, VDB leaves) runs on the Dask workers.
 The slab job (model, grid, material plan, VDB encoder) is scattered to every worker once
 (``broadcast``), not sent with each task; each task returns its slab as chunk bytes
-(:mod:`pipeline.run._chunks`: compressed on the worker, so the network carries a tenth of
+(:mod:`shellvox.run._chunks`: compressed on the worker, so the network carries a tenth of
 the arrays), which this process decodes, checkpoints as they are when the build keeps a
 run folder, and hands to the writers in z order. The runner keeps at most the cluster's
 threads plus one slabs in flight.
@@ -13,7 +13,7 @@ Failures end the build with one line instead of hanging it: a scheduler that can
 reached, is lost or has no workers for :data:`NO_WORKERS_S` raises
 :class:`ClusterError` (exit status 2: the ``--scheduler`` given); a slab whose workers
 keep dying (Dask retries it on others first) raises
-:class:`pipeline.errors.SlabWorkerDied` (exit status 4, as for local workers).
+:class:`shellvox.errors.SlabWorkerDied` (exit status 4, as for local workers).
 """
 
 from __future__ import annotations
@@ -25,15 +25,15 @@ import uuid
 from concurrent.futures import CancelledError
 from typing import TYPE_CHECKING
 
-from pipeline.errors import ClusterError, SlabWorkerDied
-from pipeline.faults import raise_if_interrupted
-from pipeline.run._chunks import decode_chunk, encode_chunk
-from pipeline.run._task import Rows, SlabJob, StackSlab
+from shellvox.errors import ClusterError, SlabWorkerDied
+from shellvox.faults import raise_if_interrupted
+from shellvox.run._chunks import decode_chunk, encode_chunk
+from shellvox.run._task import Rows, SlabJob, StackSlab
 
 if TYPE_CHECKING:
     from distributed import Client, Future, LocalCluster
 
-    from pipeline.run._checkpoints import RunFolder
+    from shellvox.run._checkpoints import RunFolder
 
 #: Seconds to reach the scheduler, and to wait while it has no worker (or is lost).
 CONNECT_S = 30.0
@@ -45,7 +45,7 @@ RESCATTERS = 3
 
 
 class DaskPool:
-    """Slab tasks on a Dask cluster (a :class:`pipeline.run._task.SlabExecutor`).
+    """Slab tasks on a Dask cluster (a :class:`shellvox.run._task.SlabExecutor`).
 
     Parameters
     ----------
@@ -61,7 +61,14 @@ class DaskPool:
     """
 
     def __init__(self, job: SlabJob, scheduler: str, workers: int, run: RunFolder | None) -> None:
-        from distributed import Client, LocalCluster
+        try:
+            from distributed import Client, LocalCluster
+        except ImportError:
+            raise ClusterError(
+                "--scheduler",
+                "needs Dask's distributed, which is not installed",
+                "install the cluster extra: pip install 'shellvox[cluster]'",
+            ) from None
 
         self.scheduler = scheduler
         self.run = run

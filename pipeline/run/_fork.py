@@ -3,10 +3,10 @@
 The workers inherit the slab job (the model, with its AABB tree and texture, is not
 pickled): they are forked once, at the first :meth:`ForkPool.submit`, before the caller
 starts any thread. Each slab comes back through a shared-memory slot
-(:mod:`pipeline.run._slots`); with a run folder the worker also writes the slab's chunk
+(:mod:`shellvox.run._slots`); with a run folder the worker also writes the slab's chunk
 itself, so checkpointing costs the parent nothing. A worker that dies (e.g. killed for
 lack of memory) fails the build with a clear error instead of hanging it. Workers ignore
-Ctrl-C and die with the parent (:class:`pipeline.run._children.ChildPool`); closing the pool
+Ctrl-C and die with the parent (:class:`shellvox.run._children.ChildPool`); closing the pool
 after a failure kills them at once instead of waiting for the slabs they are computing.
 """
 
@@ -16,13 +16,13 @@ from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
 from typing import TYPE_CHECKING
 
-from pipeline.errors import SlabWorkerDied
-from pipeline.run._children import ChildPool
-from pipeline.run._slots import EXTRA_SLOTS, SlabInSlot, SlabSlots
-from pipeline.run._task import Rows, SlabJob, StackSlab
+from shellvox.errors import SlabWorkerDied
+from shellvox.run._children import ChildPool
+from shellvox.run._slots import EXTRA_SLOTS, SlabInSlot, SlabSlots
+from shellvox.run._task import Rows, SlabJob, StackSlab
 
 if TYPE_CHECKING:
-    from pipeline.run._checkpoints import RunFolder
+    from shellvox.run._checkpoints import RunFolder
 
 #: Inherited by the forked workers: the job, the slots and the run folder.
 _WORKER: tuple[SlabJob, SlabSlots, RunFolder | None] | None = None

@@ -1,15 +1,15 @@
 """Run the slab tasks over the Z slabs and hand them over in z order.
 
-:class:`SlabRunner` keeps a bounded number of slabs (:func:`pipeline.run._task.stack_slab`)
+:class:`SlabRunner` keeps a bounded number of slabs (:func:`shellvox.run._task.stack_slab`)
 in flight on an executor and yields them in z order; the executor is a choice behind one
-small interface (:class:`pipeline.run._task.SlabExecutor`), made here:
+small interface (:class:`shellvox.run._task.SlabExecutor`), made here:
 
 - here, in this process (:class:`InProcess`, ``workers == 1``);
 - forked worker processes handing slabs back through shared memory
-  (:class:`pipeline.run._fork.ForkPool`, ``workers > 1``);
-- a Dask cluster (:class:`pipeline.run._cluster.DaskPool`, ``scheduler``).
+  (:class:`shellvox.run._fork.ForkPool`, ``workers > 1``);
+- a Dask cluster (:class:`shellvox.run._cluster.DaskPool`, ``scheduler``).
 
-With a run folder (:class:`pipeline.run._checkpoints.RunFolder`) every finished slab is also
+With a run folder (:class:`shellvox.run._checkpoints.RunFolder`) every finished slab is also
 checkpointed as a chunk file (where it is computed when that is this machine), and the
 slabs a killed run finished are read back from their chunks instead of computed again.
 """
@@ -22,13 +22,13 @@ from collections.abc import Iterator
 from types import TracebackType
 from typing import Any
 
-from pipeline.faults import raise_if_interrupted
-from pipeline.run._checkpoints import RunFolder
-from pipeline.run._task import SLAB_ARRAYS, Rows, SlabExecutor, SlabJob, SlabModel, StackSlab
-from voxel.colour import MaterialPlan
-from voxel.grid import GridSpec
-from voxel.io import PageEncoder
-from voxel.io.vdb import VdbEncoder
+from shellvox.faults import raise_if_interrupted
+from shellvox.run._checkpoints import RunFolder
+from shellvox.run._task import SLAB_ARRAYS, Rows, SlabExecutor, SlabJob, SlabModel, StackSlab
+from shellvox.voxel.colour import MaterialPlan
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io import PageEncoder
+from shellvox.voxel.io.vdb import VdbEncoder
 
 
 class InProcess:
@@ -86,7 +86,7 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         Compress each slab's TIFF pages where it is computed (see :func:`stack_slab`).
     scheduler : str, optional
         A Dask scheduler's address, or ``"local"`` for a local cluster
-        (:class:`pipeline.run._cluster.DaskPool`); None: this process or forked workers.
+        (:class:`shellvox.run._cluster.DaskPool`); None: this process or forked workers.
     run : RunFolder, optional
         Checkpoint every slab there, and take the slabs it already holds from it.
     """
@@ -125,11 +125,11 @@ class SlabRunner(contextlib.AbstractContextManager["SlabRunner"]):
         if not self._todo:
             return InProcess(self.job._replace(pages=None), self.run)
         if scheduler is not None:
-            from pipeline.run._cluster import DaskPool  # dask is imported only when used
+            from shellvox.run._cluster import DaskPool  # dask is imported only when used
 
             return DaskPool(self.job, scheduler, self.workers, self.run)
         if self.workers > 1:
-            from pipeline.run._fork import ForkPool
+            from shellvox.run._fork import ForkPool
 
             return ForkPool(self.job, self.workers, slab_shape, self.run)
         # Here the writers' threads compress the pages beside the numerics, on the other

@@ -21,9 +21,9 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.run._task import SLAB_ARRAYS
-from voxel.io.vdb import GridSpool
-from voxel.slab import SlabResult
+from shellvox.run._task import SLAB_ARRAYS
+from shellvox.voxel.io.vdb import GridSpool
+from shellvox.voxel.slab import SlabResult
 
 #: Byte alignment of each array in a slot.
 _ALIGN = 64

@@ -2,13 +2,13 @@
 
 Slabs are a pure function of (model, grid, rows): :func:`stack_slab` is the one task,
 wherever it runs (:class:`SlabJob` carries what it needs). An executor
-(:class:`SlabExecutor`) runs tasks: :class:`pipeline.run._runner.InProcess`,
-:class:`pipeline.run._fork.ForkPool` or :class:`pipeline.run._cluster.DaskPool`;
-:class:`pipeline.run._runner.SlabRunner` picks one.
+(:class:`SlabExecutor`) runs tasks: :class:`shellvox.run._runner.InProcess`,
+:class:`shellvox.run._fork.ForkPool` or :class:`shellvox.run._cluster.DaskPool`;
+:class:`shellvox.run._runner.SlabRunner` picks one.
 
 With a material plan, each slab's voxels also get their materials
-(:func:`voxel.colour._materials.materials_for_slab`) in the same worker, when the halftone is
-order-independent (blue noise); error diffusion runs in z order in the caller.
+(:func:`shellvox.voxel.colour._materials.materials_for_slab`) in the same worker, when the halftone
+is order-independent (blue noise); error diffusion runs in z order in the caller.
 """
 
 from __future__ import annotations
@@ -20,13 +20,13 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour import MaterialPlan, materials_for_slab
-from voxel.geometry import layer_material_counts
-from voxel.grid import GridSpec
-from voxel.io import PageEncoder
-from voxel.io.vdb import GridSpool, VdbEncoder
-from voxel.slab import SlabResult, StackModel, compute_slab
-from voxel.tray_slab import TrayStack, compute_tray_slab
+from shellvox.voxel.colour import MaterialPlan, materials_for_slab
+from shellvox.voxel.geometry import layer_material_counts
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io import PageEncoder
+from shellvox.voxel.io.vdb import GridSpool, VdbEncoder
+from shellvox.voxel.slab import SlabResult, StackModel, compute_slab
+from shellvox.voxel.tray_slab import TrayStack, compute_tray_slab
 
 #: What a slab task computes: one model, or a tray of models (tile by tile).
 SlabModel = StackModel | TrayStack
@@ -50,8 +50,9 @@ class StackSlab(NamedTuple):
     vdb : list of GridSpool or None
         The slab's VDB leaves and tiles, when the runner was given an encoder.
     pages : dict of str to list of bytes, or None
-        The slab's TIFF pages compressed, by file name (:class:`voxel.io._tiff_pages.PageEncoder`),
-        when the runner was given a page encoder.
+        The slab's TIFF pages compressed, by file name
+        (:class:`shellvox.voxel.io._tiff_pages.PageEncoder`), when the runner was given a page
+        encoder.
     """
 
     slab: SlabResult
@@ -125,7 +126,7 @@ def resolve_workers(workers: int) -> int:
     return max(1, os.cpu_count() or 1)
 
 
-#: The voxel arrays of a slab (:class:`voxel.slab.SlabResult`) a chunk may leave out.
+#: The voxel arrays of a slab (:class:`shellvox.voxel.slab.SlabResult`) a chunk may leave out.
 SLAB_ARRAYS = ("layers", "rgba", "sdf", "sdf_band")
 
 
@@ -145,7 +146,7 @@ class SlabJob(NamedTuple):
     send : tuple of str
         The slab's arrays (of :data:`SLAB_ARRAYS`) the writing process uses when a slab
         comes with its pages; the others travel as the pages and VDB leaves only
-        (:func:`pipeline.run._chunks.encode_chunk`: the Dask wire and the checkpoints).
+        (:func:`shellvox.run._chunks.encode_chunk`: the Dask wire and the checkpoints).
     """
 
     model: SlabModel

@@ -1,26 +1,26 @@
 """Per-face layer thickness: face colours, the rule, its file, splitting faces.
 
-- :mod:`~pipeline.thickness._face_colour` a robust CIELAB colour per face, with its spread;
-- :mod:`~pipeline.thickness._rule` the thickness rule and its defaults;
-- :mod:`~pipeline.thickness._rule_file` rules from TOML files;
-- :mod:`~pipeline.thickness._face_thickness` the rule applied: thickness per face and layer;
-- :mod:`~pipeline.thickness._face_split` faces split so the thickness can follow a texture.
+- :mod:`~shellvox.thickness._face_colour` a robust CIELAB colour per face, with its spread;
+- :mod:`~shellvox.thickness._rule` the thickness rule and its defaults;
+- :mod:`~shellvox.thickness._rule_file` rules from TOML files;
+- :mod:`~shellvox.thickness._face_thickness` the rule applied: thickness per face and layer;
+- :mod:`~shellvox.thickness._face_split` faces split so the thickness can follow a texture.
 
-Nothing here writes files (the thickness PLY is :func:`pipeline.output._ply.write_thickness_ply`).
+Nothing here writes files (the thickness PLY is :func:`shellvox.output._ply.write_thickness_ply`).
 """
 
 from __future__ import annotations
 
-from pipeline.thickness._face_colour import FaceColour, face_colour, face_samples
-from pipeline.thickness._face_split import split_faces, split_for_thickness
-from pipeline.thickness._face_thickness import (
+from shellvox.thickness._face_colour import FaceColour, face_colour, face_samples
+from shellvox.thickness._face_split import split_faces, split_for_thickness
+from shellvox.thickness._face_thickness import (
     FaceThickness,
     face_thickness,
     mean_curvature,
     thickness_summary,
 )
-from pipeline.thickness._optical_rule import OpticalFaces, optical_thickness
-from pipeline.thickness._rule import (
+from shellvox.thickness._optical_rule import OpticalFaces, optical_thickness
+from shellvox.thickness._rule import (
     DEFAULT_RULE,
     LIGHTNESS_RULE,
     ColourLayerRule,
@@ -30,8 +30,8 @@ from pipeline.thickness._rule import (
     SplitRule,
     ThicknessRule,
 )
-from pipeline.thickness._rule_file import load_rule
-from pipeline.thickness._surface_smoothing import smooth_over_distance
+from shellvox.thickness._rule_file import load_rule
+from shellvox.thickness._surface_smoothing import smooth_over_distance
 
 __all__ = [
     "DEFAULT_RULE",

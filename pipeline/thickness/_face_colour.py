@@ -38,8 +38,8 @@ import colour
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.model import ColouredMesh
-from voxel.colour import srgb8_to_lab
+from shellvox.model import ColouredMesh
+from shellvox.voxel.colour import srgb8_to_lab
 
 #: Samples per chunk of faces (bounds the working memory to a few hundred MB).
 CHUNK_SAMPLES = 1 << 20

@@ -25,11 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
-from pipeline.model import ColouredMesh
-from pipeline.thickness._face_colour import FaceColour, face_colour
-from pipeline.thickness._rule import ThicknessRule
-from voxel.colour import decode_uint8, encode_uint8
+from shellvox.errors import InputError
+from shellvox.model import ColouredMesh
+from shellvox.thickness._face_colour import FaceColour, face_colour
+from shellvox.thickness._rule import ThicknessRule
+from shellvox.voxel.colour import decode_uint8, encode_uint8
 
 #: Barycentric coordinates of a face's corners and edge midpoints (local points 0..5;
 #: midpoint 3 on edge 0-1, 4 on edge 1-2, 5 on edge 2-0).
@@ -152,7 +152,7 @@ def split_for_thickness(
     max_edge_mm : float, mm
         ``--max-edge``.
     colour : FaceColour, optional
-        Precomputed :func:`pipeline.thickness._face_colour.face_colour` of ``mesh``.
+        Precomputed :func:`shellvox.thickness._face_colour.face_colour` of ``mesh``.
     max_faces : int, optional
         Face limit (see :func:`split_faces`).
 

@@ -2,11 +2,11 @@
 
 :func:`face_thickness` is what ``build``, ``shells`` and ``thickness`` call: it measures
 each face (robust colour, normal, mean curvature), evaluates the rule (the optical
-rule, :mod:`pipeline.thickness._optical_rule`, or the lightness rule,
-:mod:`pipeline.thickness._lightness_rule`), applies the common limits
-(:func:`pipeline.thickness._rule.limited_thickness`), smooths the colour layer over a
-surface distance (:mod:`pipeline.thickness._surface_smoothing`) and stacks the backing
-layers into the ``(K, F)`` thickness that :func:`offset.offset_shells` and the distance
+rule, :mod:`shellvox.thickness._optical_rule`, or the lightness rule,
+:mod:`shellvox.thickness._lightness_rule`), applies the common limits
+(:func:`shellvox.thickness._rule.limited_thickness`), smooths the colour layer over a
+surface distance (:mod:`shellvox.thickness._surface_smoothing`) and stacks the backing
+layers into the ``(K, F)`` thickness that :func:`shellvox.offset.offset_shells` and the distance
 layer rule take. :func:`thickness_summary`
 condenses it for the manifest and the ``thickness`` table.
 """
@@ -22,21 +22,21 @@ from numpy.typing import NDArray
 from scipy import sparse
 from scipy.sparse import linalg as sparse_linalg
 
-from offset.adjacency import bend_angles, edge_adjacency, face_normals
-from pipeline.config import as_json
-from pipeline.model import ColouredMesh
-from pipeline.thickness._face_colour import FaceColour, face_colour, face_samples
-from pipeline.thickness._lightness_rule import lightness_thickness
-from pipeline.thickness._optical_rule import OpticalFaces, optical_thickness
-from pipeline.thickness._rule import (
+from shellvox.config import as_json
+from shellvox.model import ColouredMesh
+from shellvox.offset.adjacency import bend_angles, edge_adjacency, face_normals
+from shellvox.thickness._face_colour import FaceColour, face_colour, face_samples
+from shellvox.thickness._lightness_rule import lightness_thickness
+from shellvox.thickness._optical_rule import OpticalFaces, optical_thickness
+from shellvox.thickness._rule import (
     DEFAULT_RULE,
     ORIENTATION_NAMES,
     ThicknessRule,
     limited_thickness,
     orientation_class,
 )
-from pipeline.thickness._surface_smoothing import smooth_over_distance
-from voxel.colour import LayerModel
+from shellvox.thickness._surface_smoothing import smooth_over_distance
+from shellvox.voxel.colour import LayerModel
 
 #: Lightness bins of the summary, ``L*`` edges.
 LIGHTNESS_EDGES = (0.0, 20.0, 40.0, 60.0, 80.0, 100.0)
@@ -101,9 +101,9 @@ def face_thickness(
     mesh : ColouredMesh
         Closed, outward-oriented model in mm.
     rule : ThicknessRule, optional
-        Default :data:`pipeline.thickness._rule.DEFAULT_RULE`.
+        Default :data:`shellvox.thickness._rule.DEFAULT_RULE`.
     colour : FaceColour, optional
-        Precomputed :func:`pipeline.thickness._face_colour.face_colour` of ``mesh``.
+        Precomputed :func:`shellvox.thickness._face_colour.face_colour` of ``mesh``.
     model : LayerModel, optional
         The printer's optics and separation: needed by the optical rule.
 
@@ -116,7 +116,7 @@ def face_thickness(
     >>> import trimesh
     >>> box = trimesh.creation.box((10.0, 10.0, 10.0))
     >>> mesh = ColouredMesh(np.asarray(box.vertices), np.asarray(box.faces, np.int64))
-    >>> from pipeline.thickness._rule import LIGHTNESS_RULE
+    >>> from shellvox.thickness._rule import LIGHTNESS_RULE
     >>> result = face_thickness(mesh, LIGHTNESS_RULE)  # white and opaque
     >>> result.thickness_mm.shape
     (2, 12)

@@ -2,13 +2,13 @@
 
 ``rule = "lightness"`` in a rule file. The colour layer of a face with robust colour
 ``L*``, ``C*`` and alpha ``a`` is, before the common limits of
-:mod:`pipeline.thickness._rule`::
+:mod:`shellvox.thickness._rule`::
 
     s = (w_L L*/100 + w_C (1 - min(C*/C_full, 1)) + w_T (1 - a)) / (w_L + w_C + w_T)
     t = min_mm + (max_mm - min_mm) s
 
 It is kept to compare with the optical rule, which derives the depth from the printer's
-optics instead. Why its defaults (:data:`pipeline.thickness._rule.LIGHTNESS_RULE`;
+optics instead. Why its defaults (:data:`shellvox.thickness._rule.LIGHTNESS_RULE`;
 judgments from printer facts, not measurements):
 
 - **0.3 to 1.2 mm.** A colour layer must hold a few voxels across its depth on every
@@ -42,7 +42,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.thickness._rule import ThicknessRule
+from shellvox.thickness._rule import ThicknessRule
 
 
 def lightness_thickness(
@@ -70,7 +70,7 @@ def lightness_thickness(
 
     Examples
     --------
-    >>> from pipeline.thickness._rule import LIGHTNESS_RULE
+    >>> from shellvox.thickness._rule import LIGHTNESS_RULE
     >>> one = np.ones(1)
     >>> white = lightness_thickness(100 * one, 0 * one, one, LIGHTNESS_RULE)
     >>> round(float(white[0]), 6)

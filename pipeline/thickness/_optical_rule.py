@@ -2,16 +2,16 @@
 
 ``rule = "optical"`` (the default). Each face's robust colour goes through the printer's
 separation to its mix of materials; under the printer's two-flux model
-(:class:`voxel.colour._settling.LayerModel`) the mix, ``t`` deep over what the build
+(:class:`shellvox.voxel.colour._settling.LayerModel`) the mix, ``t`` deep over what the build
 puts beneath it (the backing layers over the core), shows a colour that tends to the
 same mix infinitely deep. The face's colour layer is its *settling depth*: the least
 ``t`` from which on that colour stays within ``delta_e`` CIEDE2000 of the deep one
-(:func:`voxel.colour._settling.settling_depth`). A mix still changing at ``max_mm`` (mixes
+(:func:`shellvox.voxel.colour._settling.settling_depth`). A mix still changing at ``max_mm`` (mixes
 diluted with clear material, which hardly scatters) is flagged as not settled and gets
-``max_mm``. The common limits and the smoothing of :mod:`pipeline.thickness._rule` follow.
+``max_mm``. The common limits and the smoothing of :mod:`shellvox.thickness._rule` follow.
 
 A face's depth serves all of it: it is the deepest settling depth among the face's
-colour samples (:func:`pipeline.thickness._face_colour.face_samples`: the texels a
+colour samples (:func:`shellvox.thickness._face_colour.face_samples`: the texels a
 textured face covers, a vertex-coloured face's corners), so a texture detail that needs
 more depth than the face's robust colour (a yellow line on a grey face) gets it. The
 robust colour's own mix and depth are kept beside it, to show why.
@@ -27,9 +27,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.thickness._face_colour import FaceColour
-from pipeline.thickness._rule import ThicknessRule
-from voxel.colour import LayerModel, Settling, lab_to_srgb8
+from shellvox.thickness._face_colour import FaceColour
+from shellvox.thickness._rule import ThicknessRule
+from shellvox.voxel.colour import LayerModel, Settling, lab_to_srgb8
 
 
 class OpticalFaces(NamedTuple):
@@ -89,7 +89,7 @@ def optical_thickness(
     rule : ThicknessRule
         ``colour_layer.delta_e`` and ``colour_layer.max_mm``.
     samples : iterable of (faces (C,) int64, rgba (C, S, 4) uint8), optional
-        Every face's colour samples (:func:`~pipeline.thickness._face_colour.face_samples`);
+        Every face's colour samples (:func:`~shellvox.thickness._face_colour.face_samples`);
         without them each face's depth is its robust colour's.
     """
     rgba = face_rgba(colour)

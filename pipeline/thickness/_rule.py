@@ -7,11 +7,11 @@ and curvature matters. This module holds that rule's numbers, loaded from TOML
 (``--thickness-rule FILE``) or :data:`DEFAULT_RULE`. Two rules give the colour layer of a
 face before the common limits:
 
-- ``rule = "optical"`` (the default, :mod:`pipeline.thickness._optical_rule`): the depth at
+- ``rule = "optical"`` (the default, :mod:`shellvox.thickness._optical_rule`): the depth at
   which the face's mix of materials, over what the build puts beneath it, stops changing
   colour under the printer's two-flux model, to within ``delta_e`` CIEDE2000 (its
   *settling depth*);
-- ``rule = "lightness"`` (:mod:`pipeline.thickness._lightness_rule`): a weighted score of
+- ``rule = "lightness"`` (:mod:`shellvox.thickness._lightness_rule`): a weighted score of
   lightness, chroma and transparency, a judgment kept for comparison.
 
 Then, for both::
@@ -21,7 +21,7 @@ Then, for both::
     t = clip(t, min_mm, max_mm)
 
 and ``t`` is smoothed over ``radius_mm`` of surface
-(:func:`pipeline.thickness._surface_smoothing.smooth_over_distance`: area-weighted over the
+(:func:`shellvox.thickness._surface_smoothing.smooth_over_distance`: area-weighted over the
 faces within that distance that face the same side, so independent of the
 triangulation), never below the face's own ``t``: the smoothing deepens the faces around
 a deeper region, so the depth changes gradually, and never takes from a face the depth
@@ -41,7 +41,7 @@ Defaults of the optical rule (:data:`DEFAULT_RULE`):
 - **Smoothing** over 1 mm of surface.
 
 The lightness rule's defaults are :data:`LIGHTNESS_RULE` (their reasons:
-:mod:`pipeline.thickness._lightness_rule`). Common to both:
+:mod:`shellvox.thickness._lightness_rule`). Common to both:
 
 - **Curvature**: a colour layer at most ``0.5 / H`` deep, half the local radius of convex
   curvature, with ``H`` the mean curvature at a scale of 1 mm (about the colour layer's
@@ -59,7 +59,7 @@ The lightness rule's defaults are :data:`LIGHTNESS_RULE` (their reasons:
 - **Splitting** (``--max-edge``): faces whose colour spread (p90 CIEDE2000 from their
   median) is 5 or more are split; a CIEDE2000 of about 5 is a clearly visible difference.
 
-The rule file (``--thickness-rule FILE``, TOML) is read by :mod:`pipeline.thickness._rule_file`.
+The rule file (``--thickness-rule FILE``, TOML) is read by :mod:`shellvox.thickness._rule_file`.
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ from typing import Literal, get_args
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
+from shellvox.errors import InputError
 
 #: The rules that give a face's colour layer before the common limits.
 RuleKind = Literal["optical", "lightness"]
@@ -216,7 +216,7 @@ class CurvatureRule:
         (``>= 0``; 0 turns the cap off and skips the curvature computation).
     radius_mm : float, mm
         Scale ``r`` of the mean curvature ``H``: the local curvature is diffused over
-        about this distance (:func:`pipeline.thickness._face_thickness.mean_curvature`; ``> 0``).
+        about this distance (:func:`shellvox.thickness._face_thickness.mean_curvature`; ``> 0``).
     """
 
     max_depth_per_radius: float = 0.5
@@ -344,7 +344,7 @@ class ThicknessRule:
 DEFAULT_RULE = ThicknessRule()
 
 #: The lightness rule with its own documented defaults
-#: (:mod:`pipeline.thickness._lightness_rule`).
+#: (:mod:`shellvox.thickness._lightness_rule`).
 LIGHTNESS_RULE = ThicknessRule(
     rule="lightness",
     colour_layer=ColourLayerRule(max_mm=1.2),

@@ -1,9 +1,9 @@
 """Thickness rules from TOML files (``--thickness-rule FILE``).
 
 Every key and table is optional; missing keys keep the values of the rule's kind
-(``rule = "optical"``, the default: :data:`pipeline.thickness._rule.DEFAULT_RULE`;
-``rule = "lightness"``: :data:`pipeline.thickness._rule.LIGHTNESS_RULE`; what they mean,
-and why the defaults: :mod:`pipeline.thickness._rule`). A file that cannot be read, or
+(``rule = "optical"``, the default: :data:`shellvox.thickness._rule.DEFAULT_RULE`;
+``rule = "lightness"``: :data:`shellvox.thickness._rule.LIGHTNESS_RULE`; what they mean,
+and why the defaults: :mod:`shellvox.thickness._rule`). A file that cannot be read, or
 holds an unknown table or key, a wrong type or a value out of range, is refused with the
 file, the key and what to write.
 
@@ -49,8 +49,8 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from pipeline.errors import InputError
-from pipeline.thickness._rule import (
+from shellvox.errors import InputError
+from shellvox.thickness._rule import (
     DEFAULT_RULE,
     LIGHTNESS_RULE,
     ColourLayerRule,

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-from pipeline.tray._build import build_tray
-from pipeline.tray._layout import LayoutMode
-from pipeline.tray._parts import ThicknessSource
-from pipeline.tray._plan import plan_tray
-from pipeline.tray._spec import load_tray, tray_from_inputs
+from shellvox.tray._build import build_tray
+from shellvox.tray._layout import LayoutMode
+from shellvox.tray._parts import ThicknessSource
+from shellvox.tray._plan import TrayPlan, plan_tray
+from shellvox.tray._spec import load_tray, tray_from_inputs
 
 __all__ = [
     "LayoutMode",
     "ThicknessSource",
+    "TrayPlan",
     "build_tray",
     "load_tray",
     "plan_tray",

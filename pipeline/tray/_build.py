@@ -1,10 +1,10 @@
 """``build_tray``: several models, one stack, one job.
 
-Each model of a :class:`pipeline.tray._plan.TrayPlan` keeps its own mesh, colour source,
+Each model of a :class:`shellvox.tray._plan.TrayPlan` keeps its own mesh, colour source,
 thickness and grid; the slabs are composed from the models' tiles
-(:mod:`voxel.tray_slab`), so everything after the slabs (materials and halftone in tray
+(:mod:`shellvox.voxel.tray_slab`), so everything after the slabs (materials and halftone in tray
 coordinates, the writers, the job, the colour report) is the single-model build's
-(:mod:`pipeline.build._stack`). The tray's mesh (:class:`pipeline.tray._mesh.TrayMesh`) stands for
+(:mod:`shellvox.stack._stack`). The tray's mesh (:class:`shellvox.tray._mesh.TrayMesh`) stands for
 the models in the manifest, ``thickness.ply`` (when every model has a thickness rule)
 and the colour report; the manifest gets a ``tray`` section.
 """
@@ -23,19 +23,19 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from offset.shells import Shell
-from pipeline.build import BuildPlan, check_depth, run_job, settle_running
-from pipeline.build._stack import _Job, _material_plan, stack_model
-from pipeline.config import BuildConfig
-from pipeline.errors import InputError
-from pipeline.model import ColouredMesh
-from pipeline.printer import PrinterProfile
-from pipeline.run import RunSettings, model_key, run_key
-from pipeline.thickness import FaceThickness
-from pipeline.tray._mesh import TrayMesh, concatenate_thickness
-from pipeline.tray._plan import TrayPlan
-from voxel.slab import StackModel
-from voxel.tray_slab import TrayStack
+from shellvox.config import BuildConfig
+from shellvox.errors import InputError
+from shellvox.model import ColouredMesh
+from shellvox.offset.shells import Shell
+from shellvox.printer import PrinterProfile
+from shellvox.run import RunSettings, model_key, run_key
+from shellvox.stack import BuildPlan, check_depth, run_job, settle_running
+from shellvox.stack._stack import _Job, _material_plan, stack_model
+from shellvox.thickness import FaceThickness
+from shellvox.tray._mesh import TrayMesh, concatenate_thickness
+from shellvox.tray._plan import TrayPlan
+from shellvox.voxel.slab import StackModel
+from shellvox.voxel.tray_slab import TrayStack
 
 
 def build_tray(
@@ -62,7 +62,7 @@ def build_tray(
         Grid, layers and output options; the distance layer rule, no shell meshes.
         Its ``thickness_mm`` and ``thickness_source`` are set here.
     out_dir : Path
-        Output folder, as :func:`pipeline.build._stack.build_stack`.
+        Output folder, as :func:`shellvox.stack._stack.build_stack`.
     meshes : sequence of ColouredMesh
         Each part of the plan (:attr:`TrayPlan.parts`) as its thickness applies to it
         (split by ``--max-edge``, or the part's own mesh).
@@ -71,7 +71,7 @@ def build_tray(
     faces : sequence of FaceThickness or None
         Each part's rule result (None: a constant thickness).
     profile, progress, force, say, running
-        As :func:`pipeline.build._stack.build_stack`.
+        As :func:`shellvox.stack._stack.build_stack`.
 
     Returns
     -------

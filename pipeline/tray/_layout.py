@@ -20,7 +20,7 @@ import numpy as np
 import rectpack
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
+from shellvox.errors import InputError
 
 #: How a tray is laid out: packed, as the tray file says, or each model where it is
 #: (one model, no layout asked).

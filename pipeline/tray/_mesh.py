@@ -1,6 +1,6 @@
 """A tray's models as one mesh in tray coordinates, for what sees the tray as one model.
 
-The voxels of a tray are computed per model (:mod:`voxel.tray_slab`); the colour report,
+The voxels of a tray are computed per model (:mod:`shellvox.voxel.tray_slab`); the colour report,
 ``thickness.ply`` and the manifest see one mesh: the models' faces concatenated in the
 order of the tray, each moved to its place. Each model keeps its own colour source:
 :meth:`TrayMesh.colour_at` hands every face to its model's.
@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.model import ColouredMesh
-from pipeline.thickness import FaceColour, FaceThickness, OpticalFaces
-from voxel.colour import SurfaceColour
+from shellvox.model import ColouredMesh
+from shellvox.thickness import FaceColour, FaceThickness, OpticalFaces
+from shellvox.voxel.colour import SurfaceColour
 
 
 @dataclass(frozen=True, eq=False)

@@ -15,13 +15,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from pipeline.build import grid_for
-from pipeline.config import BuildConfig
-from pipeline.errors import InputError
-from pipeline.model import ColouredMesh, face_areas
-from pipeline.thickness import ThicknessRule, load_rule
-from pipeline.tray._spec import TrayModel
-from voxel.grid import GridSpec
+from shellvox.config import BuildConfig
+from shellvox.errors import InputError
+from shellvox.model import ColouredMesh, face_areas
+from shellvox.stack import grid_for
+from shellvox.thickness import ThicknessRule, load_rule
+from shellvox.tray._spec import TrayModel
+from shellvox.voxel.grid import GridSpec
 
 
 @dataclass(frozen=True)

@@ -3,11 +3,11 @@
 :func:`plan_tray` reads each distinct model file once, scales and turns each model, finds
 its layer count and an upper bound of its deepest layer without computing any thickness
 rule (a rule's colour layers are at most its clamp, its backing layers constant), lays
-the models out (:mod:`pipeline.tray._layout`), gives each model its own grid (the grid a
-build of it alone has, :func:`pipeline.build._plan.grid_for`) and snaps each to the
+the models out (:mod:`shellvox.tray._layout`), gives each model its own grid (the grid a
+build of it alone has, :func:`shellvox.stack._plan.grid_for`) and snaps each to the
 printer's voxel lattice of the tray, so that every model grid sits in the tray grid at a
 whole voxel offset. The estimate covers the tray grid and every model's band; a tray that
-cannot fit is refused here (:func:`pipeline.build._estimate.check_resources`). ``--dry-run``
+cannot fit is refused here (:func:`shellvox.stack._estimate.check_resources`). ``--dry-run``
 stops here.
 """
 
@@ -20,24 +20,24 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.build import (
+from shellvox.config import BuildConfig, LoadOptions
+from shellvox.errors import ResourceError
+from shellvox.loading import load_model
+from shellvox.model import ColouredMesh
+from shellvox.output import sha256
+from shellvox.run import resolve_workers
+from shellvox.stack import (
     BuildEstimate,
     check_resources,
     estimate_build,
     slab_rows_for,
     store_buffer_rows,
 )
-from pipeline.config import BuildConfig, LoadOptions
-from pipeline.errors import ResourceError
-from pipeline.loading import load_model
-from pipeline.model import ColouredMesh
-from pipeline.output import sha256
-from pipeline.run import resolve_workers
-from pipeline.thickness import DEFAULT_RULE, ThicknessRule
-from pipeline.tray._layout import Layout, LayoutMode, lay_out
-from pipeline.tray._parts import ThicknessSource, TrayPart, check_same_layers, extent, prepare_part
-from pipeline.tray._spec import TraySpec
-from voxel.grid import GridSpec
+from shellvox.thickness import DEFAULT_RULE, ThicknessRule
+from shellvox.tray._layout import Layout, LayoutMode, lay_out
+from shellvox.tray._parts import ThicknessSource, TrayPart, check_same_layers, extent, prepare_part
+from shellvox.tray._spec import TraySpec
+from shellvox.voxel.grid import GridSpec
 
 
 @dataclass(frozen=True)
@@ -184,7 +184,7 @@ def plan_tray(
     tray_mm : (3,) float, mm
         The printer's tray.
     mode : {"auto", "given", "keep"}
-        Layout (:func:`pipeline.tray._layout.lay_out`).
+        Layout (:func:`shellvox.tray._layout.lay_out`).
     gap_mm : float, mm
         Gap between packed models.
     default_thickness : ThicknessSource

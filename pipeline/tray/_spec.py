@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pipeline.errors import InputError
+from shellvox.errors import InputError
 
 #: Keys of a ``[[model]]`` table.
 MODEL_KEYS = ("file", "position", "rotation", "scale", "thickness", "thickness_rule", "copies")

@@ -1,21 +1,21 @@
 """``shellvox view``: a local web viewer of a build's slices.
 
-See :mod:`pipeline.viewer._server`.
+See :mod:`shellvox.viewer._server`.
 """
 
 from __future__ import annotations
 
-from pipeline.viewer._folder import BuildFolder
-from pipeline.viewer._sections import (
+from shellvox.viewer._folder import BuildFolder
+from shellvox.viewer._sections import (
     MIDDLE,
     VIVID_SPAN,
     SectionCounts,
     choose_section,
 )
-from pipeline.viewer._server import STATIC, ViewerServer
-from pipeline.viewer._slices import probe
-from pipeline.viewer._stacks import Axis, StackError, StripCache, TiffStack
-from pipeline.viewer._surface import MAX_FACES, Overview, SurfaceMesh
+from shellvox.viewer._server import STATIC, ViewerServer
+from shellvox.viewer._slices import probe
+from shellvox.viewer._stacks import Axis, StackError, StripCache, TiffStack
+from shellvox.viewer._surface import MAX_FACES, Overview, SurfaceMesh
 
 __all__ = [
     "MAX_FACES",

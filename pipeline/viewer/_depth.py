@@ -1,10 +1,10 @@
 """Depth below the surface of voxels, from the build's ``thickness.ply``.
 
-A build keeps no per-voxel depth (the layers are thresholds of it, :mod:`voxel.slab`),
+A build keeps no per-voxel depth (the layers are thresholds of it, :mod:`shellvox.voxel.slab`),
 so the viewer recomputes it where asked: the exact distance from voxel centres to the
 model's surface, and the face whose point is nearest, by libigl's tree
-(:mod:`voxel.geometry._nearest`, the query the build itself uses beyond its scan). The surface is
-``thickness.ply`` (the build's mesh in its own millimetres, with each face's layer
+(:mod:`shellvox.voxel.geometry._nearest`, the query the build itself uses beyond its scan). The
+surface is ``thickness.ply`` (the build's mesh in its own millimetres, with each face's layer
 thicknesses); a build made with ``--thickness`` has none, and then has no depth.
 """
 
@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.output import read_face_ply
-from voxel._compiled import kernel
-from voxel.geometry import SurfaceIndex, nearest_faces
-from voxel.geometry._closest_point import triangle_d2
+from shellvox.output import read_face_ply
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.geometry import SurfaceIndex, nearest_faces
+from shellvox.voxel.geometry._closest_point import triangle_d2
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,7 +85,7 @@ class Surface:
         """Return the distance to the surface and the face whose layers hold a point.
 
         The build gives a voxel the layers of its nearest face, the lowest index among
-        faces at the same distance (:mod:`voxel.geometry._distance_scan`); here "the same"
+        faces at the same distance (:mod:`shellvox.voxel.geometry._distance_scan`); here "the same"
         allows a relative ``1e-9``, so a translated copy of the model (a tray) decides as
         the model alone.
 

@@ -5,9 +5,9 @@ every file it lists present, inside the folder (after symbolic links) and of the
 the build recorded (``shellvox inspect`` also compares checksums, which reads every
 byte: too slow to wait for before a 5 G-voxel build opens). The stacks are then opened:
 from the OME-Zarr store when the build has one
-(:class:`~pipeline.viewer._zarr_stacks.ZarrStack`), else the TIFF stacks, indexed and kept
-open (:class:`~pipeline.viewer._stacks.TiffStack`). Every failure is one
-:class:`~pipeline.errors.InputError` line.
+(:class:`~shellvox.viewer._zarr_stacks.ZarrStack`), else the TIFF stacks, indexed and kept
+open (:class:`~shellvox.viewer._stacks.TiffStack`). Every failure is one
+:class:`~shellvox.errors.InputError` line.
 
 Only the files named here can ever be read: the stacks, ``thickness.ply`` and
 ``manifest.json``, each by its resolved path, fixed at opening.
@@ -21,12 +21,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from pipeline.errors import InputError
-from pipeline.output import check_files, read_manifest
-from pipeline.viewer._depth import Surface
-from pipeline.viewer._stacks import StackError, StripCache, TiffStack
-from pipeline.viewer._zarr_stacks import ZarrStack, read_context
-from voxel.grid import GridSpec
+from shellvox.errors import InputError
+from shellvox.output import check_files, read_manifest
+from shellvox.viewer._depth import Surface
+from shellvox.viewer._stacks import StackError, StripCache, TiffStack
+from shellvox.viewer._zarr_stacks import ZarrStack, read_context
+from shellvox.voxel.grid import GridSpec
 
 #: The stacks the viewer reads: name -> (file, samples). materials.tif is optional.
 STACKS = {

@@ -6,15 +6,15 @@ Routes (GET and HEAD only; anything else is 404 or 405):
   ``pipeline/viewer/static``, read once at start; nothing is fetched from elsewhere).
 - ``/api/build``: the grid, layers, materials and stacks (JSON).
 - ``/api/slice?kind=K&axis=A&index=I&r0=&r1=&rs=&c0=&c1=&cs=``: a slice region
-  (:mod:`pipeline.viewer._slices`) as raw bytes, row-major, with its shape in the
+  (:mod:`shellvox.viewer._slices`) as raw bytes, row-major, with its shape in the
   ``X-Shape`` header (``H,W,S``) and its dtype in ``X-Dtype`` (``uint8`` or
   ``float32``, little-endian).
 - ``/api/voxel?z=&y=&x=``: one voxel's read-out (JSON).
 - ``/api/opening?wait=S``: the slice to open on each axis, the one with the most vivid
-  colour-layer voxels (:mod:`pipeline.viewer._surface`): ``{"ready": false}`` until the
+  colour-layer voxels (:mod:`shellvox.viewer._surface`): ``{"ready": false}`` until the
   pass over the pages is done, waiting up to ``S`` seconds (0..30) for it.
 - ``/api/surface``: the surface for the 3D view, once the pass is done
-  (:meth:`~pipeline.viewer._surface.SurfaceMesh.to_bytes`; ``X-Faces``,
+  (:meth:`~shellvox.viewer._surface.SurfaceMesh.to_bytes`; ``X-Faces``,
   ``X-Source-Faces`` and ``X-Depth-Range`` headers); 404 without ``thickness.ply``.
 - ``/files/NAME``: ``manifest.json`` and ``thickness.ply`` as they are.
 
@@ -38,16 +38,16 @@ from urllib.parse import parse_qs, unquote, urlsplit
 
 import numpy as np
 
-from pipeline.viewer._folder import BuildFolder
-from pipeline.viewer._slices import (
+from shellvox.viewer._folder import BuildFolder
+from shellvox.viewer._slices import (
     KINDS,
     RequestError,
     SliceRegion,
     probe,
     read_region,
 )
-from pipeline.viewer._stacks import StackError
-from pipeline.viewer._surface import Overview
+from shellvox.viewer._stacks import StackError
+from shellvox.viewer._surface import Overview
 
 #: Longest wait of a request for the pass over the pages (s).
 SURFACE_WAIT_S = 600.0
@@ -65,7 +65,7 @@ _FILE_TYPES = {".json": "application/json", ".ply": "application/octet-stream"}
 
 def static_files() -> dict[str, bytes]:
     """Return the page's files, read from the package (they ship inside it)."""
-    folder = resources.files("pipeline.viewer") / "static"
+    folder = resources.files("shellvox.viewer") / "static"
     return {name: (folder / name).read_bytes() for name in STATIC}
 
 
@@ -83,7 +83,7 @@ class ViewerServer(ThreadingHTTPServer):
         (:meth:`BuildFolder.warm_in_background`).
     overview : bool
         Start the pass over the pages that finds the opening slices and colours the
-        surface (:class:`~pipeline.viewer._surface.Overview`); without it
+        surface (:class:`~shellvox.viewer._surface.Overview`); without it
         ``/api/opening`` and ``/api/surface`` never become ready.
     """
 

@@ -17,8 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 from skimage.color import rgb2lab
 
-from pipeline.viewer._folder import BuildFolder
-from pipeline.viewer._stacks import Axis
+from shellvox.viewer._folder import BuildFolder
+from shellvox.viewer._stacks import Axis
 
 #: Largest region served at once (pixels): a 4K screen at one voxel per pixel.
 MAX_PIXELS = 3840 * 2160

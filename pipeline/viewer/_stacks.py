@@ -2,14 +2,14 @@
 
 A stack (``layers.tif``, ``colour.tif``, ``materials.tif``) is ``Z`` deflate-compressed
 pages of ``(Y, X[, S])`` uint8, each page one strip or a few (what
-:mod:`voxel.io._tiff_writer` writes). The page and strip offsets are read once (tifffile);
+:mod:`shellvox.voxel.io._tiff_writer` writes). The page and strip offsets are read once (tifffile);
 the file stays open and every read is an ``os.pread`` of the strips a region needs, so
 any number of server threads read at once. A z slice inflates its strips with zlib; a
 y or x slice takes one row or column of every page it covers, inflating each of those
 pages whole (a strip of deflate can only be read from its start). Inflated strips are
 kept in a :class:`StripCache` shared by the stacks of a build, so the next y or x slice
 through the same pages only reads them; a build large enough for that to be slow has
-its OME-Zarr store (:mod:`pipeline.viewer._zarr_stacks`), which answers any axis from
+its OME-Zarr store (:mod:`shellvox.viewer._zarr_stacks`), which answers any axis from
 chunks. Regions are ``range`` objects of indices with a step: a view zoomed out to a
 whole 5 G-voxel model asks for every fourth page, not all of them.
 """

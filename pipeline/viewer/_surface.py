@@ -17,7 +17,7 @@ carries:
 :class:`Overview` reads the z pages of the layers and the colour once (``layers.tif`` and
 ``colour.tif``, or level 0 of the store in blocks of its chunks' depth), in a thread, at
 most :data:`PASS_BYTES` at a time (a block of pages in strips along y): it counts vivid
-voxels for the opening slices (:class:`~pipeline.viewer._sections.SectionCounts`, as
+voxels for the opening slices (:class:`~shellvox.viewer._sections.SectionCounts`, as
 ``shellvox inspect`` chooses its sections) and picks up the faces' colour samples on the
 way. The pass reads every page (the default model on the J750 grid, 261 pages: about a
 second; spot at 100 mm, 5.8 G voxels: about 40 s from the TIFFs, 70 s from the store,
@@ -35,9 +35,9 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from pipeline.viewer._depth import Surface
-from pipeline.viewer._folder import BuildFolder
-from pipeline.viewer._sections import SectionCounts
+from shellvox.viewer._depth import Surface
+from shellvox.viewer._folder import BuildFolder
+from shellvox.viewer._sections import SectionCounts
 
 #: Faces sent to the browser at most (about 44 bytes each: 18 MB).
 MAX_FACES = 400_000

@@ -2,7 +2,7 @@
 
 An image of the store (the colour image at its root, ``labels/layers``,
 ``labels/materials``) is a pyramid of chunked arrays (what
-:mod:`voxel.io._zarr_writer` writes). Its OME-Zarr metadata is read with ``zarr``; its
+:mod:`shellvox.voxel.io._zarr_writer` writes). Its OME-Zarr metadata is read with ``zarr``; its
 voxels with TensorStore, whose compiled reader decodes a section's chunks on every core
 (an x section of spot at 100 mm on a J750, level 2, 285 chunks: 0.06-0.12 s with zarr
 3.1, 0.01-0.03 s with TensorStore; a whole level-0 x section 0.2-0.37 s against
@@ -30,11 +30,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import tensorstore as ts
 import zarr
 from numpy.typing import NDArray
 
-from pipeline.viewer._stacks import PLANE, Axis, StackError, region_shape
+from shellvox.viewer._stacks import PLANE, Axis, StackError, region_shape
+
+
+def _tensorstore() -> Any:
+    """TensorStore, imported on first use: only a store's reads need it."""
+    import tensorstore
+
+    return tensorstore
+
 
 #: Memory for the decoded chunks kept between requests, bytes.
 CACHE_BYTES = 1 << 30
@@ -45,12 +52,12 @@ _POSITION = {"z": 0, "y": 1, "x": 2}
 
 def read_context(budget_bytes: int = CACHE_BYTES) -> Any:
     """Return a TensorStore context whose decoded-chunk cache holds `budget_bytes`."""
-    return ts.Context({"cache_pool": {"total_bytes_limit": int(budget_bytes)}})
+    return _tensorstore().Context({"cache_pool": {"total_bytes_limit": int(budget_bytes)}})
 
 
 def bulk_context() -> Any:
     """Return a TensorStore context for whole pages: one thread, no cache."""
-    return ts.Context(
+    return _tensorstore().Context(
         {
             "cache_pool": {"total_bytes_limit": 0},
             "data_copy_concurrency": {"limit": 1},
@@ -264,4 +271,4 @@ def _open_levels(
 def _open(path: Path, context: Any) -> Any:
     """Open one level's array for reading (TensorStore's ``zarr3`` driver)."""
     spec = {"driver": "zarr3", "kvstore": {"driver": "file", "path": str(path)}}
-    return ts.open(spec, read=True, context=context).result()
+    return _tensorstore().open(spec, read=True, context=context).result()

@@ -7,8 +7,8 @@ import pytest
 import trimesh
 from PIL import Image
 
-from pipeline.build._estimate import SECONDS_PER_SHELL_FACE
-from pipeline.cli import main
+from shellvox.cli import main
+from shellvox.stack._estimate import SECONDS_PER_SHELL_FACE
 
 
 @pytest.fixture

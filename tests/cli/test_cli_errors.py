@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from builders import TET_FACES, TET_VERTICES, marker_image, write_3mf, write_obj
 
-from pipeline.cli import main
+from shellvox.cli import main
 
 UV = np.tile(np.array([[0.1, 0.1], [0.9, 0.1], [0.1, 0.9]]), (4, 1, 1))
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.cli import main
+from shellvox.cli import main
 
 
 def test_shells_of_a_box_are_exact_inner_boxes(tmp_path, capsys):

@@ -13,10 +13,10 @@ from matplotlib import colormaps
 from matplotlib.colors import Normalize
 from PIL import Image
 
-from pipeline.cli import main
-from pipeline.loading import load_model
-from pipeline.report import COLOUR_MAP
-from pipeline.thickness import DEFAULT_RULE, face_thickness
+from shellvox.cli import main
+from shellvox.loading import load_model
+from shellvox.report import COLOUR_MAP
+from shellvox.thickness import DEFAULT_RULE, face_thickness
 
 #: A yellow of transparent colourant settles deep (about 2.2 mm) under the J750's optics;
 #: black settles at once (the 0.3 mm minimum).

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from pipeline.cli import main
+from shellvox.cli import main
 
 # (file, colour carried, closed) from ../shared/meshes/README.md
 README_TABLE = [

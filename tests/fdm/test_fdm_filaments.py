@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.errors import FdmError
-from pipeline.fdm import nearest_filament, parse_filaments
-from pipeline.fdm._make import face_neighbours
-from voxel.colour import srgb8_to_lab
+from shellvox.errors import FdmError
+from shellvox.fdm import nearest_filament, parse_filaments
+from shellvox.fdm._make import face_neighbours
+from shellvox.voxel.colour import srgb8_to_lab
 
 
 def test_parse_accepts_hash_or_not_and_any_case():

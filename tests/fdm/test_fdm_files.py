@@ -17,9 +17,9 @@ import pytest
 import trimesh
 from fdm_slicer import BOX_FILAMENTS, coloured_box
 
-from pipeline.cli import main
-from pipeline.errors import FdmError
-from pipeline.fdm import FdmSettings, make_project, parse_filaments, write_projects
+from shellvox.cli import main
+from shellvox.errors import FdmError
+from shellvox.fdm import FdmSettings, make_project, parse_filaments, write_projects
 
 CORE = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
 PRODUCTION = "{http://schemas.microsoft.com/3dmanufacturing/production/2015/06}"

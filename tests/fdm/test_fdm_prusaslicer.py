@@ -7,9 +7,9 @@ import pytest
 from fdm_gcode import read_extrusion
 from fdm_slicer import BOX_FILAMENTS, coloured_box, slice_with_prusa
 
-from pipeline.cli import main
-from pipeline.fdm import FdmSettings, make_project, parse_filaments, write_projects
-from pipeline.fdm._prusa import PER_FILAMENT
+from shellvox.cli import main
+from shellvox.fdm import FdmSettings, make_project, parse_filaments, write_projects
+from shellvox.fdm._prusa import PER_FILAMENT
 
 SKIN_MM = 1.2
 

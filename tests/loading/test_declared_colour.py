@@ -25,9 +25,9 @@ from builders import (
 )
 from corpus_files import obj_text, write_gltf
 
-from pipeline.config import LoadOptions
-from pipeline.errors import ShellvoxWarning
-from pipeline.loading import load_model
+from shellvox.config import LoadOptions
+from shellvox.errors import ShellvoxWarning
+from shellvox.loading import load_model
 
 WIDTH, HEIGHT, ROW, COL = 64, 32, 8, 10
 RED = [255, 0, 0, 255]

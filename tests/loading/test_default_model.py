@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.loading import load_model
+from shellvox.loading import load_model
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 
@@ -31,7 +31,7 @@ def test_default_model_is_a_closed_textured_block():
     edges = 4 * (a + b + c - 6 * r) * r * r * (1 - np.pi / 4)
     corners = 8 * r**3 - 4 / 3 * np.pi * r**3
     exact = a * b * c - edges - corners
-    from pipeline.model import signed_volume
+    from shellvox.model import signed_volume
 
     # The mesh is a polygonal approximation of the rounding (5 segments per quarter).
     assert abs(signed_volume(mesh.vertices, mesh.faces) - exact) < 0.01 * exact

@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 from builders import TET_FACES, TET_VERTICES, locate, marker_image, png_bytes
 
-from pipeline.cli import main
-from pipeline.errors import ShellvoxWarning
-from pipeline.loading import load_model
+from shellvox.cli import main
+from shellvox.errors import ShellvoxWarning
+from shellvox.loading import load_model
 
 lib3mf = pytest.importorskip("lib3mf")
 

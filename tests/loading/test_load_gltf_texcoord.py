@@ -24,8 +24,8 @@ from builders import (
     png_bytes,
 )
 
-from pipeline.cli import main
-from pipeline.loading import load_model
+from shellvox.cli import main
+from shellvox.loading import load_model
 
 IMAGE = marker_image(16, 8, 2, 3)
 

@@ -17,10 +17,10 @@ import pytest
 import tifffile
 from builders import TET_FACES, TET_VERTICES, locate
 
-from pipeline.cli import main
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading import load_model
-from pipeline.loading.threemf import SCALE, decode
+from shellvox.cli import main
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading import load_model
+from shellvox.loading.threemf import SCALE, decode
 
 CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
 PRODUCTION = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"

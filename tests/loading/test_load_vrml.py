@@ -15,9 +15,9 @@ import pytest
 from builders import TET_FACES, TET_VERTICES, locate, marker_image, png_bytes
 from meshlab_process import meshlab_read
 
-from pipeline.cli import main
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading import load_model
+from shellvox.cli import main
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading import load_model
 
 pytest.importorskip("pymeshlab")  # the reference reader (in a process of its own)
 

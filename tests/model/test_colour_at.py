@@ -15,8 +15,8 @@ from builders import (
     write_obj,
 )
 
-from pipeline.config import LoadOptions
-from pipeline.loading import load_model
+from shellvox.config import LoadOptions
+from shellvox.loading import load_model
 
 WIDTH, HEIGHT, ROW, COL = 64, 32, 8, 10
 RED = [255, 0, 0, 255]

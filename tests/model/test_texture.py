@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.model import Material
-from voxel.colour import decode_uint8, encode_uint8
+from shellvox.model import Material
+from shellvox.voxel.colour import decode_uint8, encode_uint8
 
 
 def _material(wrap=("repeat", "repeat"), filt="linear"):

@@ -7,8 +7,8 @@ import pytest
 import trimesh
 from builders import TET_FACES, TET_VERTICES
 
-from pipeline.errors import InputError
-from pipeline.model import ColouredMesh, edge_report, prepare, signed_volume
+from shellvox.errors import InputError
+from shellvox.model import ColouredMesh, edge_report, prepare, signed_volume
 
 
 def _unshared(faces=TET_FACES, vertices=TET_VERTICES):
@@ -65,7 +65,7 @@ def test_inconsistent_winding_is_refused_or_repaired():
 
 
 def test_merge_by_position_matches_a_slow_reference():
-    from pipeline.model import merge_by_position
+    from shellvox.model import merge_by_position
 
     rng = np.random.default_rng(3)
     points = rng.integers(0, 5, size=(400, 3)).astype(np.float64)  # many repeated rows

@@ -1,7 +1,7 @@
 """Shell files: float64 PLY, cleaned of degenerate faces, valid as trimesh and MeshLab read them.
 
 Truths: the real readers (trimesh, pymeshlab when installed), the crossing test of
-offset.intersections on the mesh read back and merged, analytic volumes, the topology of
+shellvox.offset.intersections on the mesh read back and merged, analytic volumes, the topology of
 the meshes built here by hand, and exact rational arithmetic (fractions) for the
 triangles MeshLab misjudges.
 """
@@ -16,16 +16,16 @@ import pytest
 import trimesh
 from shell_file_checks import HAVE_PYMESHLAB, header, meshlab_checks, needs_meshlab, trimesh_checks
 
-from offset import offset_shells
-from offset.adjacency import edge_adjacency
-from offset.clean import clean_degenerate, clean_shell, folded_faces
-from offset.for_file import shell_for_file
-from offset.jitter import JITTER_FRACTION
-from offset.robust import ShellDefectWarning
-from offset.shells import Shell
-from pipeline.cli import main
-from pipeline.errors import ShellvoxWarning
-from pipeline.output import read_ply, save_shells, write_ply, write_shell
+from shellvox.cli import main
+from shellvox.errors import ShellvoxWarning
+from shellvox.offset import offset_shells
+from shellvox.offset.adjacency import edge_adjacency
+from shellvox.offset.clean import clean_degenerate, clean_shell, folded_faces
+from shellvox.offset.for_file import shell_for_file
+from shellvox.offset.jitter import JITTER_FRACTION
+from shellvox.offset.robust import ShellDefectWarning
+from shellvox.offset.shells import Shell
+from shellvox.output import read_ply, save_shells, write_ply, write_shell
 
 
 def _euler(faces):
@@ -210,7 +210,7 @@ def test_icosphere_shell_files_are_valid_as_meshlab_reads_them(icosphere_out):
 
 
 def test_a_shell_defect_warning_reaches_the_user_as_one_line(tmp_path, capsys, monkeypatch):
-    import pipeline.output._shell_methods as shells_cli
+    import shellvox.output._shell_methods as shells_cli
 
     def defective(*args, **kwargs):
         warnings.warn(
@@ -300,8 +300,8 @@ def test_folded_faces_finds_faces_back_to_back():
 def test_a_tested_shell_read_back_as_given_is_not_tested_again(tmp_path, monkeypatch):
     # The field method's guard tests all shells together; a file that reads back as given
     # takes that count, one that does not (here: a vertex moved on the way) is tested.
-    from offset import quality
-    from pipeline.output import _shells
+    from shellvox.offset import quality
+    from shellvox.output import _shells
 
     box = trimesh.creation.box((4.0, 4.0, 4.0))
     shell = Shell(box.vertices, np.asarray(box.faces, np.int64), 1, np.full(12, 0.5))

@@ -2,7 +2,7 @@
 
 Truths: exact rational arithmetic (fractions) for the triangles MeshLab misjudges,
 MeshLab itself (pymeshlab, when installed) and the exact coplanarity test of
-offset.intersections.
+shellvox.offset.intersections.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ import trimesh
 from meshlab_process import meshlab_checks, meshlab_crossing_faces, needs_meshlab
 from scipy.spatial.transform import Rotation
 
-from offset.intersections import coplanar_pairs, count_self_intersections
-from offset.jitter import JITTER_FRACTION, jitter_vertices
-from pipeline.output import write_ply
+from shellvox.offset.intersections import coplanar_pairs, count_self_intersections
+from shellvox.offset.jitter import JITTER_FRACTION, jitter_vertices
+from shellvox.output import write_ply
 
 
 def _cross(a, b):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from calibration_sim import write_argyll, write_i1profiler
 
-from pipeline.printer import CgatsError, Readings, read_cgats, write_cgats
+from shellvox.printer import CgatsError, Readings, read_cgats, write_cgats
 
 BANDS = np.arange(400.0, 710.0, 10.0)
 
@@ -55,7 +55,7 @@ def test_interpolation_and_range(tmp_path):
 
 
 def test_a_cgats_error_is_an_input_error_with_its_one_line(tmp_path):
-    from pipeline.errors import InputError
+    from shellvox.errors import InputError
 
     path = tmp_path / "i1.txt"
     write_i1profiler(path, ["P1", "P1"], BANDS, _values(2))

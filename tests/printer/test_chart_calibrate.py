@@ -17,8 +17,8 @@ import pytest
 from calibration_sim import hidden_truth, measure, random_stacks, write_argyll, write_i1profiler
 from PIL import Image
 
-from pipeline.cli import main
-from pipeline.printer import (
+from shellvox.cli import main
+from shellvox.printer import (
     chart_json,
     chart_layout,
     chart_readings,
@@ -28,7 +28,7 @@ from pipeline.printer import (
     profile_with_optics,
     read_chart,
 )
-from voxel.colour import delta_e_of_readings, predict
+from shellvox.voxel.colour import delta_e_of_readings, predict
 
 
 @pytest.fixture(scope="module")

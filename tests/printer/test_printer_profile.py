@@ -5,8 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.errors import InputError
-from pipeline.printer import BACKGROUND_KEYS, load_profile, parse_profile, shipped_profiles
+from shellvox.errors import InputError
+from shellvox.printer import BACKGROUND_KEYS, load_profile, parse_profile, shipped_profiles
 
 REPO = Path(__file__).resolve().parents[2]
 PROFILES = REPO / "pipeline" / "printer" / "profiles"
@@ -152,6 +152,6 @@ def test_parse_profile_reports_its_source():
 
 def test_pyproject_ships_the_profiles():
     pyproject = tomllib.loads((REPO / "pyproject.toml").read_text())
-    patterns = pyproject["tool"]["setuptools"]["package-data"]["pipeline"]
+    patterns = pyproject["tool"]["setuptools"]["package-data"]["shellvox"]
     shipped = sorted(PROFILES.glob("*.toml"))
     assert any(shipped == sorted((REPO / "pipeline").glob(p)) for p in patterns)

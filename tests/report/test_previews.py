@@ -15,8 +15,8 @@ import pytest
 import tifffile
 from PIL import Image
 
-from pipeline.cli import main
-from voxel.io import BAND_RGB, CORE_RGB, FADE, OUTSIDE_RGB
+from shellvox.cli import main
+from shellvox.voxel.io import BAND_RGB, CORE_RGB, FADE, OUTSIDE_RGB
 
 SECTIONS = ("section_xy.png", "section_xz.png", "section_yz.png")
 

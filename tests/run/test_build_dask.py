@@ -13,7 +13,7 @@ from build_compare import differences, manifest_core, output_digests
 from fault_harness import Command, wait_for
 from tray_models import tray_models
 
-from pipeline.cli import main
+from shellvox.cli import main
 
 MODEL = Path(__file__).resolve().parents[2] / "data" / "colour_target" / "colour_target.obj"
 OPTIONS = ["--voxel-size", "0.2,0.2,0.15", "--thickness", "0.5,0.5", "--no-shell-meshes",
@@ -74,7 +74,7 @@ def _dask_worker(process: psutil.Process) -> bool:
 
 
 def test_an_unreachable_scheduler_is_one_line_and_status_2(tmp_path, monkeypatch, capsys):
-    import pipeline.run._cluster as slab_dask
+    import shellvox.run._cluster as slab_dask
 
     monkeypatch.setattr(slab_dask, "CONNECT_S", 2.0)
     argv = ["build", str(MODEL), "-o", str(tmp_path / "out"), *OPTIONS,
@@ -89,13 +89,13 @@ def _slab_job():
     """A small one-model slab job and rows of it that cut the colour layer."""
     import numpy as np
 
-    from pipeline.config import LoadOptions
-    from pipeline.loading import load_model
-    from pipeline.run import SlabJob
-    from voxel.geometry import SurfaceIndex
-    from voxel.grid import GridSpec
-    from voxel.io.vdb import VdbEncoder
-    from voxel.slab import StackModel
+    from shellvox.config import LoadOptions
+    from shellvox.loading import load_model
+    from shellvox.run import SlabJob
+    from shellvox.voxel.geometry import SurfaceIndex
+    from shellvox.voxel.grid import GridSpec
+    from shellvox.voxel.io.vdb import VdbEncoder
+    from shellvox.voxel.slab import StackModel
 
     mesh = load_model(MODEL, LoadOptions())
     depth = np.cumsum(np.full((2, mesh.n_faces), 0.5), axis=0)

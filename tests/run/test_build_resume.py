@@ -15,8 +15,8 @@ import pytest
 from build_compare import differences, manifest_core, output_digests
 from fault_harness import MODEL, Command, temporary_files, verified_files, wait_for
 
-from pipeline.cli import main
-from pipeline.run import RUN_FOLDER, RunFolder, decode_chunk, encode_chunk
+from shellvox.cli import main
+from shellvox.run import RUN_FOLDER, RunFolder, decode_chunk, encode_chunk
 
 SMALL = ["--voxel-size", "0.2,0.2,0.15", "--thickness", "0.5,0.5", "--no-shell-meshes",
          "--slab-mb", "8", "--no-progress", "--checkpoint"]  # fmt: skip

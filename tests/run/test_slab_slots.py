@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.run import SlabSlots
-from voxel.slab import SlabResult
+from shellvox.run import SlabSlots
+from shellvox.voxel.slab import SlabResult
 
 SHAPE = (3, 5, 7)
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.errors import InputError
-from pipeline.model import ColouredMesh, Material, edge_report, face_areas, signed_volume
-from pipeline.thickness import (
+from shellvox.errors import InputError
+from shellvox.model import ColouredMesh, Material, edge_report, face_areas, signed_volume
+from shellvox.thickness import (
     DEFAULT_RULE,
     SplitRule,
     ThicknessRule,

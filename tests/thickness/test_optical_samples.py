@@ -7,9 +7,9 @@ import pytest
 import trimesh
 from builders import j750_layer_model
 
-from pipeline.model import ColouredMesh
-from pipeline.thickness import DEFAULT_RULE, face_colour, face_samples, optical_thickness
-from voxel.colour import depth_effect
+from shellvox.model import ColouredMesh
+from shellvox.thickness import DEFAULT_RULE, face_colour, face_samples, optical_thickness
+from shellvox.voxel.colour import depth_effect
 
 GREY = np.array([128, 128, 128, 255], np.uint8)
 YELLOW = np.array([230, 200, 20, 255], np.uint8)

@@ -14,9 +14,9 @@ import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pipeline.errors import InputError
-from pipeline.model import ColouredMesh, Material, face_areas
-from pipeline.thickness import (
+from shellvox.errors import InputError
+from shellvox.model import ColouredMesh, Material, face_areas
+from shellvox.thickness import (
     DEFAULT_RULE,
     LIGHTNESS_RULE,
     ColourLayerRule,
@@ -404,7 +404,7 @@ def test_a_missing_rule_file_is_an_input_error(tmp_path):
 
 
 def test_a_rule_error_is_an_input_error_naming_the_key():
-    from pipeline.thickness._rule import RuleError
+    from shellvox.thickness._rule import RuleError
 
     with pytest.raises(InputError) as caught:
         ColourLayerRule(min_mm=-1.0)

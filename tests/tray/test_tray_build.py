@@ -18,8 +18,8 @@ import tifffile
 from skimage.measure import label, regionprops
 from tray_models import tray_models
 
-from pipeline.cli import main
-from pipeline.viewer import BuildFolder, probe
+from shellvox.cli import main
+from shellvox.viewer import BuildFolder, probe
 
 OPTIONS = ["--voxel-size", "0.3,0.3,0.25", "--format", "tiff", "--no-materials", "--no-progress"]
 GAP_MM = 4.0

@@ -1,7 +1,7 @@
 """Tray files, refusals before any work, and ``--dry-run``.
 
 Truths: the messages name the file, the entry and the models; a refused or dry run
-leaves no output folder; a tile's arrays are :func:`voxel.slab.compute_slab`'s.
+leaves no output folder; a tile's arrays are :func:`shellvox.voxel.slab.compute_slab`'s.
 """
 
 from __future__ import annotations
@@ -13,14 +13,14 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.cli import main
-from pipeline.errors import InputError
-from pipeline.run import stack_slab
-from pipeline.tray import load_tray
-from voxel.geometry import SurfaceIndex
-from voxel.grid import GridSpec
-from voxel.slab import StackModel, compute_slab
-from voxel.tray_slab import TrayError, TrayStack, compute_tray_slab
+from shellvox.cli import main
+from shellvox.errors import InputError
+from shellvox.run import stack_slab
+from shellvox.tray import load_tray
+from shellvox.voxel.geometry import SurfaceIndex
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.slab import StackModel, compute_slab
+from shellvox.voxel.tray_slab import TrayError, TrayStack, compute_tray_slab
 
 
 @pytest.fixture

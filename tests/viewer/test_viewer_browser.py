@@ -24,7 +24,7 @@ import trimesh
 from PIL import Image
 from viewer_run import MODEL, expected_opening, serving, uniform_texture_colour
 
-from voxel.io import BAND_RGB, CORE_RGB, OUTSIDE_RGB
+from shellvox.voxel.io import BAND_RGB, CORE_RGB, OUTSIDE_RGB
 
 CHROMIUM = Path("/usr/bin/chromium")
 ARGS = [
@@ -218,7 +218,7 @@ def _inner_radius_px(corners):
 
 
 def test_opening_slice_and_3d_surface_in_chromium(page, served, small_colour_build, artifacts):
-    from pipeline.viewer import VIVID_SPAN
+    from shellvox.viewer import VIVID_SPAN
 
     folder = small_colour_build
     manifest = json.loads((folder / "manifest.json").read_text())

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from pipeline.viewer._depth import Surface
-from voxel.geometry import SurfaceIndex
+from shellvox.viewer._depth import Surface
+from shellvox.voxel.geometry import SurfaceIndex
 
 
 def _surface(box: trimesh.Trimesh) -> Surface:

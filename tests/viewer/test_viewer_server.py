@@ -25,9 +25,9 @@ import tifffile
 import trimesh
 from viewer_run import serving
 
-from pipeline.cli import main
-from pipeline.errors import InputError
-from pipeline.viewer import STATIC, BuildFolder
+from shellvox.cli import main
+from shellvox.errors import InputError
+from shellvox.viewer import STATIC, BuildFolder
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -301,7 +301,7 @@ def test_not_a_folder_and_a_bad_port_are_refused(tmp_path, capsys, small_colour_
 def test_view_command_serves_until_interrupted(small_colour_build):
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     process = subprocess.Popen(
-        [sys.executable, "-m", "pipeline.cli", "view", str(small_colour_build)],
+        [sys.executable, "-m", "shellvox.cli", "view", str(small_colour_build)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
     )  # fmt: skip
     try:

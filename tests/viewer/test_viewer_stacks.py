@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import tifffile
 
-from pipeline.viewer import StackError, TiffStack
-from voxel.grid import GridSpec
-from voxel.io import TiffStackWriter
+from shellvox.viewer import StackError, TiffStack
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io import TiffStackWriter
 
 SHAPE = (23, 37, 41)
 
@@ -160,7 +160,7 @@ def test_a_damaged_strip_is_one_stack_error_on_every_axis(tmp_path, damage) -> N
 def test_the_cache_keeps_decoded_pages_within_its_budget(tmp_path) -> None:
     import threading
 
-    from pipeline.viewer import StripCache
+    from shellvox.viewer import StripCache
 
     volume = _volume(3)
     path = tmp_path / "c.tif"

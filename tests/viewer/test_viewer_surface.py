@@ -20,8 +20,8 @@ import pytest
 import trimesh
 from viewer_run import MODEL, expected_opening, serving, uniform_texture_colour
 
-from pipeline.viewer import MIDDLE, BuildFolder, Overview, choose_section
-from pipeline.viewer._surface import browser_faces
+from shellvox.viewer import MIDDLE, BuildFolder, Overview, choose_section
+from shellvox.viewer._surface import browser_faces
 
 
 def _brute_choice(vivid, inside):

@@ -15,12 +15,12 @@ import pytest
 import tifffile
 import zarr
 
-from pipeline.viewer import BuildFolder
-from pipeline.viewer import _surface as surface_module
-from pipeline.viewer._slices import probe
-from pipeline.viewer._stacks import StackError
-from pipeline.viewer._surface import Overview
-from pipeline.viewer._zarr_stacks import ZarrStack, read_context
+from shellvox.viewer import BuildFolder
+from shellvox.viewer import _surface as surface_module
+from shellvox.viewer._slices import probe
+from shellvox.viewer._stacks import StackError
+from shellvox.viewer._surface import Overview
+from shellvox.viewer._zarr_stacks import ZarrStack, read_context
 
 PLANE = {"z": ("y", "x"), "y": ("z", "x"), "x": ("z", "y")}
 KINDS = {"layers": "layers.tif", "colour": "colour.tif", "materials": "materials.tif"}

@@ -1,20 +1,20 @@
 """Colour and materials: encodings, surface colour, separation and halftones.
 
-- :mod:`~voxel.colour._srgb` the sRGB curve and CIELAB (the only place colours change
+- :mod:`~shellvox.voxel.colour._srgb` the sRGB curve and CIELAB (the only place colours change
   encoding; the loaders in :mod:`pipeline` use it too);
-- :mod:`~voxel.colour._colour_at` colour of the nearest surface points;
-  :mod:`~voxel.colour._surface_colour` the same, compiled, per voxel;
-- :mod:`~voxel.colour._separation` colour to material proportions (the mixing model's solver
-  in :mod:`~voxel.colour._mixing`); :mod:`~voxel.colour._blue_noise` the 3D threshold tile;
-  :mod:`~voxel.colour._materials` one material per voxel, with the compiled loops of
-  :mod:`~voxel.colour._material_kernels`;
-- :mod:`~voxel.colour._report` predicted printed colour at surface samples.
+- :mod:`~shellvox.voxel.colour._colour_at` colour of the nearest surface points;
+  :mod:`~shellvox.voxel.colour._surface_colour` the same, compiled, per voxel;
+- :mod:`~shellvox.voxel.colour._separation` colour to material proportions (the mixing model's
+  solver in :mod:`~shellvox.voxel.colour._mixing`); :mod:`~shellvox.voxel.colour._blue_noise` the 3D
+  threshold tile; :mod:`~shellvox.voxel.colour._materials` one material per voxel, with the compiled
+  loops of :mod:`~shellvox.voxel.colour._material_kernels`;
+- :mod:`~shellvox.voxel.colour._report` predicted printed colour at surface samples.
 """
 
 from __future__ import annotations
 
-from voxel.colour._blue_noise import DEFAULT_TILE, blue_noise_tile
-from voxel.colour._calibration import (
+from shellvox.voxel.colour._blue_noise import DEFAULT_TILE, blue_noise_tile
+from shellvox.voxel.colour._calibration import (
     Patch,
     chart_patches,
     cross_validate,
@@ -22,10 +22,10 @@ from voxel.colour._calibration import (
     fit_optics,
     predict,
 )
-from voxel.colour._colour_at import ColourAt, nearest_colour
-from voxel.colour._depth_effect import depth_effect
-from voxel.colour._inversion import DeepColour, invert, project_to_simplex
-from voxel.colour._kubelka_munk import (
+from shellvox.voxel.colour._colour_at import ColourAt, nearest_colour
+from shellvox.voxel.colour._depth_effect import depth_effect
+from shellvox.voxel.colour._inversion import DeepColour, invert, project_to_simplex
+from shellvox.voxel.colour._kubelka_munk import (
     K1_DEFAULT,
     K2_DEFAULT,
     WAVELENGTHS_NM,
@@ -39,27 +39,32 @@ from voxel.colour._kubelka_munk import (
     srgb_to_lab_d50,
     stack,
 )
-from voxel.colour._materials import HALFTONES, Halftone, MaterialPlan, materials_for_slab
-from voxel.colour._mixing import mix_proportions
-from voxel.colour._model_report import REACH_LIMITS_MM, ModelReport, lateral_reach, summary
-from voxel.colour._model_separation import model_separation
-from voxel.colour._optics import Optics, assumed_optics, body_reflectance, display_reflectance
-from voxel.colour._report import (
+from shellvox.voxel.colour._materials import HALFTONES, Halftone, MaterialPlan, materials_for_slab
+from shellvox.voxel.colour._mixing import mix_proportions
+from shellvox.voxel.colour._model_report import REACH_LIMITS_MM, ModelReport, lateral_reach, summary
+from shellvox.voxel.colour._model_separation import model_separation
+from shellvox.voxel.colour._optics import (
+    Optics,
+    assumed_optics,
+    body_reflectance,
+    display_reflectance,
+)
+from shellvox.voxel.colour._report import (
     SurfaceSamples,
     colour_regions,
     sample_surface,
     statistics,
     tangent_basis,
 )
-from voxel.colour._separation import (
+from shellvox.voxel.colour._separation import (
     Separation,
     SeparationError,
     cmyk_to_proportions,
     icc_separation,
     mixing_separation,
 )
-from voxel.colour._settling import LayerModel, Settling, settling_depth
-from voxel.colour._srgb import (
+from shellvox.voxel.colour._settling import LayerModel, Settling, settling_depth
+from shellvox.voxel.colour._srgb import (
     DECODE_LUT,
     codes_to_linear,
     decode_uint8,
@@ -71,7 +76,7 @@ from voxel.colour._srgb import (
     srgb_to_lab,
     srgb_to_linear,
 )
-from voxel.colour._surface_colour import (
+from shellvox.voxel.colour._surface_colour import (
     CONSTANT,
     FACE,
     FILTER_CODES,

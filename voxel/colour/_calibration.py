@@ -26,8 +26,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
-from voxel.colour._kubelka_munk import layer, observer, over, reflectance_to_lab, saunderson
-from voxel.colour._optics import Optics
+from shellvox.voxel.colour._kubelka_munk import (
+    layer,
+    observer,
+    over,
+    reflectance_to_lab,
+    saunderson,
+)
+from shellvox.voxel.colour._optics import Optics
 
 #: Weight of the second-difference penalty on log K and log S (per band step).
 SMOOTHNESS = 0.05

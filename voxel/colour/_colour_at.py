@@ -7,7 +7,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.geometry import Nearest
+from shellvox.voxel.geometry import Nearest
 
 
 class ColourAt(Protocol):

@@ -15,7 +15,7 @@ steps that can fall in those rows (bounded from the ray's z), and a step counts 
 where its voxel's row is in the slab: every step is counted once, however the rows are
 cut into slabs.
 
-Caller: :class:`voxel.colour._model_report.ModelReport`. Nothing here checks its input.
+Caller: :class:`shellvox.voxel.colour._model_report.ModelReport`. Nothing here checks its input.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
+from shellvox.voxel._compiled import kernel
 
 #: Most rays of one disc: larger discs read every ``m``-th lattice point (``m`` odd, so
 #: the lattice still steps through every residue of the halftone's even-sized tile).

@@ -2,7 +2,7 @@
 
 At surface samples (uniform by area) with their mixes (the separation of their target
 colours), the two-flux model gives each sample's colour at a colour-layer depth over the
-backing and core, and its settling depth (:class:`voxel.colour._settling.LayerModel`).
+backing and core, and its settling depth (:class:`shellvox.voxel.colour._settling.LayerModel`).
 Two questions, both answered per share of the surface:
 
 - **Coverage at equal volume**: with the build's per-face depths, and with one constant
@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._settling import LayerModel
+from shellvox.voxel.colour._settling import LayerModel
 
 
 def depth_effect(

@@ -29,14 +29,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from voxel.colour._kubelka_munk import (
+from shellvox.voxel.colour._kubelka_munk import (
     Observer,
     observer,
     r_infinity,
     reflectance_to_lab,
     saunderson,
 )
-from voxel.colour._optics import Optics
+from shellvox.voxel.colour._optics import Optics
 
 #: Weight of the grain term (CIELAB units squared) against dE00 squared: a tie-break.
 GRAIN_WEIGHT = 1e-5

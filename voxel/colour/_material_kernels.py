@@ -3,12 +3,12 @@
 These loops run once per voxel of a slab, where numpy would need several passes over
 ``(N, 8, M)`` temporaries (about 1 M colour voxels/s against 10 to 20 M here). Each
 kernel is written as plain Python over arrays and compiled by
-:func:`voxel._compiled.kernel`; the blue-noise kernel and ``proportions_kernel`` share
+:func:`shellvox.voxel._compiled.kernel`; the blue-noise kernel and ``proportions_kernel`` share
 the interpolation, so a voxel's material follows from exactly the proportions
 ``Separation.proportions`` reports.
 
-Callers: :mod:`voxel.colour._separation` (``Separation.proportions``) and
-:mod:`voxel.colour._materials` (``materials_for_slab``). Nothing here checks its input.
+Callers: :mod:`shellvox.voxel.colour._separation` (``Separation.proportions``) and
+:mod:`shellvox.voxel.colour._materials` (``materials_for_slab``). Nothing here checks its input.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
+from shellvox.voxel._compiled import kernel
 
 #: Lou and Stucki's 3D error filter: ``(dz, dy, dx, weight * 21)`` of the 12 forward
 #: neighbours of a voxel in raster order (z, then y, then x), weights 4/21 and 1/21.
@@ -84,7 +84,7 @@ class _Scratch(NamedTuple):
 
 
 def _jit(function: Callable[..., Any]) -> Callable[..., Any]:
-    """Compile ``function`` with :func:`voxel._compiled.kernel` (the Python one stays callable)."""
+    """Compile ``function`` with :func:`~shellvox.voxel._compiled.kernel` (the Python one stays)."""
     compiled: Callable[..., Any] = kernel(function)
     return compiled
 

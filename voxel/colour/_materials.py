@@ -12,15 +12,15 @@ material indices (uint8, 0 the void) following a :class:`MaterialPlan`:
 Halftones
 ---------
 ``"blue-noise"`` (default): a voxel's threshold is the blue-noise tile's value at its
-*global* index, ``tile[(z_start + z) % s, y % s, x % s]`` (:mod:`voxel.colour._blue_noise`), and
-its material is the column whose cumulative-proportion interval ``[c_{k-1}, c_k)``
-holds the threshold (columns in the separation's order, clear last). The result is a
-pure function of ``(z_start, layers, rgba, plan)``: any split into slabs, in any order,
-gives the same materials.
+*global* index, ``tile[(z_start + z) % s, y % s, x % s]``
+(:mod:`shellvox.voxel.colour._blue_noise`), and its material is the column whose
+cumulative-proportion interval ``[c_{k-1}, c_k)`` holds the threshold (columns in the separation's
+order, clear last). The result is a pure function of ``(z_start, layers, rgba, plan)``: any split
+into slabs, in any order, gives the same materials.
 
 ``"error-diffusion"``: 3D vector error diffusion over the colour voxels in raster order
 with Lou and Stucki's 12-neighbour filter
-(:data:`voxel.colour._material_kernels.DIFFUSION_NEIGHBOURS`);
+(:data:`shellvox.voxel.colour._material_kernels.DIFFUSION_NEIGHBOURS`);
 a voxel takes the column of largest proportion-plus-error. It is sequential: slabs
 must run in order, each passing :attr:`MaterialSlab.carry` (the error sent to the next
 two planes) to the next. The result still depends on the split, slightly: the error
@@ -39,14 +39,14 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._blue_noise import DEFAULT_TILE, blue_noise_tile
-from voxel.colour._material_kernels import (
+from shellvox.voxel.colour._blue_noise import DEFAULT_TILE, blue_noise_tile
+from shellvox.voxel.colour._material_kernels import (
     DIFFUSION_NEIGHBOURS,
     BlueNoisePlan,
     diffuse_kernel,
     threshold_slab_kernel,
 )
-from voxel.colour._separation import Separation
+from shellvox.voxel.colour._separation import Separation
 
 Halftone = Literal["blue-noise", "error-diffusion"]
 HALFTONES: tuple[Halftone, ...] = ("blue-noise", "error-diffusion")
@@ -73,7 +73,7 @@ class MaterialPlan:
     seed : int
         Seed of the blue-noise tile.
     tile_size : int
-        Edge of the blue-noise tile in voxels (see :mod:`voxel.colour._blue_noise`).
+        Edge of the blue-noise tile in voxels (see :mod:`shellvox.voxel.colour._blue_noise`).
     """
 
     separation: Separation

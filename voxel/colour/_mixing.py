@@ -1,4 +1,4 @@
-"""The linear-light mixing model's solver (see :mod:`voxel.colour._separation`, steps 1 to 3).
+"""The linear-light mixing model's solver (:mod:`~shellvox.voxel.colour._separation`, steps 1 to 3).
 
 The proportions ``p`` of opaque materials with linear-RGB colours ``d_i`` whose mix
 ``sum_i p_i d_i`` is nearest the target, and among equally near mixes the one of least
@@ -15,7 +15,7 @@ import itertools
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._srgb import linear_to_lab
+from shellvox.voxel.colour._srgb import linear_to_lab
 
 #: Projections closer than this (linear RGB) to the nearest count as equally near.
 _DISTANCE_TIE = 1e-9

@@ -2,7 +2,7 @@
 
 For each surface sample the voxel column under it *as written* is read: rays start on a
 disc around the point in its tangent plane (one per voxel column beneath it, see
-:mod:`~voxel.colour._column_kernel`) and step inward along the normal, one smallest
+:mod:`~shellvox.voxel.colour._column_kernel`) and step inward along the normal, one smallest
 voxel size at a time. The disc is how far light spreads sideways under the sample
 before it comes back out: the *lateral reach* of the sample's mix
 (:func:`lateral_reach`), the two-flux attenuation length ``1 / sqrt(K (K + 2 S))`` in
@@ -38,8 +38,8 @@ import colour
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from voxel.colour._column_kernel import Discs, count_slab, lattice_spacing
-from voxel.colour._kubelka_munk import (
+from shellvox.voxel.colour._column_kernel import Discs, count_slab, lattice_spacing
+from shellvox.voxel.colour._kubelka_munk import (
     Layer,
     layer,
     observer,
@@ -48,10 +48,10 @@ from voxel.colour._kubelka_munk import (
     reflectance_to_lab,
     saunderson,
 )
-from voxel.colour._optics import Optics
-from voxel.colour._report import statistics, tangent_basis
-from voxel.geometry import SurfaceIndex, nearest_on_surface
-from voxel.grid import GridSpec
+from shellvox.voxel.colour._optics import Optics
+from shellvox.voxel.colour._report import statistics, tangent_basis
+from shellvox.voxel.geometry import SurfaceIndex, nearest_on_surface
+from shellvox.voxel.grid import GridSpec
 
 #: A disc whose rim lies within this of the surface (mm) is flat enough for its rays to
 #: start in the tangent plane (a quarter of the default depth bin).

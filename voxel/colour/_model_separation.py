@@ -1,11 +1,11 @@
 """The separation table from the two-flux model: each node's mix whose deep layer shows it.
 
-At every node of the sRGB table (:func:`voxel.colour._separation.node_codes`) the target
+At every node of the sRGB table (:func:`shellvox.voxel.colour._separation.node_codes`) the target
 is converted to CIELAB under the model's D50 white
-(:func:`voxel.colour._kubelka_munk.srgb_to_lab_d50`:
+(:func:`shellvox.voxel.colour._kubelka_munk.srgb_to_lab_d50`:
 sRGB (D65) to XYZ, Bradford to D50) and the opaque materials' shares are those whose
 mixture, infinitely deep, is closest to it in CIEDE2000, with the least-grain tie-break
-(:func:`voxel.colour._inversion.invert`). Targets outside the printable colours are
+(:func:`shellvox.voxel.colour._inversion.invert`). Targets outside the printable colours are
 mapped to the mix of least CIEDE2000 (minimum-dE clipping); that residual is the gamut
 error the report gives apart. A voxel's shares are interpolated between the nodes as for
 the mixing separation; alpha below 1 brings in clear as there (``1 - alpha``).
@@ -22,10 +22,10 @@ import hashlib
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._inversion import DeepColour, invert
-from voxel.colour._kubelka_munk import observer, srgb_to_lab_d50
-from voxel.colour._optics import Optics
-from voxel.colour._separation import (
+from shellvox.voxel.colour._inversion import DeepColour, invert
+from shellvox.voxel.colour._kubelka_munk import observer, srgb_to_lab_d50
+from shellvox.voxel.colour._optics import Optics
+from shellvox.voxel.colour._separation import (
     DEFAULT_STEP,
     Separation,
     SeparationError,

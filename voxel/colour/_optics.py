@@ -32,7 +32,7 @@ import colour
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from voxel.colour._kubelka_munk import K1_DEFAULT, K2_DEFAULT, WAVELENGTHS_NM
+from shellvox.voxel.colour._kubelka_munk import K1_DEFAULT, K2_DEFAULT, WAVELENGTHS_NM
 
 #: Assumed scattering (1/mm, flat over the bands) of each role without measurements.
 #: White pigments (TiO2) scatter strongly, dyed colour resins weakly, clear resin hardly.

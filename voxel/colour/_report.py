@@ -5,7 +5,7 @@
 discs lie in it); :func:`colour_regions` names the target colours'
 regions (CIELAB lightness and hue bins) and :func:`statistics` condenses CIEDE2000
 values for the manifest. The prediction from the voxels is
-:class:`voxel.colour._model_report.ModelReport`.
+:class:`shellvox.voxel.colour._model_report.ModelReport`.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._colour_at import ColourAt
-from voxel.colour._srgb import srgb_to_lab
+from shellvox.voxel.colour._colour_at import ColourAt
+from shellvox.voxel.colour._srgb import srgb_to_lab
 
 #: CIELAB hue angles (degrees) where each named hue sector starts, for the colour regions
 #: (sRGB red lies near 40, yellow near 103, green near 136, blue near 306 degrees).

@@ -66,9 +66,9 @@ from typing import Any, Literal, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour._material_kernels import proportions_kernel
-from voxel.colour._mixing import mix_proportions
-from voxel.colour._srgb import codes_to_linear
+from shellvox.voxel.colour._material_kernels import proportions_kernel
+from shellvox.voxel.colour._mixing import mix_proportions
+from shellvox.voxel.colour._srgb import codes_to_linear
 
 SeparationMethod = Literal["mixing", "icc", "kubelka-munk"]
 
@@ -213,7 +213,7 @@ _TABLE_VERSION = 1
 
 
 class TableStore(Protocol):
-    """Where solved tables are kept between runs (``pipeline.printer._table_cache.DiskTables``)."""
+    """Where solved tables are kept between runs (``shellvox.printer._table_cache.DiskTables``)."""
 
     def __hash__(self) -> int: ...  # a key of the in-memory cache
 

@@ -25,7 +25,7 @@ import colour
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from voxel.colour._kubelka_munk import (
+from shellvox.voxel.colour._kubelka_munk import (
     Observer,
     layer,
     mix,
@@ -35,8 +35,8 @@ from voxel.colour._kubelka_munk import (
     reflectance_to_lab,
     saunderson,
 )
-from voxel.colour._optics import Optics
-from voxel.colour._separation import Separation
+from shellvox.voxel.colour._optics import Optics
+from shellvox.voxel.colour._separation import Separation
 
 #: Depths of the ladder (log-spaced from 10 um) and bisection steps.
 LADDER_STEPS = 40

@@ -6,7 +6,7 @@ Domains and ranges:
   <-> linear light in ``[0, 1]``, float64 (the same numbers as colour-science's
   ``cctf_decoding`` / ``cctf_encoding`` for ``"sRGB"``).
 - :data:`DECODE_LUT` ``(256,) float64``: the linear value of each 8-bit code (texture
-  filtering and the compiled colour kernel of :mod:`voxel.colour._surface_colour`);
+  filtering and the compiled colour kernel of :mod:`shellvox.voxel.colour._surface_colour`);
   :func:`codes_to_linear` gives the float32 values of :data:`DECODE_LUT_F32`, computed
   in float32 arithmetic (VDB colour grids, separation tables).
 - :func:`decode_uint8` / :func:`encode_uint8`: ``(..., 4) uint8`` sRGB + alpha <->

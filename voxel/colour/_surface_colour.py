@@ -4,9 +4,9 @@ The colour layer of a printer-resolution build has 1e7 to 1e8 voxels, each needi
 barycentric coordinates of its nearest point and a colour lookup (face, vertex or
 bilinear texture colour, in linear light). :class:`SurfaceColour` holds a mesh's colour
 source as plain arrays and :func:`voxel_colours` does both steps in one compiled loop
-over the voxels, with the arithmetic of :func:`voxel.geometry._nearest.closest_barycentric`, of
-:mod:`voxel.colour._srgb` and of ``pipeline.model._texture`` /
-``pipeline.model._mesh.ColouredMesh.colour_at``
+over the voxels, with the arithmetic of
+:func:`shellvox.voxel.geometry._nearest.closest_barycentric`, of :mod:`shellvox.voxel.colour._srgb`
+and of ``shellvox.model._texture`` / ``shellvox.model._mesh.ColouredMesh.colour_at``
 term for term, so the colours are those of the numpy path (tests compare them).
 """
 
@@ -19,9 +19,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
-from voxel.colour._srgb import DECODE_LUT
-from voxel.geometry import barycentric
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.colour._srgb import DECODE_LUT
+from shellvox.voxel.geometry import barycentric
 
 #: ``kind`` codes.
 CONSTANT, FACE, VERTEX, TEXTURE = 0, 1, 2, 3
@@ -143,7 +143,7 @@ class _Encoding(NamedTuple):
 
 @kernel
 def _wrap(index: int, size: int, mode: int) -> int:
-    """Map a texel index into ``[0, size)`` (``pipeline.model._texture._wrap``)."""
+    """Map a texel index into ``[0, size)`` (``shellvox.model._texture._wrap``)."""
     if 0 <= index < size:
         return index
     if mode == REPEAT:
@@ -156,7 +156,7 @@ def _wrap(index: int, size: int, mode: int) -> int:
 
 @kernel
 def _encode_exact(linear: float) -> int:
-    """8-bit sRGB code of a linear value (:func:`voxel.colour._srgb.encode_uint8`)."""
+    """8-bit sRGB code of a linear value (:func:`shellvox.voxel.colour._srgb.encode_uint8`)."""
     x = min(max(linear, 0.0), 1.0)
     srgb = x * 12.92 if x <= 0.0031308 else 1.055 * x ** (1.0 / 2.4) - 0.055
     return int(np.rint(srgb * 255.0))
@@ -272,7 +272,7 @@ def _colour_kernel(
 def _sample(u: float, t: float, m: int, textures: _Textures, linear: NDArray[np.float64]) -> None:
     """Linear RGBA of material ``m`` at ``(u, v = t)``.
 
-    See ``pipeline.model._texture.Material.sample``.
+    See ``shellvox.model._texture.Material.sample``.
     """
     pixels, image, wrap = textures.pixels, textures.image, textures.wrap
     filter_mode, factor, decode = textures.filter_mode, textures.factor, textures.decode

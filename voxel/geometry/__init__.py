@@ -1,27 +1,27 @@
-"""Geometry kernels on the voxel grid (they import only :mod:`voxel.grid`).
+"""Geometry kernels on the voxel grid (they import only :mod:`shellvox.voxel.grid`).
 
-- :mod:`~voxel.geometry._winding` exact inside tests (row-crossing winding numbers);
-- :mod:`~voxel.geometry._voronoi` the Voronoi regions of faces, edges and vertices, scanned by
-  :mod:`~voxel.geometry._distance_scan` into the exact nearest faces within reach;
-  :mod:`~voxel.geometry._closest_point` the compiled point-triangle test;
-- :mod:`~voxel.geometry._nearest` exact nearest points and generalised winding numbers of
+- :mod:`~shellvox.voxel.geometry._winding` exact inside tests (row-crossing winding numbers);
+- :mod:`~shellvox.voxel.geometry._voronoi` the Voronoi regions of faces, edges and vertices, scanned
+  by :mod:`~shellvox.voxel.geometry._distance_scan` into the exact nearest faces within reach;
+  :mod:`~shellvox.voxel.geometry._closest_point` the compiled point-triangle test;
+- :mod:`~shellvox.voxel.geometry._nearest` exact nearest points and generalised winding numbers of
   points (libigl), the one module of :mod:`voxel` that :mod:`offset` uses;
-- :mod:`~voxel.geometry._layer_kernel` the per-voxel pass: layers, SDF band, colour voxels.
+- :mod:`~shellvox.voxel.geometry._layer_kernel` the per-voxel pass: layers, SDF band, colour voxels.
 """
 
 from __future__ import annotations
 
-from voxel.geometry._closest_point import barycentric
-from voxel.geometry._distance_scan import nearest_in_reach, nearest_within
-from voxel.geometry._layer_field import field_surfaces
-from voxel.geometry._layer_kernel import (
+from shellvox.voxel.geometry._closest_point import barycentric
+from shellvox.voxel.geometry._distance_scan import nearest_in_reach, nearest_within
+from shellvox.voxel.geometry._layer_field import field_surfaces
+from shellvox.voxel.geometry._layer_kernel import (
     LayerInputs,
     LayerOutputs,
     assign_layers,
     colour_voxels,
     layer_material_counts,
 )
-from voxel.geometry._nearest import (
+from shellvox.voxel.geometry._nearest import (
     Nearest,
     SurfaceIndex,
     closest_barycentric,
@@ -31,8 +31,8 @@ from voxel.geometry._nearest import (
     on_faces,
     winding_numbers,
 )
-from voxel.geometry._voronoi import voronoi_regions
-from voxel.geometry._winding import inside_slab, winding_slab
+from shellvox.voxel.geometry._voronoi import voronoi_regions
+from shellvox.voxel.geometry._winding import inside_slab, winding_slab
 
 __all__ = [
     "LayerInputs",

@@ -1,6 +1,6 @@
 """Compiled closest point of a triangle (Ericson's Voronoi-region test), for the kernels.
 
-:func:`closest_weights` is the numpy version's arithmetic (:func:`voxel.geometry._nearest.
+:func:`closest_weights` is the numpy version's arithmetic (:func:`shellvox.voxel.geometry._nearest.
 closest_barycentric`) term for term, so the colour kernel's barycentric coordinates
 equal it bit for bit; :func:`triangle_d2` turns the same weights into the squared
 distance the nearest-face scan needs, with a degenerate (zero-area) triangle measured
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 
-from voxel._compiled import kernel
+from shellvox.voxel._compiled import kernel
 
 
 @kernel

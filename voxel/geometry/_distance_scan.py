@@ -9,7 +9,7 @@ that reach it, and that face. A voxel whose nearest surface point is closer than
 distance; voxels farther than ``reach`` from every face keep ``face = -1``.
 
 The scan goes over the Voronoi regions of the mesh's faces, edges and vertices
-(:mod:`voxel.geometry._voronoi`), not over the faces: a voxel centre whose nearest surface
+(:mod:`shellvox.voxel.geometry._voronoi`), not over the faces: a voxel centre whose nearest surface
 point is inside a face, on an edge or at a vertex lies in that feature's region. Each
 region visits the voxel rows ``(z, y)`` of its box grown by ``reach`` (for an edge or a
 vertex, rows whose ``(y, z)`` projection is within ``reach`` of its own), and along each
@@ -41,10 +41,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
-from voxel.geometry._closest_point import triangle_d2
-from voxel.geometry._voronoi import FACE, VoronoiRegions, voronoi_regions
-from voxel.grid import GridSpec
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.geometry._closest_point import triangle_d2
+from shellvox.voxel.geometry._voronoi import FACE, VoronoiRegions, voronoi_regions
+from shellvox.voxel.grid import GridSpec
 
 
 class _Mesh(NamedTuple):
@@ -170,8 +170,8 @@ def nearest_within(
     squared_mm2 : (Zs, Y, X) float64, mm^2
         Each voxel's reach, squared (0: not wanted); overwritten with the result.
     regions : VoronoiRegions, optional
-        :func:`voxel.geometry._voronoi.voronoi_regions` of the mesh, when the caller keeps them
-        (computed here otherwise).
+        :func:`shellvox.voxel.geometry._voronoi.voronoi_regions` of the mesh, when the caller keeps
+        them (computed here otherwise).
     reach_mm : float, optional
         The largest reach (``sqrt(squared_mm2.max())``, computed when not given).
 

@@ -2,15 +2,15 @@
 
 The layer field of layer ``k`` at a point ``p`` inside the part is ``D_k(f) - d(p)``, with
 ``d`` the exact distance to the surface and ``f`` the face of the nearest point (the lowest
-index among ties), as the voxel layers use it (:mod:`voxel.slab`): negative deeper than the
+index among ties), as the voxel layers use it (:mod:`shellvox.voxel.slab`): negative deeper than the
 layer's inner boundary. It is sampled at the nodes of a regular grid of step ``step_mm``
-by the project's own scan (:func:`voxel.geometry._distance_scan.nearest_in_reach`, out to
-the deepest depth plus two steps) and inside test (:func:`voxel.geometry._winding.inside_slab`),
-one slab of node planes at a time (memory bounded by the slab), and every layer's zero set
-is meshed in the same pass by marching tetrahedra (:mod:`voxel.geometry._marching_tets`).
-Its planar patches (most of a faceted part's surface) are then triangulated again from
-their boundaries (:mod:`voxel.geometry._planar_patches`): the same surface, several times
-fewer triangles.
+by the project's own scan (:func:`shellvox.voxel.geometry._distance_scan.nearest_in_reach`, out to
+the deepest depth plus two steps) and inside test
+(:func:`shellvox.voxel.geometry._winding.inside_slab`), one slab of node planes at a time (memory
+bounded by the slab), and every layer's zero set is meshed in the same pass by marching tetrahedra
+(:mod:`shellvox.voxel.geometry._marching_tets`). Its planar patches (most of a faceted part's
+surface) are then triangulated again from their boundaries
+(:mod:`shellvox.voxel.geometry._planar_patches`): the same surface, several times fewer triangles.
 
 A deeper layer has a depth at least as large on every face, so its field is no higher at
 every node and its surface is nested inside the shallower one by construction (strictly
@@ -26,9 +26,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
-from voxel.geometry._distance_scan import NearestInReach, nearest_in_reach
-from voxel.geometry._marching_tets import (
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.geometry._distance_scan import NearestInReach, nearest_in_reach
+from shellvox.voxel.geometry._marching_tets import (
     EDGES,
     TABLE,
     TETS,
@@ -39,10 +39,10 @@ from voxel.geometry._marching_tets import (
     count_triangles,
     march_slab,
 )
-from voxel.geometry._planar_patches import merge_planar_patches
-from voxel.geometry._voronoi import voronoi_regions
-from voxel.geometry._winding import inside_slab
-from voxel.grid import GridSpec
+from shellvox.voxel.geometry._planar_patches import merge_planar_patches
+from shellvox.voxel.geometry._voronoi import voronoi_regions
+from shellvox.voxel.geometry._winding import inside_slab
+from shellvox.voxel.grid import GridSpec
 
 #: Node values allowed in one slab (about 30 bytes a node with two layers, and 13 more for
 #: the next slab, scanned meanwhile).
@@ -239,8 +239,8 @@ def _layer_bits(
 ) -> None:
     """Set bit ``k`` of a node where it lies inside layer ``k`` (field ``<= 0``, ties inside).
 
-    The same expression as :func:`voxel.geometry._marching_tets.march_slab`'s node value, so
-    a crossed edge always has one value ``<= 0`` and one ``> 0``.
+    The same expression as :func:`shellvox.voxel.geometry._marching_tets.march_slab`'s node value,
+    so a crossed edge always has one value ``<= 0`` and one ``> 0``.
     """
     flat_inside = inside.reshape(-1)
     flat_squared = squared.reshape(-1)

@@ -1,9 +1,9 @@
 """Compiled per-voxel pass of a slab: layers, signed-distance band and colour voxels.
 
 One pass over the slab turns the inside test and the nearest faces within reach
-(:mod:`voxel.geometry._distance_scan`) into the layer of every voxel, the narrow band of the signed
-distance, and the voxels that take a surface colour; a numpy version needed a dozen
-passes over slab-sized temporaries. Callers: :func:`voxel.slab.compute_slab`. Nothing
+(:mod:`shellvox.voxel.geometry._distance_scan`) into the layer of every voxel, the narrow band of
+the signed distance, and the voxels that take a surface colour; a numpy version needed a dozen
+passes over slab-sized temporaries. Callers: :func:`shellvox.voxel.slab.compute_slab`. Nothing
 here checks its input.
 """
 
@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
+from shellvox.voxel._compiled import kernel
 
 
 class LayerInputs(NamedTuple):

@@ -7,7 +7,8 @@ answer are then recomputed in numpy with Ericson's Voronoi-region test [2]_, so 
 returned point, its face and its distance are mutually consistent to rounding.
 :func:`winding_numbers` is libigl's exact generalised winding number [3]_ (solid angles
 summed over the faces, hierarchically). Inside tests on a whole voxel grid use
-:mod:`voxel.geometry._winding` instead (signed crossings along grid rows, exact and much faster).
+:mod:`shellvox.voxel.geometry._winding` instead (signed crossings along grid rows, exact and much
+faster).
 
 References
 ----------
@@ -28,7 +29,7 @@ import igl
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.geometry._voronoi import VoronoiRegions, voronoi_regions
+from shellvox.voxel.geometry._voronoi import VoronoiRegions, voronoi_regions
 
 #: Query points handled at once (bounds temporary memory: about 150 bytes per point).
 POINTS_PER_CHUNK = 1 << 20

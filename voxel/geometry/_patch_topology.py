@@ -1,6 +1,6 @@
 """Half-edge topology of labelled triangles: twins, patches and their boundary loops.
 
-The compiled kernels behind :mod:`voxel.geometry._planar_patches`. A half-edge ``3 t + i``
+The compiled kernels behind :mod:`shellvox.voxel.geometry._planar_patches`. A half-edge ``3 t + i``
 runs from ``faces[t, i]`` to ``faces[t, (i + 1) % 3]``; only triangles with a label
 (``>= 0``) take part.
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
+from shellvox.voxel._compiled import kernel
 
 __all__ = ["boundary_loops", "patches", "twins"]
 

@@ -15,7 +15,7 @@ These are necessary conditions (Ericson's region tests [1]_ of each incident fac
 each region holds the true one whatever the mesh: open, non-manifold, with degenerate
 faces (a zero-area face has no prism; its edges and vertices still have regions). Every
 bound is loosened by ``EPSILON`` of the model's size so that rounding never drops a
-point on a shared boundary. :mod:`voxel.geometry._distance_scan` scans each region into the
+point on a shared boundary. :mod:`shellvox.voxel.geometry._distance_scan` scans each region into the
 voxels within reach and tests only the faces of that feature (the region's ``tests``).
 
 References
@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
+from shellvox.voxel._compiled import kernel
 
 #: Loosening of every bound, relative to the model's largest coordinate (plus 1 mm).
 EPSILON = 1e-9

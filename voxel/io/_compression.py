@@ -10,7 +10,7 @@ quarter smaller (``benchmarks/bench_compress.py``). The given levels are Python'
 
 Equal builds must be byte-equal (resume, Dask, the VDB content id), so equal input must
 give equal bytes whatever the encoder compressed before and however the input is fed to
-a :func:`compressobj`; ``tests/voxel_io/test_compression.py`` checks both, across processes.
+a :func:`compressobj`; ``tests/voxel/io/test_compression.py`` checks both, across processes.
 That rules out zlib-ng's levels 1 (its quick strategy; also some 40 % larger than zlib's
 level 1), 5 and 6: their streams changed with where the input was cut in 90, 88 and 90
 of 90 random cuttings of 30 inputs; levels 2, 3, 4, 7 and 9 never did. It also rules out

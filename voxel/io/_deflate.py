@@ -1,9 +1,9 @@
 """A compiled run-length zlib encoder, for the VDB leaves; and a page's bytes in TIFF order.
 
 :func:`compress_segments` compresses many short buffers at once (the value buffers of
-:mod:`voxel.io.vdb._leaves`, ``period=4``: 4-byte values), each as its own zlib stream,
+:mod:`shellvox.voxel.io.vdb._leaves`, ``period=4``: 4-byte values), each as its own zlib stream,
 in one call of compiled code; :func:`zlib_compress` does one buffer. The TIFF and PNG
-pages are compressed by :mod:`voxel.io._compression` instead; :func:`pixel_bytes` gives
+pages are compressed by :mod:`shellvox.voxel.io._compression` instead; :func:`pixel_bytes` gives
 their bytes. Voxel data is mostly long runs (void, the core, one value, repeated
 pixels), and zlib's general match finder spends most of its time on them. This encoder
 emits one deflate block (RFC 1951) in a zlib stream (RFC 1950): at each byte it takes
@@ -25,7 +25,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
+from shellvox.voxel._compiled import kernel
 
 
 def _reverse(code: int, length: int) -> int:

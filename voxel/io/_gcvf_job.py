@@ -1,4 +1,4 @@
-"""What a GrabCAD Voxel Print job holds besides its slices (see :mod:`voxel.io._gcvf_writer`).
+"""What a GrabCAD Voxel Print job holds besides its slices (:mod:`~shellvox.voxel.io._gcvf_writer`).
 
 No specification is public. *Known* below means two or more public writers or readers do
 it; *inferred* means one writer does it, or none states it and this module chose
@@ -65,8 +65,8 @@ import trimesh
 from numpy.typing import NDArray
 from PIL import Image
 
-from voxel._compiled import kernel
-from voxel.grid import GridSpec
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.grid import GridSpec
 
 MM_PER_INCH = 25.4
 IMAGE_PREFIX = "layer_"

@@ -27,14 +27,14 @@ Slices
   right, y up) in any image viewer: a right-handed picture, so the print is not mirrored
   if the software shows slices as a top view. ``first_row="min_y"`` stores voxel row
   ``y = r`` (as ``materials.tif`` does) for a printer that turns out to read it so.
-- Rows are stored unfiltered and deflated at level 1 (:mod:`voxel.io._png_encode`, several
+- Rows are stored unfiltered and deflated at level 1 (:mod:`shellvox.voxel.io._png_encode`, several
   slices in parallel threads); the zip stores the PNGs as they are (``ZIP_STORED``):
   deflating them again makes the job about 15 % smaller for a quarter more time.
 - Fewer than `min_slices` (30) slices are padded with empty slices on top (higher z);
   :attr:`GcvfWriter.n_padding_slices` and the summary report how many.
 
 ``ConfigFile.xml``, the material table, the box, height map and surface, and the limits:
-:mod:`voxel.io._gcvf_job`.
+:mod:`shellvox.voxel.io._gcvf_job`.
 """
 
 from __future__ import annotations
@@ -48,8 +48,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.grid import GridSpec
-from voxel.io._gcvf_job import (
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io._gcvf_job import (
     BOX_NAME,
     IMAGE_PREFIX,
     RGBA,
@@ -65,8 +65,8 @@ from voxel.io._gcvf_job import (
     surface_stl,
     zbuffer_png,
 )
-from voxel.io._png_encode import encode_indexed_png
-from voxel.io._slab_thread import FirstRow, SliceWriter
+from shellvox.voxel.io._png_encode import encode_indexed_png
+from shellvox.voxel.io._slab_thread import FirstRow, SliceWriter
 
 CONFIG_NAME = "ConfigFile.xml"
 #: Zip entries get one fixed timestamp, so equal jobs are equal files.
@@ -392,7 +392,8 @@ class KeySlices:
     first_row : {"max_y", "min_y"}
         Which end of the y axis is image row 0.
     level : int or None
-        Of the PNG data: None, the fast setting (:mod:`voxel.io._compression`), or zlib's level.
+        Of the PNG data: None, the fast setting (:mod:`shellvox.voxel.io._compression`), or zlib's
+        level.
     """
 
     lut: NDArray[np.uint8]

@@ -1,6 +1,6 @@
 """The OME-Zarr 0.5 (NGFF) metadata of a stack's store: multiscales, labels, omero.
 
-What :class:`voxel.io._zarr_writer.OmeZarrWriter` puts in the ``zarr.json`` attributes
+What :class:`shellvox.voxel.io._zarr_writer.OmeZarrWriter` puts in the ``zarr.json`` attributes
 (under ``"ome"``) of the store's groups:
 
 - the root (the colour image): ``multiscales`` with axes ``c`` (channel) and ``z, y, x``

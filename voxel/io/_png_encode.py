@@ -24,8 +24,8 @@ import zlib
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
-from voxel.io._compression import check_level, compressobj
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.io._compression import check_level, compressobj
 
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: PNG colour type by samples per pixel: grey, RGB, RGBA (8 bits per sample).
@@ -49,7 +49,8 @@ def encode_png(
         Grey (``S`` = 1), RGB (3) or RGBA (4, straight alpha) samples; row 0 is the top of
         the picture.
     level : int, optional
-        None (default): the fast setting (:mod:`voxel.io._compression`); else zlib's level 0..9.
+        None (default): the fast setting (:mod:`shellvox.voxel.io._compression`); else zlib's level
+        0..9.
     pixels_per_metre : (2,) int, optional
         Physical pixel density ``(x, y)`` stored in a ``pHYs`` chunk (600 dpi is 23622).
 

@@ -6,7 +6,7 @@ first, each ``X x Y`` pixels of 8-bit RGBA with straight (unassociated) alpha, a
 ``slices.json`` sidecar giving the voxel size, the grid and the pixel mapping. Each PNG
 also carries its pixel density (``pHYs``), so image tools show true size in x and y.
 
-Orientation as in :mod:`voxel.io._gcvf_writer`: with ``first_row="max_y"`` (default) pixel
+Orientation as in :mod:`shellvox.voxel.io._gcvf_writer`: with ``first_row="max_y"`` (default) pixel
 ``(row r, column c)`` of slice ``z`` is voxel ``(z, Y-1-r, c)``, so a slice looks like the
 model seen from above; ``"min_y"`` stores row ``r`` = voxel row ``y = r``.
 
@@ -29,9 +29,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.grid import GridSpec
-from voxel.io._png_encode import encode_png
-from voxel.io._slab_thread import FirstRow, SliceWriter
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io._png_encode import encode_png
+from shellvox.voxel.io._slab_thread import FirstRow, SliceWriter
 
 SIDECAR_NAME = "slices.json"
 MM_PER_METRE = 1000.0
@@ -54,7 +54,8 @@ class PngSliceWriter(SliceWriter):
     threads : int
         Slices encoded in parallel.
     level : int, optional
-        Of the PNG data: None (default), the fast setting (:mod:`voxel.io._compression`), or zlib's.
+        Of the PNG data: None (default), the fast setting (:mod:`shellvox.voxel.io._compression`),
+        or zlib's.
     queue_slabs : int
         Slabs that may wait for the writer thread.
     """

@@ -12,8 +12,8 @@ level ``k + 1``:
 - labels (layers, materials): the most frequent value of the block, ties to the smallest
   (as :func:`scipy.stats.mode`);
 - colour: the mean, in linear light, of the block's colour voxels weighted by how many
-  colour-layer voxels of level 0 each stands for (:data:`voxel.colour._srgb.DECODE_LUT_F32`
-  decodes, the compiled kernel encodes as :func:`voxel.colour._srgb.linear_to_srgb` does,
+  colour-layer voxels of level 0 each stands for (:data:`shellvox.voxel.colour._srgb.DECODE_LUT_F32`
+  decodes, the compiled kernel encodes as :func:`shellvox.voxel.colour._srgb.linear_to_srgb` does,
   tested equal); alpha is averaged as it is;
   0 where the block has no colour voxel.
 
@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
-from voxel.colour._srgb import DECODE_LUT_F32
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.colour._srgb import DECODE_LUT_F32
 
 Factors = tuple[int, int, int]
 
@@ -207,7 +207,7 @@ def _mean_kernel(
     """Weighted means of the blocks, a block row at a time, encoded as sRGB codes into `out`.
 
     Each block's sums are float32, its voxels added in (z, y, x) order; the mean is
-    encoded in float64 as :func:`voxel.colour._srgb.linear_to_srgb` does (alpha clipped).
+    encoded in float64 as :func:`shellvox.voxel.colour._srgb.linear_to_srgb` does (alpha clipped).
     """
     n_c = colour.shape[3]
     n_z, n_y, n_x = weight.shape

@@ -20,7 +20,7 @@ from typing import Any, Generic, Literal, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.io._compression import check_level
+from shellvox.voxel.io._compression import check_level
 
 FirstRow = Literal["max_y", "min_y"]
 
@@ -169,7 +169,8 @@ class SliceWriter(ClosingWriter):
     threads : int
         Slices encoded in parallel.
     level : int, optional
-        Of the PNG data: None, the fast setting (:mod:`voxel.io._compression`), or zlib's 0..9.
+        Of the PNG data: None, the fast setting (:mod:`shellvox.voxel.io._compression`), or zlib's
+        0..9.
     """
 
     def __init__(self, first_row: FirstRow, threads: int, level: int | None) -> None:

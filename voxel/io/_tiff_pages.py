@@ -1,12 +1,12 @@
 """TIFF pages and job slices encoded where the slab is computed, as a pure function.
 
-:class:`voxel.io._tiff_writer.TiffStackWriter` compresses each page (one strip) in its writer
-thread, and :class:`voxel.io._gcvf_writer.GcvfWriter` encodes each slice's PNG in its threads,
-in the process that writes the files. A build's slab workers can do the same work beside
-the numerics (:class:`PageEncoder`) and hand over the bytes, which the writers then store
+:class:`shellvox.voxel.io._tiff_writer.TiffStackWriter` compresses each page (one strip) in its
+writer thread, and :class:`shellvox.voxel.io._gcvf_writer.GcvfWriter` encodes each slice's PNG in
+its threads, in the process that writes the files. A build's slab workers can do the same work
+beside the numerics (:class:`PageEncoder`) and hand over the bytes, which the writers then store
 as they are: the bytes are those :func:`compress_page` and
-:meth:`voxel.io._gcvf_writer.KeySlices.encode` give either way, so the files are the same
-(and the OME-Zarr store's level-0 shards, :mod:`voxel.io._zarr_shards`).
+:meth:`shellvox.voxel.io._gcvf_writer.KeySlices.encode` give either way, so the files are the same
+(and the OME-Zarr store's level-0 shards, :mod:`shellvox.voxel.io._zarr_shards`).
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.io._compression import compress
-from voxel.io._deflate import pixel_bytes
-from voxel.io._gcvf_writer import KeySlices
-from voxel.io._zarr_shards import ShardEncoder
+from shellvox.voxel.io._compression import compress
+from shellvox.voxel.io._deflate import pixel_bytes
+from shellvox.voxel.io._gcvf_writer import KeySlices
+from shellvox.voxel.io._zarr_shards import ShardEncoder
 
 
 def compress_page(page: NDArray[np.uint8], level: int | None) -> bytes:
@@ -29,7 +29,7 @@ def compress_page(page: NDArray[np.uint8], level: int | None) -> bytes:
     ----------
     page : (Y, X) or (Y, X, S) uint8
     level : int or None
-        zlib level 1..9; None: the fast setting (:mod:`voxel.io._compression`).
+        zlib level 1..9; None: the fast setting (:mod:`shellvox.voxel.io._compression`).
     """
     return compress(pixel_bytes(page).data, level)
 
@@ -44,7 +44,7 @@ class PageEncoder:
         3 (RGB) or 4 (RGBA) samples of ``colour.tif``; None: the build writes no TIFF
         stacks (nor ``materials.tif``).
     level : int or None
-        zlib level of the stacks; None: the fast setting (:mod:`voxel.io._compression`).
+        zlib level of the stacks; None: the fast setting (:mod:`shellvox.voxel.io._compression`).
     materials_tif : bool
         The build writes ``materials.tif`` (with the same level).
     slices : KeySlices, optional

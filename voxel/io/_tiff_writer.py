@@ -7,8 +7,8 @@ one per z, deflate (zlib) compressed, with ImageJ metadata ``spacing`` (z), ``un
 and TIFF resolution tags (pixels per mm in x and y) so Fiji shows true size.
 
 Each page is one strip, compressed in the writer thread before tifffile writes it as
-is: by default at the fast setting of :mod:`voxel.io._compression` (zlib-ng, GIL released, 3 to
-4 times zlib level 1's speed on voxel slices and smaller), or at a given zlib level
+is: by default at the fast setting of :mod:`shellvox.voxel.io._compression` (zlib-ng, GIL released,
+3 to 4 times zlib level 1's speed on voxel slices and smaller), or at a given zlib level
 (smaller files, slower). Both are TIFF compression 8 (deflate).
 """
 
@@ -23,9 +23,9 @@ import numpy as np
 import tifffile
 from numpy.typing import NDArray
 
-from voxel.grid import GridSpec
-from voxel.io._slab_thread import ClosingWriter, SlabThread
-from voxel.io._tiff_pages import compress_page
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io._slab_thread import ClosingWriter, SlabThread
+from shellvox.voxel.io._tiff_pages import compress_page
 
 #: Classic TIFF holds at most 4 GiB; BigTIFF is chosen when the raw data could exceed this.
 CLASSIC_TIFF_LIMIT = 2**32 - 2**26
@@ -43,7 +43,7 @@ class TiffStackWriter(ClosingWriter):
     samples : int
         0 for a grey stack ``(Z, Y, X)``; 3 (RGB) or 4 (RGBA) for colour ``(Z, Y, X, S)``.
     compression_level : int, optional
-        zlib level 1..9; None (default): the fast setting (:mod:`voxel.io._compression`).
+        zlib level 1..9; None (default): the fast setting (:mod:`shellvox.voxel.io._compression`).
     queue_slabs : int
         Slabs that may wait for the writer thread.
 
@@ -104,8 +104,8 @@ class TiffStackWriter(ClosingWriter):
     def write_pages(self, pages: list[bytes]) -> None:
         """Queue the next pages, already compressed, in z order.
 
-        Each as :func:`voxel.io._tiff_pages.compress_page` gives it with this writer's samples
-        and level.
+        Each as :func:`shellvox.voxel.io._tiff_pages.compress_page` gives it with this writer's
+        samples and level.
         """
         if self._pages_sent + len(pages) > self.grid.shape_zyx[0]:
             raise ValueError(f"more than Z={self.grid.shape_zyx[0]} pages written")

@@ -3,7 +3,7 @@
 Every level's arrays (:func:`level_array`) are in shards of :data:`SHARD_ROWS` rows,
 whatever the slabs. Where slabs hold whole shards (:func:`encoded_by_slabs`),
 :class:`ShardEncoder` writes one slab's rows into in-memory arrays with the store's own
-metadata (:func:`level_array`, as :class:`voxel.io._zarr_writer.OmeZarrWriter` creates
+metadata (:func:`level_array`, as :class:`shellvox.voxel.io._zarr_writer.OmeZarrWriter` creates
 them) and returns the shard files zarr made, which the writer then stores as they are:
 the bytes are zarr's either way, so the store is the same wherever a slab is encoded.
 :func:`to_planar` turns channels-last colour into the store's planar order.
@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from zarr.codecs import ZstdCodec
 from zarr.core.buffer import cpu
 
-from voxel._compiled import kernel
+from shellvox.voxel._compiled import kernel
 
 #: Inner chunk ``(z, y, x)`` of every array (y and x at most the grid's): cubes, so a y or
 #: x section through a tall build crosses a few dozen chunks along z, not one per slab

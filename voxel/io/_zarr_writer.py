@@ -2,10 +2,10 @@
 
 ``stack.ome.zarr/`` holds the colour image ``(c, z, y, x)`` uint8 (RGB or RGBA) at the
 root and the label images ``labels/materials`` and ``labels/layers`` ``(z, y, x)`` uint8,
-each as the levels ``0, 1, ...`` of a pyramid (:mod:`voxel.io._pyramid`), with the
-metadata of :mod:`voxel.io._ome_metadata`.
+each as the levels ``0, 1, ...`` of a pyramid (:mod:`shellvox.voxel.io._pyramid`), with the
+metadata of :mod:`shellvox.voxel.io._ome_metadata`.
 
-Layout (:mod:`voxel.io._zarr_shards`): every array is sharded, one shard file holding the
+Layout (:mod:`shellvox.voxel.io._zarr_shards`): every array is sharded, one shard file holding the
 whole ``y, x`` extent of 64 z rows, in inner chunks of ``64 x 64 x 64`` voxels (z, y, x;
 all channels together), each zstd-compressed. Inner chunks of void (all 0, the fill
 value) are not stored, nor shards of void only (and zarr is handed only the box of chunks
@@ -34,17 +34,17 @@ import numpy as np
 import zarr
 from numpy.typing import NDArray
 
-from voxel.grid import GridSpec
-from voxel.io._ome_metadata import (
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io._ome_metadata import (
     LabelValue,
     image_attributes,
     label_attributes,
     level_transforms,
 )
-from voxel.io._png_slices import _replace_folder
-from voxel.io._pyramid import Factors, downsample_colour, downsample_labels, level_factors
-from voxel.io._slab_thread import ClosingWriter, SlabThread
-from voxel.io._zarr_shards import SHARD_ROWS, level_array, to_planar, write_solid
+from shellvox.voxel.io._png_slices import _replace_folder
+from shellvox.voxel.io._pyramid import Factors, downsample_colour, downsample_labels, level_factors
+from shellvox.voxel.io._slab_thread import ClosingWriter, SlabThread
+from shellvox.voxel.io._zarr_shards import SHARD_ROWS, level_array, to_planar, write_solid
 
 
 @dataclass
@@ -286,7 +286,7 @@ class OmeZarrWriter(ClosingWriter):
             Every label image named at construction.
         shards : list of bytes, optional
             The slab's level-0 shard files already encoded
-            (:meth:`voxel.io._zarr_shards.ShardEncoder.encode`): stored as they are.
+            (:meth:`shellvox.voxel.io._zarr_shards.ShardEncoder.encode`): stored as they are.
         """
         n = len(coloured)
         shape = (n, *self.grid.shape_zyx[1:])

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pipeline.loading.gltf._reader import read_gltf
+from shellvox.loading.gltf._reader import read_gltf
 
 __all__ = [
     "read_gltf",

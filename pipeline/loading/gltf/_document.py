@@ -3,9 +3,9 @@
 The buffers are checked against the bytes that really exist (a GLB that declares a
 1e12-byte buffer is refused), buffer views and accessors against their buffers, and a
 buffer-less accessor may not hold more than ``3 * max_faces`` items; external URIs follow
-the path policy of :mod:`pipeline.loading._references` (inside the model's folder unless
+the path policy of :mod:`shellvox.loading._references` (inside the model's folder unless
 ``--force``; ``data:`` URIs are fine; remote URIs are refused). See
-:mod:`pipeline.loading.gltf._reader`.
+:mod:`shellvox.loading.gltf._reader`.
 """
 
 from __future__ import annotations
@@ -19,9 +19,9 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import unquote
 
-from pipeline.config import LoadOptions
-from pipeline.errors import InputError
-from pipeline.loading._references import check_inside, is_file
+from shellvox.config import LoadOptions
+from shellvox.errors import InputError
+from shellvox.loading._references import check_inside, is_file
 
 COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
 TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}

@@ -6,10 +6,10 @@ textures of any size, ignores buffer ``byteLength`` and rounds ``baseColorFactor
 8 bits. So before trimesh sees the file:
 
 - the buffers, buffer views, accessors and external URIs are checked
-  (:mod:`pipeline.loading.gltf._document`);
+  (:mod:`shellvox.loading.gltf._document`);
 - the base colour of every material is read from the document: ``baseColorFactor``
   (linear light, kept as float), ``baseColorTexture`` decoded by
-  :func:`pipeline.loading._images.read_textures` (pixel budget, missing or unreadable ->
+  :func:`shellvox.loading._images.read_textures` (pixel budget, missing or unreadable ->
   error, or ``--colour`` with a warning), its sampler's wrap and filter.
   ``KHR_materials_pbrSpecularGlossiness`` (``diffuseFactor``, ``diffuseTexture``) is read
   the same way;
@@ -19,7 +19,7 @@ textures of any size, ignores buffer ``byteLength`` and rounds ``baseColorFactor
 
 A primitive's colour, per the glTF specification: texture x factor (with the
 material's ``TEXCOORD_n`` moved by its ``KHR_texture_transform``,
-:mod:`pipeline.loading.gltf._texcoord`), else ``COLOR_0`` x factor as vertex colours
+:mod:`shellvox.loading.gltf._texcoord`), else ``COLOR_0`` x factor as vertex colours
 (``COLOR_0`` is linear light), else the factor. A declared colour that cannot be used
 (a texture on a primitive without its ``TEXCOORD_n``, ``COLOR_0`` beside a texture) is
 reported in a one-line warning naming what is used.
@@ -39,11 +39,11 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from pipeline.config import LoadOptions
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading._combine import checked_faces, combine_parts
-from pipeline.loading._images import TextureRef, read_textures
-from pipeline.loading.gltf._document import (
+from shellvox.config import LoadOptions
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading._combine import checked_faces, combine_parts
+from shellvox.loading._images import TextureRef, read_textures
+from shellvox.loading.gltf._document import (
     FIX,
     GltfDocument,
     check_buffers,
@@ -51,9 +51,9 @@ from pipeline.loading.gltf._document import (
     external_file,
     read_document,
 )
-from pipeline.loading.gltf._texcoord import primitive_uv, texture_transform
-from pipeline.model import ColouredMesh, FilterMode, Material, WrapMode
-from voxel.colour import encode_uint8
+from shellvox.loading.gltf._texcoord import primitive_uv, texture_transform
+from shellvox.model import ColouredMesh, FilterMode, Material, WrapMode
+from shellvox.voxel.colour import encode_uint8
 
 GL_WRAP: dict[int, WrapMode] = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
 GL_NEAREST = (9728, 9984, 9986)

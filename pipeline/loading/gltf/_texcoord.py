@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
+from shellvox.errors import InputError
 
 FIX = "the file is truncated or corrupt; export it again"
 #: Component type -> (numpy dtype, divisor of normalised integers).

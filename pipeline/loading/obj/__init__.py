@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pipeline.loading.obj._reader import read_obj
+from shellvox.loading.obj._reader import read_obj
 
 __all__ = [
     "read_obj",

@@ -3,8 +3,8 @@
 ``newmtl`` blocks give a ``Kd`` colour (with ``d``/``Tr``) and a ``map_Kd`` texture (with
 its ``-clamp`` option; ``-o/-s/-t`` are refused with a warning). Files named in an OBJ or
 MTL (``mtllib``, ``map_Kd``) are found under the path policy of
-:mod:`pipeline.loading._references` (see :mod:`pipeline.loading.obj._reader`); textures are read
-under one pixel budget (:mod:`pipeline.loading._images`).
+:mod:`shellvox.loading._references` (see :mod:`shellvox.loading.obj._reader`); textures are read
+under one pixel budget (:mod:`shellvox.loading._images`).
 """
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.config import LoadOptions
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading._images import TextureRef, read_textures
-from pipeline.loading._references import check_inside, is_file, is_inside
-from pipeline.model import Material, WrapMode
-from voxel.colour import srgb_to_linear
+from shellvox.config import LoadOptions
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading._images import TextureRef, read_textures
+from shellvox.loading._references import check_inside, is_file, is_inside
+from shellvox.model import Material, WrapMode
+from shellvox.voxel.colour import srgb_to_linear
 
 #: Fix for an OBJ texture that cannot be used.
 TEXTURE_FIX = "put the image beside the MTL, or pass --texture FILE"

@@ -7,7 +7,7 @@ grey. Statements may be separated by spaces or tabs (MeshLab writes
 ``newmtl<TAB>name<TAB><TAB>`` and ``map_Kd<TAB>file with spaces.png``).
 
 Referenced files (``mtllib``, ``map_Kd``) follow the path policy of
-:mod:`pipeline.loading._references`: they must lie in the OBJ's folder or below it. A name
+:mod:`shellvox.loading._references`: they must lie in the OBJ's folder or below it. A name
 that points elsewhere (an absolute path written by the exporter, ``../textures/x.png``)
 is first looked for by its file name in the MTL's folder; if only the outside file
 exists, the model is refused unless ``--force`` is given (then it is read, with a
@@ -29,11 +29,11 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.config import LoadOptions
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading.obj._mtl import MtlEntry, fallback_factor, read_materials, texture_materials
-from pipeline.model import ColouredMesh
-from voxel.colour import encode_uint8
+from shellvox.config import LoadOptions
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading.obj._mtl import MtlEntry, fallback_factor, read_materials, texture_materials
+from shellvox.model import ColouredMesh
+from shellvox.voxel.colour import encode_uint8
 
 
 class _Statements(NamedTuple):

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from pipeline.loading.threemf._paint_tree import SCALE, decode
-from pipeline.loading.threemf._reader import read_3mf
+from shellvox.loading.threemf._paint_tree import SCALE, decode
+from shellvox.loading.threemf._reader import read_3mf
 
 __all__ = [
     "SCALE",

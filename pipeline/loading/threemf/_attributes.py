@@ -11,8 +11,8 @@ from xml.etree import ElementTree
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
-from pipeline.loading.threemf._properties import parse_numbers
+from shellvox.errors import InputError
+from shellvox.loading.threemf._properties import parse_numbers
 
 
 def triangle_properties(

@@ -12,7 +12,7 @@ accumulation, opaque.
 
 Layers without a texture give one colour per ``<multi>`` element: they become a colour
 table like a ``<colorgroup>``. A texture layer makes the colour vary inside a triangle,
-which a :class:`~pipeline.model._mesh.ColouredMesh` holds as a texture: the blend is *baked*
+which a :class:`~shellvox.model._mesh.ColouredMesh` holds as a texture: the blend is *baked*
 into a copy of the texture for each distinct combination of the other layers' colours
 (:func:`bake`), exact at the texels. A triangle whose corners name different colours in
 the other layers gets their mean (linear light), with a warning; a second texture layer
@@ -27,7 +27,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.colour import decode_uint8, encode_uint8
+from shellvox.voxel.colour import decode_uint8, encode_uint8
 
 Blend = Literal["mix", "multiply"]
 

@@ -2,7 +2,7 @@
 
 The archive is checked before anything is extracted: no entry may escape it, and entries
 may not expand beyond sane sizes (zip-bomb guard). Any broken entry (CRC, deflate data,
-encryption, malformed XML) is an :class:`~pipeline.errors.InputError`.
+encryption, malformed XML) is an :class:`~shellvox.errors.InputError`.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import zlib
 from pathlib import Path, PurePosixPath
 from xml.etree import ElementTree
 
-from pipeline.errors import InputError
+from shellvox.errors import InputError
 
 MODEL_REL = "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"
 MAX_ENTRY_BYTES = 4 * 1024**3

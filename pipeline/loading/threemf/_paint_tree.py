@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
+from shellvox.errors import InputError
 
 #: Deepest subdivision accepted (barycentric coordinates are integers of 2**DEPTH).
 DEPTH = 40

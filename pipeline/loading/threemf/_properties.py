@@ -4,12 +4,12 @@ Read from the part's ``<resources>`` (3MF Core 1.3 and Materials and Properties
 Extension 1.2): ``<colorgroup>`` and ``<basematerials>`` (display colours) as colour
 tables; ``<compositematerials>`` as the colour table of their mixtures (below);
 ``<texture2d>`` with ``<texture2dgroup>`` coordinates; ``<multiproperties>`` blended by
-:mod:`pipeline.loading.threemf._multi` into a colour table, or, with a texture layer,
-kept as a :class:`~pipeline.loading.threemf._multi.Layered` group to be baked.
+:mod:`shellvox.loading.threemf._multi` into a colour table, or, with a texture layer,
+kept as a :class:`~shellvox.loading.threemf._multi.Layered` group to be baked.
 
 A composite's colour is the mixture of its base materials' ``displaycolor`` in the
 composite's proportions (normalised as the spec says), mixed in linear light. A
-:class:`~pipeline.model._mesh.ColouredMesh` has no place for per-face material ratios, so only
+:class:`~shellvox.model._mesh.ColouredMesh` has no place for per-face material ratios, so only
 that colour is used, and the user is told so in a warning.
 """
 
@@ -24,13 +24,13 @@ from xml.etree import ElementTree
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.config import LoadOptions
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading._images import TextureRef, read_textures
-from pipeline.loading.threemf._multi import Layered, blend_methods, colour_table
-from pipeline.loading.threemf._package import read_entry
-from pipeline.model import FilterMode, Material, WrapMode
-from voxel.colour import decode_uint8, encode_uint8
+from shellvox.config import LoadOptions
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading._images import TextureRef, read_textures
+from shellvox.loading.threemf._multi import Layered, blend_methods, colour_table
+from shellvox.loading.threemf._package import read_entry
+from shellvox.model import FilterMode, Material, WrapMode
+from shellvox.voxel.colour import decode_uint8, encode_uint8
 
 CORE = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
 MATERIAL = "{http://schemas.microsoft.com/3dmanufacturing/material/2015/02}"

@@ -2,16 +2,16 @@
 
 trimesh reads 3MF geometry but drops colour groups and textures, and lib3mf does not
 give the slicers' paint attributes, so the package's XML is read here
-(:mod:`pipeline.loading.threemf._package` checks the archive first): the model ``unit``,
+(:mod:`shellvox.loading.threemf._package` checks the archive first): the model ``unit``,
 build items, components and their transforms, including components and items in other
 model parts (Production extension ``p:path``, as Bambu Studio and OrcaSlicer write
 them; only the root part may refer to other parts); per triangle or per corner the
-property groups of :mod:`pipeline.loading.threemf._properties` (colour groups, base and
+property groups of :mod:`shellvox.loading.threemf._properties` (colour groups, base and
 composite materials, textures, multiproperties); and multi-material paint of PrusaSlicer,
 Bambu Studio and OrcaSlicer with the project's filament colours
-(:mod:`pipeline.loading.threemf._slicer_paint`, :mod:`pipeline.loading.threemf._paint_tree`).
+(:mod:`shellvox.loading.threemf._slicer_paint`, :mod:`shellvox.loading.threemf._paint_tree`).
 Anything malformed (XML, zip CRC, colour strings, transforms, numbers, references) is an
-:class:`~pipeline.errors.InputError`.
+:class:`~shellvox.errors.InputError`.
 
 Reference: 3MF Core Specification 1.3, Materials and Properties Extension 1.2,
 Production Extension 1.2.
@@ -29,22 +29,22 @@ from xml.etree import ElementTree
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.config import UNIT_MM, LoadOptions
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading._combine import corner_colour_mesh, stack_parts
-from pipeline.loading._images import MAX_TEXTURE_PIXELS
-from pipeline.loading.threemf._attributes import check_index, transform_matrix, triangle_properties
-from pipeline.loading.threemf._multi import Layered, bake
-from pipeline.loading.threemf._package import check_archive, parse_xml, root_model_part
-from pipeline.loading.threemf._properties import (
+from shellvox.config import UNIT_MM, LoadOptions
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading._combine import corner_colour_mesh, stack_parts
+from shellvox.loading._images import MAX_TEXTURE_PIXELS
+from shellvox.loading.threemf._attributes import check_index, transform_matrix, triangle_properties
+from shellvox.loading.threemf._multi import Layered, bake
+from shellvox.loading.threemf._package import check_archive, parse_xml, root_model_part
+from shellvox.loading.threemf._properties import (
     CORE,
     Properties,
     parse_numbers,
     read_properties,
 )
-from pipeline.loading.threemf._slicer_paint import PAINT_ATTRIBUTES, paint_parts, read_project
-from pipeline.model import ColouredMesh, Material
-from voxel.colour import decode_uint8
+from shellvox.loading.threemf._slicer_paint import PAINT_ATTRIBUTES, paint_parts, read_project
+from shellvox.model import ColouredMesh, Material
+from shellvox.voxel.colour import decode_uint8
 
 PRODUCTION = "{http://schemas.microsoft.com/3dmanufacturing/production/2015/06}"
 UNITS_3MF = {

@@ -27,9 +27,9 @@ from xml.etree import ElementTree
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading.threemf._package import read_entry
-from pipeline.loading.threemf._paint_tree import split_painted
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading.threemf._package import read_entry
+from shellvox.loading.threemf._paint_tree import split_painted
 
 PRUSA_CONFIG = "Metadata/Slic3r_PE.config"
 PRUSA_MODEL = "Metadata/Slic3r_PE_model.config"
@@ -140,7 +140,7 @@ def paint_parts(
     path : Path
         The package, for messages.
     parts : list of dict
-        Mesh parts of :mod:`pipeline.loading.threemf._reader` (``vertices``, ``faces``, ``rgba``,
+        Mesh parts of :mod:`shellvox.loading.threemf._reader` (``vertices``, ``faces``, ``rgba``,
         ``uv``, ``material``, ``coloured``, ``paint`` (list of str or None), ``trail``).
     project : SlicerProject or None
         The slicer's project files, if the package has them.
@@ -148,7 +148,7 @@ def paint_parts(
     Returns
     -------
     list of dict
-        Painted parts split along the paint (:func:`~pipeline.loading.threemf._paint_tree.
+        Painted parts split along the paint (:func:`~shellvox.loading.threemf._paint_tree.
         split_painted`) with per-face colours; parts without paint coloured by their
         extruder when a project is present and the 3MF gives them no colour; the
         faces of volumes that are not model parts left out. Other parts unchanged.

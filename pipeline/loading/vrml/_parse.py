@@ -6,7 +6,7 @@ of scalars (numbers, strings, ``TRUE``/``FALSE``). Lists of numbers, the bulk of
 are parsed by numpy in one go. ``PROTO``/``EXTERNPROTO`` declarations and ``ROUTE``
 statements are skipped (their names are reported so that the reader can warn), ``#``
 comments and commas are whitespace. A malformed file is an
-:class:`~pipeline.errors.InputError` naming the line.
+:class:`~shellvox.errors.InputError` naming the line.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import Union
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
+from shellvox.errors import InputError
 
 FIX = "export it again as VRML 2.0"
 _SPACE = re.compile(r"(?:[\s,]+|#[^\n\r]*)*")

@@ -1,7 +1,7 @@
 """VRML 2.0 (``.wrl``): indexed face sets with per-vertex or per-face colour or a texture.
 
 The exchange format of colour printing services and printer front ends. The file is
-parsed by :mod:`pipeline.loading.vrml._parse`; this module walks the scene graph
+parsed by :mod:`shellvox.loading.vrml._parse`; this module walks the scene graph
 (``Transform`` with ``translation rotation scale scaleOrientation center``, ``Group``,
 ``Anchor``, ``Collision``, ``Billboard`` as a group, ``Switch`` by ``whichChoice``, the
 first ``LOD`` level, ``DEF``/``USE``) and reads every ``Shape`` whose geometry is an
@@ -10,7 +10,7 @@ transforms keep faces outward). Its colour, per ISO/IEC 14772-1 6.23 and 4.14:
 
 - ``ImageTexture`` with ``texCoord`` (``texCoordIndex``, else ``coordIndex``): the
   texture (``repeatS``/``repeatT``: repeat or clamp), first usable ``url`` under the path
-  policy of :mod:`pipeline.loading._references`; its colour replaces the material's
+  policy of :mod:`shellvox.loading._references`; its colour replaces the material's
   ``diffuseColor`` and a ``Color`` node beside it is ignored, as the spec says for RGB
   textures (greyscale "intensity" textures, which VRML multiplies with
   ``diffuseColor``, are read as RGB too);
@@ -36,13 +36,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.config import LoadOptions
-from pipeline.errors import InputError, ShellvoxWarning
-from pipeline.loading._combine import combine_parts
-from pipeline.loading._images import TextureRef, read_textures
-from pipeline.loading._references import check_inside, is_file
-from pipeline.loading.vrml._parse import FIX, Node, Value, parse_vrml
-from pipeline.model import ColouredMesh, Material, WrapMode
+from shellvox.config import LoadOptions
+from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.loading._combine import combine_parts
+from shellvox.loading._images import TextureRef, read_textures
+from shellvox.loading._references import check_inside, is_file
+from shellvox.loading.vrml._parse import FIX, Node, Value, parse_vrml
+from shellvox.model import ColouredMesh, Material, WrapMode
 
 GROUPS = ("Group", "Anchor", "Collision", "Billboard")
 #: Nodes without geometry or colour, skipped silently.

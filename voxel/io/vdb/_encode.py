@@ -1,8 +1,8 @@
 """The grids of ``volume.vdb`` cut from voxel rows into 8^3 leaves and tiles (no files).
 
 :class:`VdbEncoder` is a pure function of the rows, so the slab workers can encode their
-slabs and :class:`voxel.io.vdb._writer.VdbStackWriter` only appends the results to its spools
-(the grids are described in :mod:`voxel.io.vdb._writer`).
+slabs and :class:`shellvox.voxel.io.vdb._writer.VdbStackWriter` only appends the results to its
+spools (the grids are described in :mod:`shellvox.voxel.io.vdb._writer`).
 """
 
 from __future__ import annotations
@@ -13,13 +13,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
-from voxel.colour._srgb import codes_to_linear
-from voxel.grid import GridSpec
-from voxel.io.vdb._leaves import LEAF, GridSpool
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.colour._srgb import codes_to_linear
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io.vdb._leaves import LEAF, GridSpool
 
 GRID_NAMES = ("density", "layer", "color", "sdf")
-#: Grids whose leaves are runs of equal values (compressed by :mod:`voxel.io._deflate`).
+#: Grids whose leaves are runs of equal values (compressed by :mod:`shellvox.voxel.io._deflate`).
 RUN_GRIDS = ("density", "layer")
 #: The optional grid of material indices (after GRID_NAMES in the file).
 MATERIAL_GRID = "material"

@@ -1,8 +1,8 @@
 """OpenVDB's file format 224, written without OpenVDB: the file, each grid and its tree.
 
-Used by :mod:`voxel.io.vdb._writer` to stream ``volume.vdb``: leaves are encoded as
+Used by :mod:`shellvox.voxel.io.vdb._writer` to stream ``volume.vdb``: leaves are encoded as
 ``LeafNode::writeBuffers`` stores them and appended to a spool file per grid
-(:class:`voxel.io.vdb._leaves.GridSpool`); :func:`write_file` then writes the header, each
+(:class:`shellvox.voxel.io.vdb._leaves.GridSpool`); :func:`write_file` then writes the header, each
 grid's metadata and transform, the topology assembled from the leaf and tile lists (root,
 4096^3 and 128^3 internal nodes, leaf masks) and the spooled buffers in OpenVDB's
 depth-first order.
@@ -27,8 +27,8 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.grid import GridSpec
-from voxel.io.vdb._leaves import (
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io.vdb._leaves import (
     COPY_BYTES,
     L1,
     L2,

@@ -4,7 +4,8 @@
 leaf is encoded as ``LeafNode::writeBuffers`` stores it (value mask, then its active values
 only, zlib-compressed by ``io::writeCompressedValues`` / ``io::zipToStream`` with
 ``COMPRESS_ACTIVE_MASK | COMPRESS_ZIP``) and appended to a spool file; tiles and the
-leaves' places stay in memory until :func:`voxel.io.vdb._format.write_file` assembles the tree.
+leaves' places stay in memory until :func:`shellvox.voxel.io.vdb._format.write_file` assembles the
+tree.
 """
 
 from __future__ import annotations
@@ -18,9 +19,9 @@ from typing import BinaryIO
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel._compiled import kernel
-from voxel.io._compression import compress
-from voxel.io._deflate import compress_segments
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.io._compression import compress
+from shellvox.voxel.io._deflate import compress_segments
 
 #: io::writeCompressedValues metadata: inactive values are all the background; inactive
 #: values are +-background, chosen by a selection mask (on: +background).
@@ -116,8 +117,8 @@ class GridSpool:
         inside : (n, 512) bool, optional
             Level sets: where inactive values are -background.
         level : int or None
-            Of the values: None, the fast setting (:mod:`voxel.io._compression`); zlib's level; 0:
-            stored raw.
+            Of the values: None, the fast setting (:mod:`shellvox.voxel.io._compression`); zlib's
+            level; 0: stored raw.
         runs : bool
             Values are runs of equal numbers (density, layer): the compiled run encoder
             packs them in one call (about a quarter of zlib-ng's time per leaf, 2.6 times
@@ -183,7 +184,7 @@ def zipped(raw: bytes, level: int | None) -> bytes:
     """Return ``raw`` as io::zipToStream writes it: int64 size, then zlib data or raw bytes.
 
     A negative (or zero) size marks raw bytes, used when compression does not make them
-    smaller and for ``level`` 0 (None: the fast setting of :mod:`voxel.io._compression`).
+    smaller and for ``level`` 0 (None: the fast setting of :mod:`shellvox.voxel.io._compression`).
     """
     if raw and level != 0:
         packed = compress(raw, level)
@@ -197,7 +198,7 @@ def _zipped_all(
 ) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
     """Each leaf's values as io::zipToStream writes them, back to back, and their lengths.
 
-    int64 size, then zlib data (:func:`voxel.io._deflate.compress_segments`, runs of equal
+    int64 size, then zlib data (:func:`shellvox.voxel.io._deflate.compress_segments`, runs of equal
     float32 values found 4 bytes back); a negative (or zero) size marks raw bytes, used
     when compression does not make them smaller and for ``level`` 0.
     """

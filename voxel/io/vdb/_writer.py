@@ -27,7 +27,7 @@ and tile lists, and the spooled buffers are copied in tree order. Memory is the 
 28 bytes per leaf and 16 per tile while streaming, and about 100 bytes per leaf of one
 grid while the tree is assembled (sorted copies and sort keys).
 
-The bytes (OpenVDB's file format 224) are written by :mod:`voxel.io.vdb._format`. The tests
+The bytes (OpenVDB's file format 224) are written by :mod:`shellvox.voxel.io.vdb._format`. The tests
 read the files back with OpenVDB's own reader and compare them voxel for voxel with grids
 OpenVDB builds in memory from the same arrays.
 """
@@ -42,10 +42,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from voxel.grid import GridSpec
-from voxel.io.vdb._encode import VdbEncoder, grid_kinds
-from voxel.io.vdb._format import write_file
-from voxel.io.vdb._leaves import LEAF, GridSpool
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io.vdb._encode import VdbEncoder, grid_kinds
+from shellvox.voxel.io.vdb._format import write_file
+from shellvox.voxel.io.vdb._leaves import LEAF, GridSpool
 
 
 class VdbStackWriter:
@@ -61,10 +61,10 @@ class VdbStackWriter:
         Where the leaf spools go (default: the system's temporary folder); they are
         removed by :meth:`write` or :meth:`close`.
     compression_level : int, optional
-        Of the leaf values: None (default), the fast setting of :mod:`voxel.io._compression`, or
-        zlib's level 1-9 (hardly smaller on these grids: constant densities, integer
-        layers and texture colours). Level-set values hardly compress (about 0.92) and
-        are stored raw.
+        Of the leaf values: None (default), the fast setting of
+        :mod:`shellvox.voxel.io._compression`, or zlib's level 1-9 (hardly smaller on these grids:
+        constant densities, integer layers and texture colours). Level-set values hardly compress
+        (about 0.92) and are stored raw.
     material_grid : bool, optional
         Also write the ``material`` grid; then every :meth:`write_slab` gives `materials`.
 

@@ -1,0 +1,192 @@
+"""The offset shells of a build (:func:`~shellvox.offset.offset_shells`), before or beside voxels.
+
+With the ``"shells"`` layer rule the voxels are counted between the shells, so the shells
+come first, in this process. With the ``"distance"`` rule and ``shell_meshes`` they are a
+second realisation of the layers, computed beside the voxels in a spawned process
+(:class:`shellvox.run._children.ChildCall`: it dies with the build); the voxels do not depend
+on them, so a failure there is a warning, not an error. The shells for the files are
+cleaned and jittered here (:func:`shellvox.offset.for_file.shell_for_file`; in the spawned process
+when there is one); the voxels of the ``"shells"`` rule use them as computed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+import warnings
+from collections.abc import Iterator, Mapping
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+from tqdm import tqdm
+
+from shellvox.config import BuildConfig
+from shellvox.errors import ShellvoxWarning
+from shellvox.model import ColouredMesh
+from shellvox.offset.shells import Shell
+from shellvox.output import method_shells, ready_for_file
+from shellvox.run import ChildCall
+
+#: Seconds between updates of the shells' progress bar.
+TICK_S = 0.5
+
+
+class ShellsDone(NamedTuple):
+    """The shells for the files (None: none, or they failed) and the seconds of the wait."""
+
+    shells: list[Shell] | None
+    #: ``shells`` (computed beside the slabs) and ``shells_wait``; empty when computed first.
+    seconds: dict[str, float]
+
+
+class ShellJob:
+    """Offset shells of a build and the seconds they took.
+
+    With the "shells" rule the shells are computed when the job is made
+    (:attr:`first_seconds`); otherwise :meth:`wait` returns them with its seconds.
+
+    Parameters
+    ----------
+    mesh : ColouredMesh
+        The model.
+    thickness : (K, F) float64, mm
+        Thickness of each layer per face.
+    config : BuildConfig
+        ``layer_rule``, ``shell_meshes`` and ``shell_method``.
+    estimate_s : float
+        Their estimated time (:attr:`shellvox.estimate.BuildEstimate.shell_seconds`),
+        the length of their progress bar.
+    progress : bool or None
+        Show the progress bar; ``None``: only on a terminal.
+    """
+
+    def __init__(
+        self,
+        mesh: ColouredMesh,
+        thickness: NDArray[np.float64],
+        config: BuildConfig,
+        *,
+        estimate_s: float = 0.0,
+        progress: bool | None = None,
+    ) -> None:
+        self.mesh = mesh
+        self.thickness = thickness
+        self.config = config
+        self.estimate_s = estimate_s
+        self.progress = progress
+        self._pending: ChildCall[tuple[list[Shell], float]] | None = None
+        self._started = 0.0
+        #: The shells, once computed (at once with the "shells" rule).
+        self.shells: list[Shell] | None = None
+        #: ``shells``: the seconds of the shells computed at once (the "shells" rule).
+        self.first_seconds: Mapping[str, float] = {}
+        if config.layer_rule == "shells":
+            with self._bar(time.perf_counter()):
+                self.shells, shell_s = timed_shells(mesh.vertices, mesh.faces, thickness, config)
+            self.first_seconds = {"shells": shell_s}
+
+    @property
+    def writes_meshes(self) -> bool:
+        """The distance layers' build computes shell meshes beside the slabs."""
+        return self.config.layer_rule == "distance" and self.config.shell_meshes
+
+    def start_beside(self, stack: contextlib.ExitStack) -> None:
+        """Start the shells in another process, with the distance rule and shell meshes.
+
+        Call after the slab workers are forked; `stack` stops the process if the build
+        fails.
+        """
+        if self.writes_meshes:
+            call = ChildCall(  # a process that dies fails the call instead of hanging it
+                timed_shells,
+                self.mesh.vertices,
+                self.mesh.faces,
+                self.thickness,
+                self.config,
+                True,  # for_files: cleaned and jittered in that process
+            )
+            self._pending = stack.enter_context(call)
+            self._started = time.perf_counter()
+
+    def wait(self) -> ShellsDone:
+        """Return the shells ready for their files (waiting for the other process).
+
+        Their ``shells`` are None when there are none or they failed; the seconds are
+        those of the shells computed beside the slabs and of the wait for them. The files'
+        shells are cleaned and jittered (:func:`shellvox.offset.for_file.shell_for_file`); with the
+        "shells" rule :attr:`shells` stays as computed (the voxels' shells), and without
+        shell meshes to write those are what is returned.
+        """
+        if self._pending is None:
+            if self.shells is None or not self.config.shell_meshes:
+                return ShellsDone(self.shells, {})  # no files: the voxels' shells as computed
+            return ShellsDone(
+                [ready_for_file(s, self.config.shell_method).shell for s in self.shells], {}
+            )
+        tick = time.perf_counter()
+        seconds = {}
+        try:
+            with self._bar(self._started):
+                self.shells, seconds["shells"] = self._pending.result()
+        except Exception as error:  # the voxels do not depend on the shell meshes
+            warnings.warn(
+                f"{self.mesh.source}: the shell meshes failed ({error}); the voxel stack "
+                "is complete without shells/; rerun with --layers shells to see the error",
+                ShellvoxWarning,
+                stacklevel=3,
+            )
+        seconds["shells_wait"] = time.perf_counter() - tick
+        self._pending = None
+        return ShellsDone(self.shells, seconds)
+
+    @contextlib.contextmanager
+    def _bar(self, started: float) -> Iterator[None]:
+        """Show the seconds spent on the shells since `started` against their estimate."""
+        disable = None if self.progress is None else not self.progress
+        done = threading.Event()
+        bar = tqdm(
+            total=max(self.estimate_s, 1.0),
+            desc="shell meshes",
+            unit="s",
+            disable=disable,
+            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f} of about {total:.0f} s",
+        )
+
+        def tick() -> None:
+            while not done.wait(TICK_S):
+                elapsed = time.perf_counter() - started
+                if elapsed > 0.95 * bar.total:  # longer than estimated: the end moves on
+                    bar.total = elapsed / 0.95
+                bar.n = elapsed
+                bar.refresh()
+
+        ticker = threading.Thread(target=tick, name="shell-progress", daemon=True)
+        ticker.start()
+        try:
+            yield
+        finally:
+            done.set()
+            ticker.join()
+            bar.n = bar.total
+            bar.close()
+
+
+def timed_shells(
+    vertices: np.ndarray[Any, Any],
+    faces: np.ndarray[Any, Any],
+    thickness: np.ndarray[Any, Any],
+    config: BuildConfig,
+    for_files: bool = False,
+) -> tuple[list[Shell], float]:
+    """Return the offset shells of the model and the seconds they took (picklable).
+
+    With `for_files`, the shells are those for the files
+    (:func:`shellvox.offset.for_file.shell_for_file`: cleaned and jittered).
+    """
+    tick = time.perf_counter()
+    shells = method_shells(vertices, faces, thickness, method=config.shell_method).shells
+    if for_files:
+        shells = [ready_for_file(shell, config.shell_method).shell for shell in shells]
+    return shells, time.perf_counter() - tick

@@ -1,0 +1,36 @@
+"""The baselines of the shell report against analytic answers (offset/baselines.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from shellvox.offset.baselines import slicer_thickness, vertex_normal_offset
+
+
+def test_vertex_normal_offset_of_a_regular_icosahedron_is_a_smaller_icosahedron():
+    # Every vertex has five equal faces: its area-weighted normal is radial, so a uniform
+    # depth d moves each vertex from radius R to R - d.
+    ico = trimesh.creation.icosahedron()
+    vertices, faces = np.asarray(ico.vertices), np.asarray(ico.faces, np.int64)
+    radius = float(np.linalg.norm(vertices[0]))
+    (moved, moved_faces), (deeper, _) = vertex_normal_offset(
+        vertices, faces, np.array([[0.1] * 20, [0.3] * 20])
+    )
+    np.testing.assert_array_equal(moved_faces, faces)
+    np.testing.assert_allclose(np.linalg.norm(moved, axis=1), radius - 0.1, rtol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(deeper, axis=1), radius - 0.3, rtol=1e-12)
+    np.testing.assert_allclose(moved / (radius - 0.1), vertices / radius, atol=1e-12)
+
+
+def test_slicer_band_is_the_width_on_walls_and_nothing_under_a_flat_top():
+    # A slicer offsets each slice's contour by the width: on a vertical wall the band is
+    # the width along the normal; under a flat top the inset contour is reached at once
+    # (the known weakness of 2D contour offsets that the per-face offset fixes).
+    box = trimesh.creation.box((10.0, 10.0, 10.0))
+    points = np.array([[5.0, 1.0, 0.3], [-2.0, -5.0, -1.7], [1.0, 2.0, 5.0]])
+    normals = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, 1.0]])
+    band = slicer_thickness(box, 0.5, points, normals, layer_height_mm=0.1)
+    assert band[:2] == pytest.approx([0.5, 0.5], abs=1e-3)
+    assert band[2] < 1e-3  # zero, to the bisection's resolution

@@ -1,0 +1,29 @@
+"""The guard's bound at a point from the unsimplified shell's nearest point, analytically."""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from shellvox.offset.simplify import _raw_error_at_nearest
+from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface
+
+
+def test_a_point_off_an_exact_inset_may_err_by_its_distance_to_it():
+    # The unsimplified shell is the exact 0.5 mm inset of a 10 mm cube (no error of its
+    # own, subdivided so it has many triangles); points above its faces, moved outward by
+    # delta, lie 0.5 - delta deep: their error is delta, and the bound is exactly that.
+    cube = trimesh.creation.box((10.0, 10.0, 10.0))
+    inset = trimesh.creation.box((9.0, 9.0, 9.0)).subdivide().subdivide()
+    surface = SurfaceIndex.build(np.asarray(cube.vertices), np.asarray(cube.faces, np.int64))
+    depth = np.full(len(cube.faces), 0.5)
+    rng = np.random.default_rng(1)
+    delta = np.array([0.0005, 0.001, 0.002, 0.0029, 0.004])
+    at = np.column_stack([rng.uniform(-4.0, 4.0, (5, 2)), np.full(5, 4.5)])  # the top face
+    points = at + np.column_stack([np.zeros((5, 2)), delta])
+    true_error = np.abs(distance_to_surface(surface, points) - 0.5)
+    np.testing.assert_allclose(true_error, delta, atol=1e-12)
+    original = (np.asarray(inset.vertices), np.asarray(inset.faces, np.int64))
+    bound = _raw_error_at_nearest(surface, depth, original, points, moved=0.003)
+    np.testing.assert_allclose(bound[:4], true_error[:4], atol=1e-12)
+    assert np.isinf(bound[4])  # moved further than the tolerance: nothing vouches for it
