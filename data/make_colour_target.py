@@ -105,16 +105,16 @@ def build() -> tuple[
         uvs.append(uv.reshape(-1, 2))
         points.append(surface.reshape(-1, 3))
         offset += nv * nu
-    points = np.concatenate(points)
-    faces = np.concatenate(faces)
-    corner_uv = np.concatenate(uvs)[faces]
+    all_points = np.concatenate(points)
+    all_faces = np.concatenate(faces)
+    corner_uv = np.concatenate(uvs)[all_faces]
     # Merge the points shared by neighbouring faces (computed identically, so bit-equal).
-    vertices, inverse = np.unique(np.round(points, 9), axis=0, return_inverse=True)
-    faces = inverse.reshape(-1)[faces]
+    vertices, inverse = np.unique(np.round(all_points, 9), axis=0, return_inverse=True)
+    merged = inverse.reshape(-1)[all_faces]
     atlas = np.concatenate(
         [np.concatenate([_tile(3 * r + c) for c in range(3)], axis=1) for r in range(2)], axis=0
     )
-    return vertices, faces, corner_uv, atlas
+    return vertices, merged.astype(np.int64), corner_uv, atlas.astype(np.uint8)
 
 
 def write(out: Path = OUT) -> None:

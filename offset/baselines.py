@@ -109,13 +109,15 @@ def slicer_thickness(
                         -width_mm, join_style="mitre", mitre_limit=10.0
                     )
                 )
-        order = np.argsort(idx, kind="stable")
-        bounds = np.searchsorted(idx[order], np.r_[used, used[-1] + 1])
+        order: npt.NDArray[np.intp] = np.asarray(np.argsort(idx, kind="stable"))
+        bounds: npt.NDArray[np.intp] = np.asarray(
+            np.searchsorted(idx[order], np.r_[used, used[-1] + 1])
+        )
         result = np.zeros(len(q), dtype=bool)
         for j, i in enumerate(used):
             region = regions[int(i)]
             if region is not None:
-                sel = order[bounds[j] : bounds[j + 1]]
+                sel = order[int(bounds[j]) : int(bounds[j + 1])]
                 result[sel] = shapely.contains_xy(region, q[sel, 0], q[sel, 1])
         return result
 

@@ -36,7 +36,8 @@ if [ ${#need[@]} -gt 0 ]; then
     DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${need[@]}"
 fi
 
-# The venv uses the system interpreter: Debian's pyopenvdb is built for its ABI.
+# The venv uses the system interpreter; Debian's pyopenvdb (numpy 1.x) is not imported in it:
+# the tests read volume.vdb back in /usr/bin/python3 itself (tests/openvdb_worker.py).
 PYTHON=/usr/bin/python3
 stamp=.venv/.shellvox-installed
 want="$(cat requirements.lock pyproject.toml | sha256sum | cut -c1-16)"

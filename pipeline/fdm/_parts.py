@@ -62,7 +62,10 @@ def face_normals(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDA
     corner = vertices[faces]
     cross = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
     length = np.linalg.norm(cross, axis=1, keepdims=True)
-    return np.divide(cross, length, out=np.zeros_like(cross), where=length > 0)
+    normals: NDArray[np.float64] = np.divide(
+        cross, length, out=np.zeros_like(cross), where=length > 0
+    )
+    return normals
 
 
 def vertex_normals(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -82,7 +85,10 @@ def vertex_normals(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> N
         angle = np.arccos(np.clip(cos, -1.0, 1.0))
         np.add.at(total, faces[:, k], angle[:, None] * normal)
     length = np.linalg.norm(total, axis=1, keepdims=True)
-    return np.divide(total, length, out=np.zeros_like(total), where=length > 0)
+    normals: NDArray[np.float64] = np.divide(
+        total, length, out=np.zeros_like(total), where=length > 0
+    )
+    return normals
 
 
 def inner_vertices(

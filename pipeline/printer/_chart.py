@@ -116,7 +116,7 @@ def chart_layout(
             fractions = np.vstack([fractions, np.eye(len(roles))[black]])
             thickness = np.append(thickness, BASE_MM)
         n = np.maximum(1, np.rint(thickness / vz)).astype(np.int64)
-        patches.append(Patch(patch.patch_id, fractions, n * vz))
+        patches.append(Patch(patch.patch_id, fractions, (n * vz).astype(np.float64)))
         slices.append(n)
     count = len(patches)
     columns = columns or math.ceil(math.sqrt(count))
@@ -130,7 +130,7 @@ def chart_layout(
         (vx, vy, vz),
         (height, math.ceil(size_y / vy), math.ceil(size_x / vx)),
     )
-    order = np.arange(count)
+    order = np.arange(count, dtype=np.float64)
     col, row = order % columns, order // columns
     x0 = MARGIN_MM + col * pitch_x
     top = size_y - MARGIN_MM - row * pitch_y  # first row at the top (far y), read like a page

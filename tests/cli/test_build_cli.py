@@ -61,7 +61,7 @@ def test_build_then_inspect(tmp_path, model, capsys):
         drawn = (part | box).any(axis=1)
         last = first + np.argmin(drawn[first:])  # the full sections' rows
         rows, cols = np.nonzero(part[first:last, : part.shape[1] // 2])  # its colour half
-        assert (cols.ptp() + 1) / (rows.ptp() + 1) == pytest.approx(1.0, abs=0.05), name
+        assert (np.ptp(cols) + 1) / (np.ptp(rows) + 1) == pytest.approx(1.0, abs=0.05), name
 
 
 @pytest.mark.parametrize(

@@ -89,7 +89,8 @@ def lateral_reach(
     kb, sb = k[rows, band], s[rows, band]
     rate = np.sqrt(kb * (kb + 2.0 * sb))
     length = np.divide(1.0, rate, out=np.full(len(k), np.inf), where=rate > 0)
-    return np.clip(length, *limits_mm)
+    clipped: NDArray[np.float64] = np.clip(length, *limits_mm)
+    return clipped
 
 
 def _surface_quadrics(
@@ -222,7 +223,7 @@ class ModelReport:
         """
         aimed, target = np.asarray(aimed_lab, np.float64), np.asarray(target_lab, np.float64)
         predicted = self.predicted_lab()
-        seen = np.isfinite(predicted).all(1)
+        seen: NDArray[np.bool_] = np.all(np.isfinite(predicted), axis=1)
         total = np.full(len(aimed), np.nan)
         reproduction = np.full(len(aimed), np.nan)
         total[seen] = colour.delta_E(predicted[seen], target[seen], method="CIE 2000")

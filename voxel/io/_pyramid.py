@@ -119,8 +119,8 @@ def downsample_colour(
     shape = _shape(weight.shape, factors)
     out = np.zeros((*shape, colour.shape[-1]), dtype=np.uint8)
     total = np.zeros(shape, dtype=np.float32)
-    coloured_rows = np.asarray(weight).reshape(-1, weight.shape[-1]).any(axis=1)
-    coloured_rows = coloured_rows.reshape(weight.shape[:2])  # (Z, Y): rows with colour
+    any_colour = np.any(np.asarray(weight).reshape(-1, weight.shape[-1]), axis=1)
+    coloured_rows: NDArray[np.bool_] = np.reshape(any_colour, weight.shape[:2])  # (Z, Y)
     _mean_kernel(colour, weight, coloured_rows, DECODE_LUT_F32, *factors, out, total)
     return out, total
 

@@ -102,7 +102,7 @@ def write_solid(array: Any, z0: int, rows: NDArray[np.uint8]) -> None:
     Chunks outside the box hold void only and would not be stored anyway; leaving them out
     spares zarr the work (the shard's bytes are the same).
     """
-    solid = rows.reshape(-1, *rows.shape[-2:]).any(axis=0)
+    solid: NDArray[np.bool_] = np.any(rows.reshape(-1, *rows.shape[-2:]), axis=0)
     ys, xs = np.nonzero(solid.any(axis=1))[0], np.nonzero(solid.any(axis=0))[0]
     if not len(ys):
         return

@@ -209,7 +209,7 @@ class _Tree:
             out.write(zipped(b"", 0))
             for n in in_root:
                 leaves = slice(leaf_start[n], leaf_stop[n])
-                self._write_node1(out, spool, nodes1[n], leaves, tiles_by_node.get(n))
+                self._write_node1(out, spool, nodes1[n], leaves, tiles_by_node.get(int(n)))
                 if data is not None:  # LeafNode::writeTopology: the value masks
                     out.write(np.asarray(data[self.offset[leaves, None] + np.arange(64)]).tobytes())
 
