@@ -9,7 +9,7 @@ and inside functions too), so a rule broken by a lazy import counts.
 ``pipeline/``), bottom up (a module imports only its own layer and those below):
 
 0. bottom: ``shellvox`` (the version and the lazy public names), ``errors``, ``config``,
-   ``faults``, ``atomic``
+   ``faults``, ``atomic``, ``kernel_cache``
 1. ``model`` (the coloured mesh, textures, topology)
 2. ``loading``, ``thickness``, ``printer`` (side by side: none imports another)
 3. ``output`` (the folder, the streams, the manifest and its checks, shells, PLY) and, beside
@@ -38,7 +38,8 @@ VOXEL, OFFSET = "shellvox.voxel", "shellvox.offset"
 
 LAYERS = {
     "shellvox": 0, "shellvox.errors": 0, "shellvox.config": 0, "shellvox.faults": 0,
-    "shellvox.atomic": 0, "shellvox.model": 1, "shellvox.loading": 2, "shellvox.thickness": 2,
+    "shellvox.atomic": 0, "shellvox.kernel_cache": 0, "shellvox.model": 1,
+    "shellvox.loading": 2, "shellvox.thickness": 2,
     "shellvox.printer": 2, "shellvox.output": 3, "shellvox.fdm": 3, "shellvox.run": 4,
     "shellvox.stack": 5, "shellvox.tray": 6, "shellvox.api": 7, "shellvox.cli": 8,
 }  # fmt: skip

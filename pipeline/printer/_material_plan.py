@@ -42,8 +42,12 @@ def build_material_plan(
     *,
     colour_layers: tuple[int, ...],
     n_bands: int,
+    tables: DiskTables | None = None,
 ) -> MaterialPlan:
     """Return the plan for a stack of ``n_bands`` bands (core ``n_bands + 1``).
+
+    `tables` is where the separation's solved table is looked for and kept (default: the
+    shipped tables, then the user's cache, :meth:`DiskTables.default`).
 
     Raises
     ------
@@ -62,7 +66,7 @@ def build_material_plan(
                 f"use one of {sorted(r for r in roles if r != 'void')}",
             )
     clear = "clear" if "clear" in roles else None
-    separation = _separation(profile, settings, roles, clear)
+    separation = _separation(profile, settings, roles, clear, tables or DiskTables.default())
     try:
         return MaterialPlan(
             separation=separation,
@@ -84,6 +88,7 @@ def _separation(
     settings: MaterialSettings,
     roles: dict[str, int],
     clear: str | None,
+    tables: DiskTables,
 ) -> Separation:
     """Return the ICC separation when asked for, else the mixing model's."""
     if settings.icc is not None:
@@ -100,7 +105,7 @@ def _separation(
         except SeparationError as error:
             raise InputError(settings.icc, str(error), "give a CMYK output profile") from None
     opaque = tuple(role for role in OPAQUE_ORDER if role in roles)
-    return model_separation(profile.optics, opaque, clear_role=clear, store=DiskTables.default())
+    return model_separation(profile.optics, opaque, clear_role=clear, store=tables)
 
 
 def layer_model(

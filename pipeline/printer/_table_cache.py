@@ -1,9 +1,13 @@
-"""Solved lookup tables kept between runs, in ``$XDG_CACHE_HOME/shellvox``.
+"""Solved separation tables: shipped with the package, and kept between runs.
 
-:class:`DiskTables` is the store :func:`shellvox.voxel.colour._separation.mixing_separation` reads
-its solved mixing table from and writes it to (about two seconds to solve); ``voxel``
-itself does no file I/O beyond its writers. An unreadable or unwritable cache only
-costs the solve.
+A separation table (:mod:`shellvox.voxel.colour._model_separation`) is solved once per set
+of materials and optics: about half a minute. The tables of the shipped printer profiles
+ship with the package (``shellvox/printer/tables/``, made by ``scripts/make_tables.py``
+and checked against a fresh solve by ``tests/printer/test_shipped_tables.py``); any other
+(a user's profile, a calibrated one) is solved on first use and kept in
+``$XDG_CACHE_HOME/shellvox``. Each file is named by the key of the inputs it was solved
+from, so a table is only ever read for the inputs it answers. ``voxel`` itself does no
+file I/O beyond its writers; an unreadable or unwritable cache only costs the solve.
 """
 
 from __future__ import annotations
@@ -11,12 +15,16 @@ from __future__ import annotations
 import contextlib
 import os
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.atomic import atomic_path
+
+#: The tables shipped with the package (package data).
+SHIPPED = Path(str(resources.files("shellvox.printer") / "tables"))
 
 
 @dataclass(frozen=True)
@@ -26,7 +34,9 @@ class DiskTables:
     Parameters
     ----------
     folder : Path
-        Where the tables are kept (created on the first save).
+        Where solved tables are kept (created on the first save).
+    shipped : Path or None
+        A read-only folder looked in first (the package's tables).
 
     Examples
     --------
@@ -38,20 +48,26 @@ class DiskTables:
     """
 
     folder: Path
+    shipped: Path | None = None
 
     @classmethod
     def default(cls) -> DiskTables:
-        """Return the store in ``$XDG_CACHE_HOME/shellvox`` (``~/.cache/shellvox``)."""
+        """Return the package's tables, then ``$XDG_CACHE_HOME/shellvox`` (``~/.cache``)."""
         root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-        return cls(Path(root) / "shellvox")
+        return cls(Path(root) / "shellvox", SHIPPED)
 
     def load(self, key: str) -> NDArray[np.float32] | None:
         """Return the float32 table saved under `key`, or None (missing or unreadable)."""
-        try:
-            table: NDArray[np.float32] = np.load(self.folder / f"{key}.npy", allow_pickle=False)
-        except (OSError, ValueError):
-            return None
-        return table if table.dtype == np.float32 else None
+        for folder in (self.shipped, self.folder):
+            if folder is None:
+                continue
+            try:
+                table: NDArray[np.float32] = np.load(folder / f"{key}.npy", allow_pickle=False)
+            except (OSError, ValueError):
+                continue
+            if table.dtype == np.float32:
+                return table
+        return None
 
     def save(self, key: str, table: NDArray[np.float32]) -> None:
         """Save `table` under `key`; a folder that cannot be written is ignored."""

@@ -152,6 +152,7 @@ def test_parse_profile_reports_its_source():
 
 def test_pyproject_ships_the_profiles():
     pyproject = tomllib.loads((REPO / "pyproject.toml").read_text())
-    patterns = pyproject["tool"]["setuptools"]["package-data"]["shellvox"]
+    patterns = pyproject["tool"]["setuptools"]["package-data"]["shellvox.printer.profiles"]
     shipped = sorted(PROFILES.glob("*.toml"))
-    assert any(shipped == sorted((REPO / "pipeline").glob(p)) for p in patterns)
+    assert shipped
+    assert any(shipped == sorted(PROFILES.glob(p)) for p in patterns)

@@ -79,7 +79,7 @@ def table_key(optics: Optics, rows: tuple[int, ...], step: int) -> str:
     digest = hashlib.sha256()
     for array in (optics.wavelengths_nm, optics.k_per_mm[list(rows)], optics.s_per_mm[list(rows)]):
         digest.update(np.ascontiguousarray(array, np.float64).tobytes())
-    digest.update(repr((optics.k1, optics.k2, step, _TABLE_VERSION, np.__version__)).encode())
+    digest.update(repr((optics.k1, optics.k2, step, _TABLE_VERSION)).encode())
     return "kubelka-munk-" + digest.hexdigest()[:24]
 
 

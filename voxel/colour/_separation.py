@@ -233,13 +233,10 @@ def _mixing_table(
     """Return the mixing table ``(G, G, G, P) float32``.
 
     Solving it takes about two seconds, so it is kept in memory and, with a `store`, between
-    runs (keyed by the colours, the step, the model's version and numpy's).
+    runs (keyed by the colours, the step and the model's version).
     """
     key = (
-        "mixing-"
-        + hashlib.sha256(
-            repr((colours, step, _TABLE_VERSION, np.__version__)).encode()
-        ).hexdigest()[:24]
+        "mixing-" + hashlib.sha256(repr((colours, step, _TABLE_VERSION)).encode()).hexdigest()[:24]
     )
     cached = None if store is None else store.load(key)
     if cached is not None and cached.shape[-1] == len(colours):
