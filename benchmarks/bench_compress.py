@@ -1,22 +1,24 @@
-"""Deflate encoders on a build's own pages: the fast setting (zlib-ng), zlib level 1, runs.
+"""Deflate encoders on a build's own pages: the fast setting (zlib-ng 2) against zlib level 1.
+
+    python benchmarks/bench_compress.py [BUILD] [--every 20]
 
 Every file a build writes is deflate data, so the encoder's speed is paid per voxel. This
 reads the pages of a finished build (``layers.tif``, ``colour.tif``, ``materials.tif``
-and the slices of ``job.gcvf``), compresses every ``--every``-th one again with each
-encoder in this process, checks each stream inflates (zlib) to the page's bytes, and
-reports milliseconds and bytes per page, with the ratio to zlib's level 1 as the peer,
-and the time zlib takes to inflate each encoder's pages (what a reader pays).
-
-    .venv/bin/python benchmarks/bench_compress.py out/spot35
-
-Writes ``benchmarks/results/bench_compress.json``.
+and the slices of ``job.gcvf``; without BUILD, spot at 35 mm on the J750 grid is built
+first), compresses every ``--every``-th one again with each encoder in this process
+(zlib level 1, the peer; the fast setting; the run encoder; ISA-L where installed),
+checks each stream inflates (zlib) to the page's bytes, and reports milliseconds and
+bytes per page, the ratios to zlib's level 1, and the time zlib takes to inflate each
+encoder's pages (what a reader pays).
 """
 
 from __future__ import annotations
 
-import argparse
 import io
 import json
+import subprocess
+import sys
+import tempfile
 import time
 import zipfile
 import zlib
@@ -33,10 +35,16 @@ try:  # not a dependency (see voxel/io/_compression.py): measured where installe
 except ImportError:
     isal_zlib = None
 
+from _common import mesh_path, parser, scale_for, write_result
+
 from shellvox.voxel.io import compress, zlib_compress
 
-REPO = Path(__file__).resolve().parents[1]
-RESULTS = REPO / "benchmarks" / "results" / "bench_compress.json"
+NAME = "bench_compress"
+WHAT = (
+    "Milliseconds and bytes per page of the build's deflate encoders (the fast "
+    "setting, zlib-ng level 2, and the run encoder) on a build's own pages, against "
+    "zlib level 1 in the same process."
+)
 
 
 def _pages(build: Path, every: int) -> dict[str, tuple[list[bytes], int]]:
@@ -83,13 +91,20 @@ def _time(encode: Callable[[bytes], bytes], pages: list[bytes]) -> dict[str, flo
     return row
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("build", type=Path, help="a build's output folder")
-    parser.add_argument("--every", type=int, default=20, help="take every N-th page")
-    args = parser.parse_args()
-    results: dict[str, Any] = {"build": str(args.build), "every": args.every, "stacks": {}}
-    for name, (pages, period) in _pages(args.build, args.every).items():
+def build(out: Path, quick: bool) -> None:
+    """Build spot at 35 mm on the J750 grid into `out` (quick: 5 mm) to read its pages."""
+    size = 5.0 if quick else 35.0
+    command = [
+        sys.executable, "-m", "shellvox.cli", "build", str(mesh_path("spot")), "-o", str(out),
+        "--printer", "j750", "--scale", repr(scale_for("spot", size)), "--no-progress",
+        "--format", "tiff,gcvf",
+    ]  # fmt: skip
+    subprocess.run(command, check=True, capture_output=True)
+
+
+def measure(build: Path, every: int) -> dict[str, Any]:
+    results: dict[str, Any] = {"every": every, "stacks": {}}
+    for name, (pages, period) in _pages(build, every).items():
         row: dict[str, Any] = {"pages": len(pages), "raw_bytes_per_page": len(pages[0])}
         row["zlib-1"] = _time(lambda b: zlib.compress(b, 1), pages)
         row["fast (zlib-ng 2)"] = _time(compress, pages)
@@ -108,8 +123,46 @@ def main() -> None:
                 row["isal-1"]["bytes_per_page"] / peer["bytes_per_page"], 3
             )
         results["stacks"][name] = row
-        print(name, json.dumps(row))
-    RESULTS.write_text(json.dumps(results, indent=1) + "\n")
+        print(name, json.dumps(row), flush=True)
+    return results
+
+
+def summary(details: dict[str, Any]) -> list[dict[str, Any]]:
+    return [
+        {
+            "stack": name,
+            "pages": row["pages"],
+            "raw_bytes_per_page": row["raw_bytes_per_page"],
+            "zlib1_ms_per_page": row["zlib-1"]["ms_per_page"],
+            "fast_ms_per_page": row["fast (zlib-ng 2)"]["ms_per_page"],
+            "fast_time_over_zlib1": row["fast time / zlib-1"],
+            "fast_size_over_zlib1": row["fast size / zlib-1"],
+            "run_encoder_ms_per_page": row["run encoder"]["ms_per_page"],
+        }
+        for name, row in details["stacks"].items()
+    ]
+
+
+def main() -> None:
+    parsed = parser(__doc__)
+    parsed.add_argument("build", nargs="?", type=Path, help="a build's output folder")
+    parsed.add_argument("--every", type=int, default=20, help="take every N-th page")
+    args = parsed.parse_args()
+    if args.build is not None:
+        details = {"build": str(args.build), **measure(args.build, args.every)}
+    else:
+        with tempfile.TemporaryDirectory() as folder:
+            build(Path(folder) / "build", args.quick)
+            details = {
+                "build": "spot at 35 mm on the J750 grid (--format tiff,gcvf)"
+                if not args.quick
+                else "spot at 5 mm on the J750 grid (--format tiff,gcvf)",
+                **measure(Path(folder) / "build", 1 if args.quick else args.every),
+            }
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(details), "details": details}, quick=args.quick
+    )
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

@@ -1,14 +1,13 @@
-"""Random-time SIGINT / SIGTERM / SIGKILL trials on a real build (issue 9, done-when).
+"""Random-time SIGINT / SIGTERM / SIGKILL trials on a real build: the failure contract.
 
-Usage (from the repository root)::
-
-    nice .venv/bin/python benchmarks/bench_faults.py --trials 50
+    nice python benchmarks/bench_faults.py [--trials 50] [--voxel-size 0.06]
 
 Each trial: a fast build into a fresh folder (an older build to replace), then the
 measured build into the same folder (``--voxel-size``, shell meshes on, 2 workers, slabs
 of 16 MB so both workers run: about 30 s uninterrupted, measured first and recorded), a
 signal to its main process at a uniformly random time within that duration (a third of
-the trials each signal, shuffled), then the next (fast) build into the same folder. Counted:
+the trials each signal, shuffled), then the next (fast) build into the same folder. The
+peer is the contract itself (every count should be 0). Counted:
 
 * ``orphans``: trials where a process of the run (its process group: slab workers, the
   shell process, multiprocessing's resource tracker) was alive 2 s after the main exited;
@@ -22,16 +21,16 @@ the trials each signal, shuffled), then the next (fast) build into the same fold
   ``folder_mixed_after_signal`` (SIGINT/SIGTERM: the folder neither empty nor one whole
   build), ``next_failed`` (the next build did not succeed and verify).
 
-Results go to ``benchmarks/results/bench_faults.json``.
+Processes are found by scanning ``/proc`` (a run is started in a session of its own, so
+its process group is its pid), as the tests' fault harness does.
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
+import hashlib
 import json
 import os
-import platform
 import random
 import shutil
 import signal
@@ -40,28 +39,168 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+from _common import DEFAULT_MODEL, load_average, parser, write_result
 
-from fault_harness import (  # noqa: E402
-    MODEL,
-    Command,
-    build_argv,
-    holds_nothing,
-    temporary_files,
-    verified_files,
+NAME = "bench_faults"
+WHAT = (
+    "Random-time SIGINT, SIGTERM and SIGKILL during a real build: breaches of the "
+    "failure contract (exit status, one error line, no traceback, no orphan process, "
+    "no temporary or mixed files, the next build succeeds); the peer is the contract "
+    "(every count 0)."
 )
-
+MODEL = DEFAULT_MODEL
 EXPECTED = {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGKILL: -signal.SIGKILL}
+
+#: Names shellvox gives its temporary files; no shellvox output starts with a dot.
+TEMPORARY_HINTS = (".partial", ".vdb-spool", ".staging", ".shellvox.lock")
+
+#: A build of the default model that takes a few seconds (71 x 171 x 251 voxels).
+FAST = (
+    "--voxel-size", "0.1,0.1,0.1", "--workers", "2", "--slab-mb", "16",
+    "--no-shell-meshes", "--no-progress",
+)  # fmt: skip
+
+
+# ------------------------------------------------------------- runs and their processes
+
+
+def group(pgid: int) -> list[tuple[int, str]]:
+    """Return ``(pid, command line)`` of the live (not zombie) processes of a group."""
+    found = []
+    for entry in os.scandir("/proc"):
+        if not entry.name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry.name}/stat", encoding="ascii", errors="replace") as stream:
+                stat = stream.read()
+            with open(f"/proc/{entry.name}/cmdline", "rb") as stream:
+                cmdline = stream.read().replace(b"\0", b" ").decode(errors="replace").strip()
+        except OSError:  # gone meanwhile
+            continue
+        # "pid (comm) state ppid pgrp ...": comm may hold spaces and parentheses
+        fields = stat[stat.rindex(")") + 2 :].split()
+        if fields[0] not in ("Z", "X") and int(fields[2]) == pgid:
+            found.append((int(entry.name), cmdline))
+    return found
+
+
+@dataclass
+class Run:
+    """A finished (or hung: ``status`` None) run, and its processes alive after it."""
+
+    status: int | None
+    stderr: str
+    seconds: float
+    left: list[tuple[int, str]] = field(default_factory=list)
+
+
+class Command:
+    """A ``python -m shellvox.cli ...`` process in its own session, output to files.
+
+    Output goes to files, not pipes: an orphaned child holding a pipe would block a reader.
+    """
+
+    def __init__(self, argv: list[str], workdir: Path) -> None:
+        workdir.mkdir(parents=True, exist_ok=True)
+        (workdir / "tmpdir").mkdir(exist_ok=True)
+        self._err = open(workdir / "stderr.txt", "w+b")  # noqa: SIM115
+        environment = dict(os.environ, TMPDIR=str(workdir / "tmpdir"), COLUMNS="200")
+        environment.pop("PYTHONWARNINGS", None)
+        self.started = time.monotonic()
+        self.popen = subprocess.Popen(
+            [sys.executable, "-m", "shellvox.cli", *map(str, argv)],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=self._err,
+            cwd=workdir,
+            env=environment,
+            start_new_session=True,
+        )
+        self.pid = self.popen.pid
+
+    def finish(self, timeout: float = 120.0, grace: float = 2.0) -> Run:
+        """Wait for the main process, then up to `grace` s for its group to vanish.
+
+        A run that does not exit within `timeout` s is killed (with its group) and
+        reported with ``status=None``; processes left after `grace` are reported, then killed.
+        """
+        try:
+            status: int | None = self.popen.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            status = None
+        seconds = time.monotonic() - self.started
+        deadline = time.monotonic() + grace
+        left = group(self.pid)
+        while left and time.monotonic() < deadline:
+            time.sleep(0.05)
+            left = group(self.pid)
+        if status is None or left:
+            for pid, _ in left:
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGKILL)
+            self.popen.kill()
+            self.popen.wait()
+        self._err.flush()
+        self._err.seek(0)
+        stderr = self._err.read().decode(errors="replace")
+        self._err.close()
+        return Run(status, stderr, seconds, left)
+
+
+def build_argv(out: Path, *extra: str) -> list[str]:
+    """Return the arguments of a fast build of the default model into `out`."""
+    return ["build", str(MODEL), "-o", str(out), *FAST, *extra]
+
+
+def temporary_files(folder: Path) -> list[Path]:
+    """Return what a run left in `folder` (recursively) that is not a shellvox output."""
+    if not folder.exists():
+        return []
+    return sorted(
+        path
+        for path in folder.rglob("*")
+        if path.name.startswith(".") or any(hint in path.name for hint in TEMPORARY_HINTS)
+    )
+
+
+def holds_nothing(folder: Path) -> bool:
+    """Return whether `folder` is absent or empty (no build, no temporary file)."""
+    return not folder.exists() or not any(folder.rglob("*"))
+
+
+def verified_files(folder: Path) -> None:
+    """Check a finished build against its manifest (every file, size and SHA-256)."""
+    import tifffile
+
+    manifest = json.loads((folder / "manifest.json").read_text())
+    present = {str(p.relative_to(folder)) for p in folder.rglob("*") if not p.is_dir()}
+    assert present == {"manifest.json", *manifest["files"]}, present
+    for name, record in manifest["files"].items():
+        data = (folder / name).read_bytes()
+        assert len(data) == record["bytes"], name
+        assert hashlib.sha256(data).hexdigest() == record["sha256"], name
+    n_z, n_y, n_x = manifest["grid"]["shape_zyx"]
+    for name in ("layers.tif", "colour.tif"):
+        with tifffile.TiffFile(folder / name) as tif:
+            assert len(tif.pages) == n_z
+            assert tif.pages[0].shape[:2] == (n_y, n_x)
+
+
+# ------------------------------------------------------------------------------ trials
+
+
+#: The measured build's shell option (``--quick``: none, the shell process takes ~20 s).
+SHELLS = ["--shell-meshes"]
 
 
 def measured_argv(out: Path, voxel: str) -> list[str]:
     return [
         "build", str(MODEL), "-o", str(out), "--voxel-size", voxel,
-        "--workers", "2", "--slab-mb", "16", "--shell-meshes", "--no-progress",
+        "--workers", "2", "--slab-mb", "16", *SHELLS, "--no-progress",
     ]  # fmt: skip
 
 
@@ -100,7 +239,7 @@ def trial(index: int, signum: int, delay: float, voxel: str, root: Path) -> dict
         status=result.status,
         exit_after_signal_s=round(exited, 2) if result.status is not None else None,
         hang=result.status is None,
-        orphans=[f"{p.pid} {p.cmdline[:100]}" for p in result.left],
+        orphans=[f"{pid} {cmdline[:100]}" for pid, cmdline in result.left],
         traceback="Traceback" in result.stderr,
         stderr_tail=result.stderr.strip().splitlines()[-3:],
     )
@@ -126,33 +265,67 @@ def trial(index: int, signum: int, delay: float, voxel: str, root: Path) -> dict
     return record
 
 
-def _commit() -> str | None:
-    """The code's commit: git's, or $SHELLVOX_COMMIT for an exported copy."""
-    try:
-        done = subprocess.run(
-            ["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
-            capture_output=True,
-            text=True,
-            check=True,
-        )
-        return done.stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return os.environ.get("SHELLVOX_COMMIT")
+def totals(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """The counts over all trials (each should be 0 but ``finished_before_signal``)."""
+
+    def count(key: str) -> int:
+        return sum(1 for r in records if r.get(key))
+
+    return {
+        "trials": len(records),
+        "by_signal": {k: sum(1 for r in records if r["signal"] == k) for k in SIGNALS},
+        "orphans": count("orphans"),
+        "tracebacks": count("traceback"),
+        "leftovers_after_next": count("leftovers_after_next"),
+        "hangs": count("hang"),
+        "wrong_exit": count("wrong_exit"),
+        "not_one_line": count("not_one_line"),
+        "leftovers_after_signal": count("leftovers_after_signal"),
+        "folder_mixed_after_signal": sum(
+            1 for r in records if r.get("folder_after_signal") == "mixed"
+        ),
+        "next_failed": sum(1 for r in records if not r["next_verifies"]),
+        "finished_before_signal": count("finished_before_signal"),
+        "max_exit_after_signal_s": max(
+            ((r["exit_after_signal_s"] or 0.0) for r in records if r["signal"] != "SIGKILL"),
+            default=None,
+        ),
+    }
+
+
+SIGNALS = ("SIGINT", "SIGTERM", "SIGKILL")
+
+
+def summary(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per signal: its trials and the count of each breach of the contract."""
+    rows = []
+    for name in SIGNALS:
+        mine = [r for r in records if r["signal"] == name]
+        if not mine:
+            continue
+        row = totals(mine)
+        del row["by_signal"], row["trials"]
+        if name == "SIGKILL":  # no clean exit is promised: only exit, processes and next
+            for key in ("not_one_line", "leftovers_after_signal", "folder_mixed_after_signal"):
+                row[key] = None
+            row["max_exit_after_signal_s"] = None
+        rows.append({"signal": name, "trials": len(mine), **row})
+    return rows
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--trials", type=int, default=50)
-    parser.add_argument("--voxel-size", default="0.06", help="of the measured build (mm)")
-    parser.add_argument("--seed", type=int, default=9)
-    parser.add_argument(
-        "--output", type=Path, default=ROOT / "benchmarks" / "results" / "bench_faults.json"
-    )
-    args = parser.parse_args()
+    parsed = parser(__doc__)
+    parsed.add_argument("--trials", type=int, default=50)
+    parsed.add_argument("--voxel-size", default="0.06", help="of the measured build (mm)")
+    parsed.add_argument("--seed", type=int, default=9)
+    args = parsed.parse_args()
+    if args.quick:
+        args.trials, args.voxel_size = 2, "0.2"
+        SHELLS.clear()
     rng = random.Random(args.seed)
     root = Path(tempfile.mkdtemp(prefix="bench_faults."))
     started = time.time()
-    load_start = os.getloadavg()
+    load_start = load_average()
     baseline = []
     for k in range(2):  # the uninterrupted duration of the measured build
         out = root / f"baseline{k}"
@@ -170,50 +343,23 @@ def main() -> None:
         records.append(trial(index, signum, delay, args.voxel_size, root))
         print(json.dumps(records[-1]), flush=True)
     shutil.rmtree(root, ignore_errors=True)
-
-    def count(key: str) -> int:
-        return sum(1 for r in records if r.get(key))
-
-    summary = {
-        "trials": len(records),
-        "by_signal": {k.name: signals.count(k) for k in kinds},
-        "orphans": count("orphans"),
-        "tracebacks": count("traceback"),
-        "leftovers_after_next": count("leftovers_after_next"),
-        "hangs": count("hang"),
-        "wrong_exit": count("wrong_exit"),
-        "not_one_line": count("not_one_line"),
-        "leftovers_after_signal": count("leftovers_after_signal"),
-        "folder_mixed_after_signal": sum(
-            1 for r in records if r.get("folder_after_signal") == "mixed"
-        ),
-        "next_failed": sum(1 for r in records if not r["next_verifies"]),
-        "finished_before_signal": count("finished_before_signal"),
-        "max_exit_after_signal_s": max(
-            (r["exit_after_signal_s"] or 0.0) for r in records if r["signal"] != "SIGKILL"
-        ),
-    }
-    result = {
-        "benchmark": "bench_faults",
-        "command": "build data/colour_target/colour_target.obj --voxel-size "
-        f"{args.voxel_size} --workers 2 --slab-mb 16 --shell-meshes (signal to the main process)",
+    details = {
+        "measured_build": "shellvox build data/colour_target/colour_target.obj "
+        f"--voxel-size {args.voxel_size} --workers 2 --slab-mb 16 {' '.join(SHELLS)} "
+        "(signal to the main process)",
         "uninterrupted_s": [round(b, 1) for b in baseline],
         "signal_time": f"uniform in [0, {duration:.1f}] s after the start",
         "seed": args.seed,
-        "commit": _commit(),
-        "machine": {
-            "cpus": os.cpu_count(),
-            "python": platform.python_version(),
-            "load_average_1_5_15_min_at_start": [round(x, 2) for x in load_start],
-            "load_average_1_5_15_min_at_end": [round(x, 2) for x in os.getloadavg()],
-        },
+        "load_average_1_5_15_min_at_start": load_start,
         "wall_minutes": round((time.time() - started) / 60, 1),
-        "summary": summary,
+        "totals": totals(records),
         "trials": records,
     }
-    args.output.parent.mkdir(parents=True, exist_ok=True)
-    args.output.write_text(json.dumps(result, indent=1) + "\n")
-    print(json.dumps(summary, indent=1))
+    print(json.dumps(details["totals"], indent=1))
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(records), "details": details}, quick=args.quick
+    )
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

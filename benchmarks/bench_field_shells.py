@@ -1,77 +1,162 @@
-"""Field shells (``shellvox shells --method field``): speed against OpenVDB, validity.
+"""Field shells (``shellvox shells``, the default method): speed against OpenVDB, validity,
+and agreement with the exact (robust) construction.
 
-Usage: .venv/bin/python benchmarks/bench_field_shells.py [--part speed|meshes|both]
-       [--out benchmarks/results/bench_field_shells.json] [--only NAME,...]
+    python benchmarks/bench_field_shells.py [--part speed|meshes|agreement ...]
+        [--only NAME,...]
 
-speed: ../shared/meshes/spot with two Loop subdivisions (93,696 faces) at 100 mm, layers
-0.5 + 1.0 mm: the whole ``shellvox shells MODEL -o DIR --thickness 0.5,1.0 --no-baselines``
-command (a child process: load, field, meshing, simplification, cleaning, files, report)
-against OpenVDB's ``createLevelSetFromPolygons`` of the same mesh at 0.05 mm voxels with a
-narrow band reaching 1.5 mm (half width ceil(1.5 / 0.05) + 2 voxels), in the same run.
+``speed``: spot with two Loop subdivisions (93,696 faces) at 100 mm, layers 0.5 + 1.0 mm:
+the whole ``shellvox shells MODEL -o DIR --thickness 0.5,1.0 --no-baselines`` command (a
+child process: load, field, meshing, simplification, cleaning, files, report) against
+OpenVDB's ``createLevelSetFromPolygons`` of the same mesh at 0.05 mm voxels with a narrow
+band reaching 1.5 mm (half width ceil(1.5 / 0.05) + 2 voxels), in the same session.
 
-meshes: the shells of every shared mesh (sizes as in bench_offset.py; 3MF files as they are),
-each timed as one command.
+``meshes``: the shells of every shared mesh (the 3MF files as they are), each timed as one
+command (``--only``: some of them).
 
 Both read the files back: trimesh (merged vertices: closed, oriented), MeshLab (duplicate
-vertices removed: self-intersecting faces, 2-manifold), the project's crossing test over both
-shells together (nested: no crossing, and shell 2's vertices inside shell 1 by winding
-numbers), and ``|d - D|`` with libigl's exact distances at 200,000 area-weighted samples and
-every vertex (p50, p99 as % of D, max mm). A benchmark, not a test.
+vertices removed: self-intersecting faces, 2-manifold; in a process of its own), the
+project's crossing test over both shells together (nested: no crossing, and shell 2's
+vertices inside shell 1 by winding numbers), and ``|d - D|`` with libigl's exact
+distances at 200,000 area-weighted samples and every vertex (p50, p99 as % of D, max mm).
+
+``agreement``: the 93,696-face spot by the default method and by ``--method robust``
+(minutes), each a child process; per layer, volumes, and distances from 200,000
+area-weighted samples and every vertex of each shell to the other, both ways (p50, p99,
+max; the Hausdorff distance is the larger maximum).
+
+Running some parts keeps the others' results from the current result file.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import os
+import multiprocessing
+import re
 import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import trimesh
+from _common import load_average, mesh_path, parser, previous_details, write_result
+from _openvdb import level_set_seconds
 
-from shellvox.loading import load_model
-from shellvox.offset.intersections import intersecting_pairs
+from shellvox import load_model
+from shellvox.offset.intersections import count_self_intersections, intersecting_pairs
 from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface, winding_numbers
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
-sys.path.insert(0, str(ROOT / "benchmarks"))
-from bench_offset import SHARED, load_shared  # noqa: E402
-from openvdb_module import load_openvdb  # noqa: E402
-from shell_file_checks import meshlab_checks, trimesh_checks  # noqa: E402
-
+NAME = "bench_field_shells"
+WHAT = (
+    "The whole shellvox shells command (field method, layers 0.5 + 1.0 mm) against "
+    "OpenVDB's mesh-to-level-set of the same mesh at 0.05 mm with a band to 1.5 mm, "
+    "and the shells' validity and depth error on every shared mesh."
+)
+PARTS = ("speed", "meshes", "agreement")
 THICKNESS = "0.5,1.0"
 DEPTHS = (0.5, 1.5)
+#: name -> (shared mesh, largest side mm; None: a 3MF as it is)
 MESHES = {
-    "spot_100mm": ("spot/spot_triangulated.obj", 100.0),
-    "bunny_50mm": ("bunny/bunny.obj", 50.0),
-    "duck_50mm": ("duck/Duck.glb", 50.0),
-    "airplane_100mm": ("airplane/colored_airplane.ply", 100.0),
-    "box_textured_20mm": ("box-textured/BoxTextured.glb", 20.0),
-    "cube_vertexcolor_20mm": ("cube-vertexcolor/cube_with_vertexcolors.obj", 20.0),
-    "rhombicuboctahedron_3mf": ("3mf/rhombicuboctahedron_color.3mf", None),
-    "pyramid_3mf": ("3mf/pyramid_vertexcolor.3mf", None),
-    "box_3mf": ("3mf/box.3mf", None),
+    "spot_100mm": ("spot", 100.0),
+    "bunny_50mm": ("bunny", 50.0),
+    "duck_50mm": ("duck", 50.0),
+    "airplane_100mm": ("airplane", 100.0),
+    "box_textured_20mm": ("box_textured", 20.0),
+    "cube_vertexcolor_20mm": ("cube_vertexcolor", 20.0),
+    "rhombicuboctahedron_3mf": ("rhombicuboctahedron_3mf", None),
+    "pyramid_3mf": ("pyramid_3mf", None),
+    "box_3mf": ("box_3mf", None),
 }
+
+
+def load_shared(name: str, size_mm: float, subdivisions: int = 0) -> trimesh.Trimesh:
+    """Load a shared mesh merged by position, Loop-subdivided, largest extent `size_mm`."""
+    raw = trimesh.load(mesh_path(name), force="mesh")
+    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
+    mesh.merge_vertices(merge_tex=True, merge_norm=True)
+    if subdivisions > 0:
+        mesh = mesh.subdivide_loop(iterations=subdivisions)
+    mesh.apply_scale(size_mm / mesh.extents.max())
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    return mesh
 
 
 def run_shells(model: Path, out: Path, extra: list[str]) -> float:
     """Run ``shellvox shells`` as a child process and return its wall time (s)."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
     command = [sys.executable, "-m", "shellvox.cli", "shells", str(model), "-o", str(out)]
     start = time.perf_counter()
     subprocess.run(
-        [*command, "--thickness", THICKNESS, "--no-baselines", "--method", "field", *extra],
+        [*command, "--thickness", THICKNESS, "--no-baselines", *extra],
         check=True,
-        env=env,
+        stdout=subprocess.DEVNULL,
     )
     return time.perf_counter() - start
+
+
+# ------------------------------------------------------------------ reading back
+
+
+def _zero_area(vertices: np.ndarray, faces: np.ndarray) -> int:
+    tri = vertices[faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    return int(np.count_nonzero(np.linalg.norm(cross, axis=1) == 0.0))
+
+
+def trimesh_checks(path: Path) -> dict[str, Any]:
+    """Read with trimesh, merge coincident vertices (as a slicer does), and measure."""
+    mesh = trimesh.load(path, process=False, force="mesh")
+    n_vertices = len(mesh.vertices)
+    mesh.merge_vertices()
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces, dtype=np.int64)
+    normals = np.asarray(mesh.face_normals)
+    pairs = np.asarray(mesh.face_adjacency)
+    dot = np.einsum("ij,ij->i", normals[pairs[:, 0]], normals[pairs[:, 1]])
+    return {
+        "merged_vertices": n_vertices - len(v),
+        "closed": bool(mesh.is_watertight),
+        "oriented": bool(mesh.is_winding_consistent) and float(mesh.volume) > 0,
+        "zero_area_faces": _zero_area(v, f),
+        "self_intersections": count_self_intersections(v, f),
+        "folded_edges": int(np.count_nonzero(dot < -1.0 + 1e-6)),  # faces back to back
+        "n_faces": len(f),
+    }
+
+
+def _meshlab(path: str) -> dict[str, Any]:
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(path)
+    ms.meshing_remove_duplicate_vertices()
+    topo = ms.get_topological_measures()
+    mesh = ms.current_mesh()
+    ms.compute_selection_by_self_intersections_per_face()
+    return {
+        "two_manifold": bool(topo["is_mesh_two_manifold"]),
+        "boundary_edges": int(topo["boundary_edges"]),
+        "non_manifold_edges": int(topo["non_two_manifold_edges"]),
+        "non_manifold_vertices": int(topo["non_two_manifold_vertices"]),
+        "zero_area_faces": _zero_area(mesh.vertex_matrix(), mesh.face_matrix()),
+        "self_intersecting_faces": int(ms.current_mesh().selected_face_number()),
+        "n_faces": int(mesh.face_number()),
+    }
+
+
+def meshlab_checks(path: Path) -> dict[str, Any]:
+    """MeshLab's reading of a shell, in a spawned process (pymeshlab crashes now and then)."""
+    for _ in range(2):
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(1, mp_context=context) as pool:
+            try:
+                return pool.submit(_meshlab, str(path)).result(900)
+            except BrokenProcessPool:
+                continue
+    return {"crashed": "MeshLab's process died twice"}
 
 
 def validity(mesh: trimesh.Trimesh, out: Path) -> dict[str, Any]:
@@ -112,98 +197,160 @@ def validity(mesh: trimesh.Trimesh, out: Path) -> dict[str, Any]:
     }
 
 
-def speed(work: Path) -> dict[str, Any]:
-    """Time the command on the 93,696-face spot and OpenVDB's level set, same run."""
-    mesh = load_shared("spot/spot_triangulated.obj", 100.0, subdivisions=2)
-    model = work / "spot94k.ply"
+# ------------------------------------------------------------------------ parts
+
+
+def speed(work: Path, quick: bool) -> dict[str, Any]:
+    """Time the command on the 93,696-face spot and OpenVDB's level set, same session."""
+    size, subdivisions = (20.0, 0) if quick else (100.0, 2)
+    mesh = load_shared("spot", size, subdivisions)
+    model = work / "spot.ply"
     mesh.export(model)
-    load_before = os.getloadavg()
-    command_s = run_shells(model, work / "spot94k", [])
-    vdb = load_openvdb()
+    load_before = load_average()
+    command_s = run_shells(model, work / "spot", [])
     voxel = 0.05
-    transform = vdb.createLinearTransform(voxelSize=voxel)
-    start = time.perf_counter()
-    grid = vdb.FloatGrid.createLevelSetFromPolygons(
-        np.ascontiguousarray(mesh.vertices, dtype=np.float32),
-        triangles=np.ascontiguousarray(mesh.faces, dtype=np.int32),
-        transform=transform,
-        halfWidth=float(np.ceil(1.5 / voxel) + 2),
-    )
-    vdb_s = time.perf_counter() - start
+    vdb = level_set_seconds(mesh.vertices, mesh.faces, voxel, float(np.ceil(1.5 / voxel) + 2))
     result = {
-        "mesh": "spot, Loop x2, 93,696 faces, 100 mm, layers 0.5 + 1.0 mm",
+        "mesh": f"spot, Loop x{subdivisions}, {len(mesh.faces):,} faces, {size:g} mm, "
+        "layers 0.5 + 1.0 mm",
+        "n_faces": len(mesh.faces),
         "command_s": command_s,
-        "openvdb_s": vdb_s,
-        "ratio": command_s / vdb_s,
+        "openvdb_s": vdb["seconds"],
+        "ratio": command_s / vdb["seconds"],
         "openvdb_voxel_mm": voxel,
-        "openvdb_active_voxels": int(grid.activeVoxelCount()),
+        "openvdb_active_voxels": vdb["active_voxels"],
         "load_average_before": load_before,
-        "load_average_after": os.getloadavg(),
-        **validity(mesh, work / "spot94k"),
+        "load_average_after": load_average(),
+        **validity(mesh, work / "spot"),
     }
     print(json.dumps({k: result[k] for k in ("command_s", "openvdb_s", "ratio")}), flush=True)
     return result
 
 
-def meshes(
-    work: Path,
-    save: Callable[[dict[str, Any]], None] | None = None,
-    *,
-    only: set[str] | None = None,
-    results: dict[str, Any] | None = None,
-) -> dict[str, Any]:
-    """Shells of every shared mesh (or those in `only`), each one command.
-
-    `results` holds earlier results to add to; `save` gets the results so far.
-    """
-    results = dict(results or {})
-    for name, (relative, size) in MESHES.items():
+def meshes(work: Path, only: set[str] | None, earlier: dict[str, Any]) -> dict[str, Any]:
+    """Shells of every shared mesh (or those in `only`), each one command."""
+    results = dict(earlier)
+    for name, (shared, size) in MESHES.items():
         if only is not None and name not in only:
             continue
-        source = SHARED / relative
-        if not source.is_file():
-            continue
         if size is None:  # a 3MF as it is, read by the project's loader (trimesh needs lxml)
-            model, extra = source, []
-            loaded = load_model(source)
+            model = mesh_path(shared)
+            loaded = load_model(model)
             mesh = trimesh.Trimesh(loaded.vertices, loaded.faces, process=False)
         else:
-            mesh = load_shared(relative, size)
-            model, extra = work / f"{name}.ply", []
+            mesh = load_shared(shared, size)
+            model = work / f"{name}.ply"
             mesh.export(model)
         out = work / name
-        seconds = run_shells(model, out, extra)
+        seconds = run_shells(model, out, [])
         results[name] = {"seconds": seconds, "n_faces": len(mesh.faces), **validity(mesh, out)}
         print(name, f"{seconds:.1f} s", flush=True)
-        if save is not None:
-            save(results)
     return results
 
 
+def _distances(source: trimesh.Trimesh, target: trimesh.Trimesh) -> dict[str, float]:
+    """Return p50, p99 and max of the distance from `source`'s points to `target` (mm)."""
+    points = np.concatenate([source.sample(200_000, seed=0), source.vertices])
+    index = SurfaceIndex.build(np.asarray(target.vertices), np.asarray(target.faces, np.int64))
+    distance = distance_to_surface(index, np.asarray(points, dtype=np.float64))
+    return {
+        "p50": float(np.percentile(distance, 50)),
+        "p99": float(np.percentile(distance, 99)),
+        "max": float(distance.max()),
+    }
+
+
+def agreement(work: Path, quick: bool) -> dict[str, Any]:
+    """Run the default and the robust method on spot and compare their shells."""
+    mesh = load_shared("cube_vertexcolor", 20.0) if quick else load_shared("spot", 100.0, 2)
+    model = work / "agreement.ply"
+    mesh.export(model)
+    seconds = {
+        method: run_shells(model, work / method, ["--method", method])
+        for method in ("field", "robust")
+    }
+    result: dict[str, Any] = {
+        "mesh": "cube_vertexcolor at 20 mm" if quick else "spot, Loop x2, 93,696 faces, 100 mm",
+        "command_s": seconds,
+    }
+    for layer in (1, 2):
+        field, robust = (
+            trimesh.load(work / method / f"shell_{layer}.ply", process=False, force="mesh")
+            for method in ("field", "robust")
+        )
+        there, back = _distances(field, robust), _distances(robust, field)
+        result[f"shell_{layer}"] = {
+            "faces": [len(field.faces), len(robust.faces)],
+            "volume_mm3": [float(field.volume), float(robust.volume)],
+            "volume_rel_diff": float(field.volume / robust.volume - 1.0),
+            "field_to_robust_mm": there,
+            "robust_to_field_mm": back,
+            "hausdorff_mm": max(there["max"], back["max"]),
+        }
+    print(json.dumps(result), flush=True)
+    return result
+
+
+def _row(case: str, run: dict[str, Any]) -> dict[str, Any]:
+    layers = run["layers"]
+    errors = [layer["error"] for layer in layers if "error" in layer]
+    meshlab = [layer["meshlab"].get("self_intersecting_faces") for layer in layers]
+    return {
+        "case": case,
+        "input_faces": run.get("n_faces"),
+        "seconds": round(run.get("command_s", run.get("seconds", 0.0)), 1),
+        "openvdb_s": round(run["openvdb_s"], 1) if "openvdb_s" in run else None,
+        "ratio": round(run["ratio"], 2) if "ratio" in run else None,
+        "shell_faces": sum(layer["n_faces"] for layer in layers),
+        "p99_error_pct": round(max(e["p99_pct"] for e in errors), 3) if errors else None,
+        "max_error_mm": round(max(e["max_mm"] for e in errors), 4) if errors else None,
+        "closed_oriented": all(layer["closed"] and layer["oriented"] for layer in layers),
+        "self_intersecting_faces": sum(m for m in meshlab if m is not None),
+        "crossing_pairs": run["nested"]["crossing_pairs"],
+    }
+
+
+def summary(details: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per case: the speed case against OpenVDB, then every shared mesh."""
+    rows = []
+    if "speed" in details:
+        run = details["speed"]
+        faces = run.get("n_faces") or int(
+            re.search(r"([\d,]+) faces", run["mesh"])[1].replace(",", "")
+        )
+        rows.append(_row(f"spot {faces:,} faces (speed)", {**run, "n_faces": faces}))
+    for name, run in details.get("meshes", {}).items():
+        rows.append(_row(name, run))
+    return rows
+
+
 def main() -> None:
-    """Run the parts asked for and merge them into the JSON results."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=("speed", "meshes", "both"), default="both")
-    parser.add_argument(
-        "--out", type=Path, default=ROOT / "benchmarks/results/bench_field_shells.json"
-    )
-    parser.add_argument("--only", help="comma-separated mesh names of the meshes part")
-    args = parser.parse_args()
-    results = json.loads(args.out.read_text()) if args.out.is_file() else {}
+    parsed = parser(__doc__)
+    parsed.add_argument("--part", action="append", choices=PARTS, help="default: all")
+    parsed.add_argument("--only", help="comma-separated mesh names of the meshes part")
+    args = parsed.parse_args()
+    parts = args.part or list(PARTS)
+    details = previous_details(NAME, quick=args.quick) if args.part or args.only else {}
+    details.pop("run", None)
+    only = None if args.only is None else set(args.only.split(","))
+    if args.quick:
+        only = {"cube_vertexcolor_20mm"}
+    unknown = (only or set()) - set(MESHES)
+    if unknown:
+        raise SystemExit(f"unknown meshes {sorted(unknown)}; choose among {sorted(MESHES)}")
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        if args.part in ("speed", "both"):
-            results["speed"] = speed(work)
-            args.out.write_text(json.dumps(results, indent=1))
-        if args.part in ("meshes", "both"):
-
-            def save(so_far: dict[str, Any]) -> None:
-                results["meshes"] = so_far
-                args.out.write_text(json.dumps(results, indent=1))
-
-            only = None if args.only is None else set(args.only.split(","))
-            earlier = results.get("meshes", {}) if only is not None else {}
-            save(meshes(work, save, only=only, results=earlier))
+        if "speed" in parts:
+            details["speed"] = speed(work, args.quick)
+        if "meshes" in parts:
+            earlier = details.get("meshes", {}) if only is not None else {}
+            details["meshes"] = meshes(work, only, earlier)
+        if "agreement" in parts:
+            details["robust_agreement_spot94k"] = agreement(work, args.quick)
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(details), "details": details}, quick=args.quick
+    )
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

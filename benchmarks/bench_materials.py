@@ -1,7 +1,6 @@
 """Per-voxel cost of materials_for_slab on a 64 x 512 x 512 slab (J750 profile).
 
-Usage: .venv/bin/python benchmarks/bench_materials.py
-       [--out benchmarks/results/bench_materials.json]
+    python benchmarks/bench_materials.py
 
 Three slabs of 64 x 512 x 512 voxels (16.8 M):
 
@@ -15,43 +14,48 @@ Three slabs of 64 x 512 x 512 voxels (16.8 M):
 For each: the blue-noise halftone (default) and error diffusion, best of 3 (error
 diffusion once), as wall and process CPU time (the machine may be shared: the load
 average is recorded). Also the one-off costs: building the plan (separation table and
-blue-noise tile) and compiling the kernels (numba, cached on disk afterwards).
-A benchmark, not a test.
+blue-noise tile) and compiling the kernels (numba, cached on disk afterwards). The peer
+is error diffusion, the classic halftone, on the same slabs.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _common import load_average, parser, write_result
 
 from shellvox.config import MaterialSettings
 from shellvox.printer import build_material_plan, load_profile
 from shellvox.voxel.colour import materials_for_slab
 
-ROOT = Path(__file__).resolve().parents[1]
+NAME = "bench_materials"
+WHAT = (
+    "Time per voxel of the halftone into the J750's materials (materials_for_slab, "
+    "blue noise, the default) on 64 x 512 x 512 slabs, against error diffusion on the "
+    "same slabs."
+)
 SHAPE = (64, 512, 512)
 
 
-def slabs() -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    z, y, x = np.ogrid[: SHAPE[0], : SHAPE[1], : SHAPE[2]]
+def slabs(shape: tuple[int, int, int]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The three slabs of `shape` (a cylinder of radius 250 voxels on a 512 x 512 slab)."""
+    z, y, x = np.ogrid[: shape[0], : shape[1], : shape[2]]
     radius = np.hypot(y - 256.0, x - 256.0) + 0 * z
     hue = np.arctan2(y - 256.0, x - 256.0) + 0 * z
-    smooth = np.empty((*SHAPE, 4), dtype=np.uint8)
+    smooth = np.empty((*shape, 4), dtype=np.uint8)
     for channel, phase in enumerate((0.0, 2.1, 4.2)):
         smooth[..., channel] = (127.5 + 127.5 * np.cos(hue + phase + z / 40.0)).astype(np.uint8)
     smooth[..., 3] = 255
-    shell = np.zeros(SHAPE, dtype=np.uint8)
+    shell = np.zeros(shape, dtype=np.uint8)
     shell[radius < 250] = 3
     shell[(radius < 250) & (radius >= 226)] = 2
     shell[(radius < 250) & (radius >= 238)] = 1
-    everywhere = np.ones(SHAPE, dtype=np.uint8)
-    random = np.random.default_rng(0).integers(0, 256, size=(*SHAPE, 4), dtype=np.uint8)
+    everywhere = np.ones(shape, dtype=np.uint8)
+    random = np.random.default_rng(0).integers(0, 256, size=(*shape, 4), dtype=np.uint8)
     return {
         "shell": (shell, smooth),
         "all_colour_smooth": (everywhere, smooth),
@@ -59,14 +63,28 @@ def slabs() -> dict[str, tuple[np.ndarray, np.ndarray]]:
     }
 
 
+def summary(details: dict[str, Any]) -> list[dict[str, Any]]:
+    return [
+        {
+            "slab": name,
+            "halftone": kind,
+            "seconds": details[name][kind]["seconds"],
+            "cpu_seconds": details[name][kind]["cpu_seconds"],
+            "voxels_per_s": details[name][kind]["voxels_per_s"],
+            "colour_voxels_per_s": details[name][kind]["colour_voxels_per_s"],
+        }
+        for name in ("shell", "all_colour_smooth", "all_colour_random")
+        if name in details
+        for kind in ("blue-noise", "error-diffusion")
+    ]
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    default = ROOT / "benchmarks" / "results" / "bench_materials.json"
-    parser.add_argument("--out", type=Path, default=default)
-    args = parser.parse_args()
+    args = parser(__doc__).parse_args()
+    shape = (4, 512, 512) if args.quick else SHAPE
     profile = load_profile("j750")
-    results: dict[str, Any] = {"slab_shape_zyx": SHAPE, "n_voxels": int(np.prod(SHAPE))}
-    results["load_average_1min_at_start"] = round(os.getloadavg()[0], 2)
+    results: dict[str, Any] = {"slab_shape_zyx": shape, "n_voxels": int(np.prod(shape))}
+    results["load_average_1min_at_start"] = load_average()[0]
     results["cpus"] = os.cpu_count()
     start = time.perf_counter()
     plans = {
@@ -81,7 +99,7 @@ def main() -> None:
     for plan in plans.values():
         materials_for_slab(*tiny, 0, plan)
     results["first_call_compile_s"] = round(time.perf_counter() - start, 3)
-    for name, (layers, rgba) in slabs().items():
+    for name, (layers, rgba) in slabs(shape).items():
         entry: dict[str, Any] = {"colour_voxels": int(np.count_nonzero(layers == 1))}
         for kind, plan in plans.items():
             times, cpu_times = [], []
@@ -100,8 +118,10 @@ def main() -> None:
         results[name] = entry
         print(name, json.dumps(entry))
     print(f"plan build {results['plan_build_s']} s, compile {results['first_call_compile_s']} s")
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(results, indent=2) + "\n")
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(results), "details": results}, quick=args.quick
+    )
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

@@ -1,48 +1,33 @@
-"""What materials, halftone and printer slices cost a whole ``shellvox build`` (issue 10).
+"""What materials, halftone and printer slices cost a whole ``shellvox build``.
 
-Usage (from the repository root; meshes from ../shared/meshes)::
+    nice python benchmarks/bench_materials_build.py [--part overhead|memory|report|compile ...]
+        [--rounds 3]
 
-    nice .venv/bin/python benchmarks/bench_materials_build.py overhead --rounds 3
-    nice .venv/bin/python benchmarks/bench_materials_build.py profile
-    nice .venv/bin/python benchmarks/bench_materials_build.py memory
-    nice .venv/bin/python benchmarks/bench_materials_build.py report
-    nice .venv/bin/python benchmarks/bench_materials_build.py compile
+Every build runs in its own child process, through the same steps as ``shellvox build``
+(the public API: :func:`shellvox.layer_thickness`, ``BuildOptions.config``,
+:func:`shellvox.stack.build_stack`) on spot at 30 mm. The build time is the manifest's
+``seconds.total`` (all of ``build_stack``; the thickness rule, computed before it, is
+timed apart).
 
-Every build runs in its own child process (``child``), through the same steps as
-``shellvox build`` (its argument parser, :func:`choose_thickness`,
-:func:`config_from_args`, :func:`build_stack`) on a mesh loaded and scaled as
-``bench_build.py`` does. The build time is the manifest's ``seconds.total`` (all of
-``build_stack``; the thickness rule, computed before it, is timed apart).
-
-``overhead``: spot at 30 mm, J750 grid, 2 workers, ``--thickness 0.5,0.5``,
-``--no-shell-meshes``: A = ``--no-materials --format tiff,vdb``, B = materials with
-``--format tiff,vdb,gcvf``, C = B plus ``png``. Rounds alternate the order (A B C,
-C B A, ...) on a machine shared with other jobs; each run records the load average and
-the CPU the rest of the machine used meanwhile (``/proc/stat`` minus the child's own
-rusage). The done-when: B adds at most 30 % to A's time (median ratio over rounds).
-``profile``: A and B once each under ``py-spy record --subprocesses`` (sampling the
-main process, its writer threads and the slab workers); seconds sampled per part of
-the build (the innermost recognised frame of each sample). Samples count running *or
-runnable* threads, so on a busy machine they exceed CPU time: see ``cpu``.
+``overhead``: spot at 30 mm, J750 grid, 2 workers, ``--thickness 0.5,0.5``, no shell
+meshes: A = no materials, ``tiff,vdb`` (the peer); B = materials with ``tiff,vdb,gcvf``;
+C = B plus ``png``. Rounds alternate the order (A B C, C B A, ...); each run records the
+load average and the CPU the rest of the machine used meanwhile (``/proc/stat`` minus
+the child's own rusage). The claim: B adds at most 30 % to A's time (median ratio).
 ``memory``: peak RSS of B summed over the process tree, the model and the model twice
-as tall (``--slab-mb 256`` as ``bench_build.py memory``).
-``report``: the colour report (default thickness rule) for spot, duck, airplane at 30 mm
-and the default model, and the default model with ``--thickness 0.5,0.5``.
-``compile``: the numba kernels' first call with an empty cache and with a warm one.
-``cpu``: A and B with one worker (every part in one process), the CPU time
-(``time.thread_time``) of each part of the build, by wrapping its functions in this
-process (compute_slab's own is an undercount: libigl's threads do part of it).
-``reparse``: parse the kept py-spy samples (``results/*_pyspy_*.txt.gz``) again.
-Results go to ``benchmarks/results/bench_materials_build.json`` (one key per part).
-A benchmark, not a test.
+as tall (``--slab-mb 256``): it should not grow with the height.
+``report``: the colour report (default thickness rule, the default formats) for spot,
+the duck and the airplane at 30 mm and the default model, and the default model with
+``--thickness 0.5,0.5``.
+``compile``: the material kernels' first call with an empty numba cache and a warm one.
+
+Running some parts keeps the others' results from the current result file.
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
-import fcntl
-import gzip
 import json
 import os
 import resource
@@ -53,21 +38,116 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(HERE))
+from _common import (
+    TreeRss,
+    load_average,
+    mesh_path,
+    parser,
+    previous_details,
+    scaled_mesh,
+    write_result,
+)
 
-from materials_build_child import ALL_MODELS, VARIANTS, child  # noqa: E402
-from pyspy_parts import parse_raw  # noqa: E402
+NAME = "bench_materials_build"
+WHAT = (
+    "Build time of shellvox build on the J750 grid with materials, halftone and the "
+    "printer job (B) and with PNG slices too (C), against the same build without "
+    "materials (A), alternating in one session."
+)
+PARTS = ("overhead", "memory", "report", "compile")
 
-RESULTS = ROOT / "benchmarks" / "results" / "bench_materials_build.json"
-PY_SPY = Path(sys.executable).parent / "py-spy"
+#: The formats and materials of each variant (None: the defaults of ``shellvox build``).
+VARIANTS: dict[str, tuple[tuple[str, ...] | None, bool]] = {
+    "A": (("tiff", "vdb"), False),
+    "B": (("tiff", "vdb", "gcvf"), True),
+    "C": (("tiff", "vdb", "gcvf", "png"), True),
+    "auto": (None, True),
+}
 
 
-# --------------------------------------------------------------------------- orchestration
+# ---------------------------------------------------------------------- the child build
+
+
+def child(args: argparse.Namespace) -> dict[str, Any]:
+    """One build in this process, as ``shellvox build`` runs it; return its numbers."""
+    import shellvox
+    from shellvox.stack import build_stack
+
+    if args.size_mm > 0:
+        mesh = scaled_mesh(args.model, args.size_mm, stretch_z=args.stretch_z)
+    else:
+        mesh = shellvox.load_model(mesh_path(args.model))
+    formats, materials = VARIANTS[args.variant]
+    constant = None if args.thickness == "rule" else tuple(map(float, args.thickness.split(",")))
+    options = shellvox.BuildOptions(
+        printer="j750",
+        formats=formats,
+        thickness_mm=constant,
+        materials=shellvox.MaterialSettings() if materials else None,
+        report_samples=args.report_samples,
+        slab_mb=args.slab_mb,
+        workers=args.workers,
+    )
+    profile = shellvox.load_profile("j750")
+    with tempfile.TemporaryDirectory(prefix="shellvox-bench-", dir=args.tmp) as out:
+        tick = time.perf_counter()
+        choice = shellvox.layer_thickness(
+            mesh, thickness_mm=constant, printer=profile, materials=options.materials
+        )
+        thickness_seconds = time.perf_counter() - tick
+        config = options.config(profile, choice)
+        with TreeRss() as tree:
+            tick = time.perf_counter()
+            manifest = build_stack(
+                choice.mesh,
+                config,
+                Path(out) / "build",
+                thickness=choice.thickness_mm,
+                faces=choice.faces,
+                profile=None if config.material is None else profile,
+                progress=False,
+            )
+            wall = time.perf_counter() - tick
+    files = {name: record["bytes"] for name, record in manifest["files"].items()}
+    png = [name for name in files if name.startswith("slices/")]
+    if png:  # one entry for the folder
+        files = {k: v for k, v in files.items() if k not in png}
+        files["slices/ (all)"] = sum(manifest["files"][n]["bytes"] for n in png)
+    main_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    result: dict[str, Any] = {
+        "model": args.model,
+        "size_mm": args.size_mm or None,
+        "stretch_z": args.stretch_z,
+        "variant": args.variant,
+        "formats": list(config.formats),
+        "materials": config.material is not None,
+        "thickness": args.thickness,
+        "grid_zyx": manifest["grid"]["shape_zyx"],
+        "slab_rows": manifest["slab_rows"],
+        "workers": args.workers,
+        "seconds_total": round(manifest["seconds"]["total"], 2),
+        "seconds": {k: round(v, 2) for k, v in manifest["seconds"].items()},
+        "build_stack_wall_s": round(wall, 2),
+        "thickness_rule_s": round(thickness_seconds, 2),
+        "peak_rss_tree_mb": round(max(main_kb, tree.peak_kb) / 1024, 1),
+        "peak_rss_main_mb": round(main_kb / 1024, 1),
+        "voxel_counts": manifest["voxel_counts"],
+        "file_bytes": files,
+    }
+    if args.full:
+        result["layer_thickness_mm"] = {
+            entry["name"]: entry["thickness_per_face_mm"]
+            for entry in manifest["layers"]
+            if "thickness_per_face_mm" in entry
+        }
+        result["material_voxels"] = {m["name"]: m["voxels"] for m in manifest.get("materials", [])}
+        result["colour_report"] = manifest.get("colour_report")
+    return result
+
+
+# ------------------------------------------------------------------------ orchestration
 
 
 def _child_command(args: argparse.Namespace, variant: str, **options: Any) -> list[str]:
@@ -79,19 +159,19 @@ def _child_command(args: argparse.Namespace, variant: str, **options: Any) -> li
         "slab_mb": 512.0,
         "thickness": "0.5,0.5",
         "full": False,
-        "instrument": False,
         **options,
     }
     command = [
-        sys.executable, str(Path(__file__).resolve()), "child", "--variant", variant,
+        sys.executable, str(Path(__file__).resolve()), "--child", "--variant", variant,
         "--model", values["model"], "--size-mm", str(values["size_mm"]),
         "--stretch-z", str(values["stretch_z"]), "--workers", str(values["workers"]),
         "--slab-mb", str(values["slab_mb"]), "--thickness", values["thickness"],
     ]  # fmt: skip
     if args.tmp:
         command += ["--tmp", args.tmp]
-    command += ["--full"] if values["full"] else []
-    return command + (["--instrument"] if values["instrument"] else [])
+    if args.quick:
+        command += ["--report-samples", "500"]
+    return command + (["--full"] if values["full"] else [])
 
 
 def _proc_stat_busy() -> float:
@@ -100,30 +180,27 @@ def _proc_stat_busy() -> float:
     return sum(fields) - fields[3] - fields[4]  # not idle, not iowait
 
 
-def run_child(command: list[str], prefix: list[str] | None = None) -> dict[str, Any]:
+def run_child(command: list[str]) -> dict[str, Any]:
     """Run one child build; add the machine load and the CPU others used meanwhile."""
-    before_load = os.getloadavg()
-    uptime_before = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    before_load = load_average()
     busy0 = _proc_stat_busy()
     own0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     tick = time.perf_counter()
-    done = subprocess.run([*(prefix or []), *command], capture_output=True, text=True)
+    done = subprocess.run(command, capture_output=True, text=True, check=False)
     wall = time.perf_counter() - tick
     if done.returncode != 0:
         raise RuntimeError(f"{command} failed:\n{done.stderr[-3000:]}")
     busy1 = _proc_stat_busy()
     own1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     own_cpu = (own1.ru_utime - own0.ru_utime) + (own1.ru_stime - own0.ru_stime)
-    hz = os.sysconf("SC_CLK_TCK")
-    machine_cpu = (busy1 - busy0) / hz
+    machine_cpu = (busy1 - busy0) / os.sysconf("SC_CLK_TCK")
     lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
-    result: dict[str, Any] = json.loads(lines[-1])  # py-spy also prints to stdout
+    result: dict[str, Any] = json.loads(lines[-1])
     result["process_wall_s"] = round(wall, 1)
     result["cpu_s_this_run"] = round(own_cpu, 1)
     result["cpu_cores_used_by_others"] = round(max(0.0, machine_cpu - own_cpu) / wall, 2)
-    result["loadavg_before"] = [round(v, 2) for v in before_load]
-    result["loadavg_after"] = [round(v, 2) for v in os.getloadavg()]
-    result["uptime_before"] = uptime_before
+    result["loadavg_before"] = before_load
+    result["loadavg_after"] = load_average()
     return result
 
 
@@ -138,8 +215,10 @@ def _brief(run: dict[str, Any]) -> str:
 def overhead(args: argparse.Namespace) -> dict[str, Any]:
     variants = ["A", "B", "C"] if args.png else ["A", "B"]
     runs: list[dict[str, Any]] = []
-    warm = run_child(_child_command(args, "B"))  # numba cache, page cache; not counted
-    print("warm-up", _brief(warm), flush=True)
+    warm = None
+    if not args.quick:
+        warm = run_child(_child_command(args, "B"))  # numba cache, page cache; not counted
+        print("warm-up", _brief(warm), flush=True)
     for round_index in range(args.rounds):
         order = variants if round_index % 2 == 0 else variants[::-1]
         for variant in order:
@@ -148,8 +227,9 @@ def overhead(args: argparse.Namespace) -> dict[str, Any]:
             runs.append(run)
             print(round_index, _brief(run), flush=True)
     return {
-        "setup": "spot 30 mm, J750 grid, --workers 2, --thickness 0.5,0.5, --no-shell-meshes; "
-        "A = --no-materials --format tiff,vdb; B = --format tiff,vdb,gcvf; C = B + png",
+        "setup": f"{args.model} {args.size_mm:g} mm, J750 grid, 2 workers, --thickness 0.5,0.5, "
+        "no shell meshes; A = --no-materials --format tiff,vdb; B = --format tiff,vdb,gcvf; "
+        "C = B + png",
         "cpus": os.cpu_count(),
         "warmup_run": warm,
         "runs": runs,
@@ -190,88 +270,16 @@ def overhead_summary(runs: list[dict[str, Any]], variants: list[str]) -> dict[st
     return summary
 
 
-def reparse(args: argparse.Namespace) -> dict[str, Any]:
-    """Parse the kept py-spy files again (after a change of the categories)."""
-    stored = json.loads(RESULTS.read_text())["profile"]
-    for variant in ("A", "B"):
-        kept = HERE / "results" / f"bench_materials_build_pyspy_{variant}.txt.gz"
-        raw = Path(tempfile.mkdtemp()) / "raw.txt"
-        raw.write_bytes(gzip.decompress(kept.read_bytes()))
-        run = stored["runs"][variant]
-        stored["runs"][variant] = {"build": run["build"], **parse_raw(raw, stored["rate_hz"])}
-        shutil.rmtree(raw.parent)
-    a = stored["runs"]["A"]["sampled_s_by_part"]
-    b = stored["runs"]["B"]["sampled_s_by_part"]
-    extra = {k: round(b.get(k, 0.0) - a.get(k, 0.0), 1) for k in {*a, *b}}
-    stored["B_minus_A_sampled_s"] = dict(sorted(extra.items(), key=lambda kv: -abs(kv[1])))
-    stored.pop("B_minus_A_cpu_s", None)
-    stored["note"] = (
-        "py-spy samples of running or runnable threads (not idle) at rate_hz over the "
-        "process tree; on the shared machine these exceed CPU time (compare sampled_s_total "
-        "with build.cpu_s_this_run); see 'cpu' for CPU time per part"
-    )
-    return cast(dict[str, Any], stored)
-
-
-def profile(args: argparse.Namespace) -> dict[str, Any]:
-    rate = args.rate
-    results: dict[str, Any] = {"rate_hz": rate, "runs": {}}
-    folder = Path(tempfile.mkdtemp(prefix="pyspy-"))
-    for variant in ("A", "B"):
-        raw = folder / f"{variant}.txt"
-        prefix = [
-            str(PY_SPY), "record", "--subprocesses", "--threads", "--nonblocking",
-            "--format", "raw", "--rate", str(rate), "-o", str(raw), "--",
-        ]  # fmt: skip
-        run = run_child(_child_command(args, variant, workers=args.workers), prefix=prefix)
-        parsed = parse_raw(raw, rate)
-        results["runs"][variant] = {"build": run, **parsed}
-        print(variant, _brief(run), json.dumps(parsed["sampled_s_by_part"]), flush=True)
-        kept = HERE / "results" / f"bench_materials_build_pyspy_{variant}.txt.gz"
-        kept.write_bytes(gzip.compress(raw.read_bytes()))  # for ``reparse``
-    a = results["runs"]["A"]["sampled_s_by_part"]
-    b = results["runs"]["B"]["sampled_s_by_part"]
-    extra = {k: round(b.get(k, 0.0) - a.get(k, 0.0), 1) for k in {*a, *b}}
-    results["B_minus_A_sampled_s"] = dict(sorted(extra.items(), key=lambda kv: -abs(kv[1])))
-    shutil.rmtree(folder)
-    return results
-
-
-def cpu(args: argparse.Namespace) -> dict[str, Any]:
-    """CPU time per part of A and B with one worker (everything in one process)."""
-    runs = {}
-    for variant in ("A", "B"):
-        run = run_child(_child_command(args, variant, workers=1, instrument=True))
-        runs[variant] = run
-        print(variant, _brief(run), json.dumps(run["cpu_s_by_part"]), flush=True)
-    a, b = runs["A"]["cpu_s_by_part"], runs["B"]["cpu_s_by_part"]
-    extra = {
-        key: round(b.get(key, {}).get("cpu_s", 0.0) - a.get(key, {}).get("cpu_s", 0.0), 2)
-        for key in {*a, *b}
-    }
-    return {
-        "setup": "as overhead, but --workers 1 (slabs in the calling process); CPU seconds "
-        "(time.thread_time) of each wrapped part, summed over its threads",
-        "runs": runs,
-        "B_minus_A_cpu_s": dict(sorted(extra.items(), key=lambda kv: -abs(kv[1]))),
-        "B_minus_A_process_cpu_s": round(
-            runs["B"]["process_cpu_s"] - runs["A"]["process_cpu_s"], 2
-        ),
-    }
-
-
 def memory(args: argparse.Namespace) -> dict[str, Any]:
     runs = []
     for stretch in (1.0, 2.0):
-        run = run_child(
-            _child_command(args, "B", stretch_z=stretch, slab_mb=args.slab_mb, workers=2)
-        )
+        run = run_child(_child_command(args, "B", stretch_z=stretch, slab_mb=256.0))
         runs.append(run)
         print(stretch, _brief(run), flush=True)
     return {
-        "setup": f"B (materials, tiff+vdb+gcvf), spot 30 mm and stretched 2x in z, 2 workers, "
-        f"--slab-mb {args.slab_mb}, --thickness 0.5,0.5, --no-shell-meshes; peak RSS summed "
-        "over the process tree, sampled every 50 ms",
+        "setup": f"B (materials, tiff+vdb+gcvf), {args.model} {args.size_mm:g} mm and stretched "
+        "2x in z, 2 workers, --slab-mb 256, --thickness 0.5,0.5, no shell meshes; peak RSS "
+        "summed over the process tree, sampled every 50 ms",
         "runs": runs,
         "rss_ratio_2x_tall": round(runs[1]["peak_rss_tree_mb"] / runs[0]["peak_rss_tree_mb"], 3),
     }
@@ -282,18 +290,20 @@ def report(args: argparse.Namespace) -> dict[str, Any]:
         ("spot", 30.0, "rule"),
         ("duck", 30.0, "rule"),
         ("airplane", 30.0, "rule"),
-        ("colour_target", 0.0, "rule"),
-        ("colour_target", 0.0, "0.5,0.5"),
+        ("default", 0.0, "rule"),
+        ("default", 0.0, "0.5,0.5"),
     ]
+    if args.quick:
+        cases = [(args.model, args.size_mm, "rule")]
     results: dict[str, Any] = {
-        "setup": "J750 grid, CLI default formats (tiff, vdb, gcvf), 2 workers, "
-        "--no-shell-meshes, default material settings, 20000 report samples"
+        "setup": "J750 grid, the default formats of shellvox build, 2 workers, no shell "
+        "meshes, default material settings, 20000 report samples"
     }
     for model, size, thickness in cases:
-        run = run_child(
-            _child_command(args, "auto", model=model, size_mm=size, thickness=thickness,
-                           full=True)
-        )  # fmt: skip
+        command = _child_command(
+            args, "auto", model=model, size_mm=size, thickness=thickness, full=True
+        )
+        run = run_child(command)
         key = f"{model}{'_' + str(int(size)) + 'mm' if size else ''}_" + (
             "rule" if thickness == "rule" else "constant_" + thickness.replace(",", "_")
         )
@@ -308,10 +318,9 @@ def compile_cost(args: argparse.Namespace) -> dict[str, Any]:
     code = (
         "import time, numpy as np\n"
         "t = time.perf_counter()\n"
-        "from shellvox.config import MaterialSettings\n"
-        "from shellvox.printer._material_plan import build_material_plan\n"
-        "from shellvox.printer._profile import load_profile\n"
-        "from shellvox.voxel.colour._materials import materials_for_slab\n"
+        "from shellvox import MaterialSettings, load_profile\n"
+        "from shellvox.printer import build_material_plan\n"
+        "from shellvox.voxel.colour import materials_for_slab\n"
         "t_import = time.perf_counter() - t\n"
         "t = time.perf_counter()\n"
         "plan = build_material_plan(load_profile('j750'), MaterialSettings(),"
@@ -324,7 +333,7 @@ def compile_cost(args: argparse.Namespace) -> dict[str, Any]:
     )
     results: dict[str, Any] = {}
     cache = tempfile.mkdtemp(prefix="numba-cache-")
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": cache}
+    env = {**os.environ, "NUMBA_CACHE_DIR": cache}
     for label in ("cold_cache", "warm_cache"):
         out = subprocess.run(
             [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
@@ -335,7 +344,7 @@ def compile_cost(args: argparse.Namespace) -> dict[str, Any]:
             "first_kernel_call_s": round(float(out[2]), 2),
         }
     shutil.rmtree(cache)
-    results["loadavg"] = [round(v, 2) for v in os.getloadavg()]
+    results["loadavg"] = load_average()
     results["note"] = (
         "each forked slab worker makes its own first call (the plan is built in the parent "
         "before the fork, the kernel is first called in the workers)"
@@ -343,55 +352,68 @@ def compile_cost(args: argparse.Namespace) -> dict[str, Any]:
     return results
 
 
+VARIANT_LABELS = {
+    "A": "A: no materials (tiff, vdb)",
+    "B": "B: materials (tiff, vdb, gcvf)",
+    "C": "C: B + png slices",
+}
+
+
+def summary(details: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per variant of the overhead part: median seconds and the ratio to A."""
+    found = details.get("overhead", {}).get("summary", {})
+    rows = []
+    for variant, label in VARIANT_LABELS.items():
+        if f"{variant}_seconds" not in found:
+            continue
+        ratio = found.get(f"{variant}_over_A", {})
+        rows.append(
+            {
+                "variant": label,
+                "median_build_s": found[f"{variant}_seconds"]["median"],
+                "median_cpu_s": found[f"{variant}_cpu_seconds"]["median"],
+                "median_ratio_to_A": ratio.get("median_ratio", 1.0),
+                "cpu_median_ratio_to_A": ratio.get("cpu_median_ratio", 1.0),
+            }
+        )
+    return rows
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "task",
-        choices=["overhead", "profile", "reparse", "cpu", "memory", "report", "compile", "child"],
-    )
-    parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--png", action=argparse.BooleanOptionalAction, default=True)
-    parser.add_argument("--rate", type=int, default=25, help="py-spy samples per second")
-    parser.add_argument("--tmp", help="folder for the builds' temporary outputs")
-    parser.add_argument("--key", help="result key (default: the task)")
-    # child options
-    parser.add_argument("--variant", choices=sorted(VARIANTS), default="B")
-    parser.add_argument("--model", choices=sorted(ALL_MODELS), default="spot")
-    parser.add_argument("--size-mm", type=float, default=30.0, help="0: the file's own size")
-    parser.add_argument("--stretch-z", type=float, default=1.0)
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--slab-mb", type=float, default=512.0)
-    parser.add_argument("--thickness", default="0.5,0.5", help="'rule': the default rule")
-    parser.add_argument("--full", action="store_true", help="child: colour report etc. too")
-    parser.add_argument("--instrument", action="store_true", help="child: CPU time per part")
-    args = parser.parse_args()
-    if args.task == "child":
+    parsed = parser(__doc__)
+    parsed.add_argument("--part", action="append", choices=PARTS, help="default: all")
+    parsed.add_argument("--rounds", type=int, default=3)
+    parsed.add_argument("--png", action=argparse.BooleanOptionalAction, default=True)
+    parsed.add_argument("--tmp", help="folder for the builds' temporary outputs")
+    parsed.add_argument("--model", default="spot", help="a shared mesh name, or 'default'")
+    parsed.add_argument("--size-mm", type=float, default=30.0, help="0: the file's own size")
+    # the child's options
+    parsed.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    parsed.add_argument("--variant", choices=sorted(VARIANTS), default="B", help=argparse.SUPPRESS)
+    parsed.add_argument("--stretch-z", type=float, default=1.0, help=argparse.SUPPRESS)
+    parsed.add_argument("--workers", type=int, default=2, help=argparse.SUPPRESS)
+    parsed.add_argument("--slab-mb", type=float, default=512.0, help=argparse.SUPPRESS)
+    parsed.add_argument("--thickness", default="0.5,0.5", help=argparse.SUPPRESS)
+    parsed.add_argument("--full", action="store_true", help=argparse.SUPPRESS)
+    parsed.add_argument("--report-samples", type=int, default=20_000, help=argparse.SUPPRESS)
+    args = parsed.parse_args()
+    if args.child:
         print(json.dumps(child(args)))
         return
-    if args.task == "memory" and args.slab_mb == 512.0:
-        args.slab_mb = 256.0
-    tasks = {
-        "overhead": overhead,
-        "profile": profile,
-        "reparse": reparse,
-        "cpu": cpu,
-        "memory": memory,
-        "report": report,
-        "compile": compile_cost,
-    }
-    started = time.perf_counter()
-    result = tasks[args.task](args)
-    result["bench_seconds"] = round(time.perf_counter() - started, 1)
-    result["commit"] = subprocess.run(
-        ["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True, text=True
-    ).stdout.strip()
-    lock_path = Path(tempfile.gettempdir()) / "bench_materials_build.lock"
-    with open(lock_path, "w") as lock:  # parts may run side by side
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        everything = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
-        everything[args.key or args.task] = result
-        RESULTS.write_text(json.dumps(everything, indent=1) + "\n")
-    print(f"wrote {RESULTS} [{args.key or args.task}] in {result['bench_seconds']} s")
+    if args.quick:
+        args.size_mm, args.rounds, args.png = 5.0, 1, False
+    parts = args.part or list(PARTS)
+    details = previous_details(NAME, quick=args.quick) if args.part else {}
+    details.pop("run", None)
+    tasks = {"overhead": overhead, "memory": memory, "report": report, "compile": compile_cost}
+    for part in parts:
+        started = time.perf_counter()
+        details[part] = tasks[part](args)
+        details[part]["bench_seconds"] = round(time.perf_counter() - started, 1)
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(details), "details": details}, quick=args.quick
+    )
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

@@ -1,63 +1,71 @@
-"""Offset shells: quality on the issue's inputs, and speed against OpenVDB on ~100k faces.
+"""Robust and paper offset shells: quality on the issue's inputs, and the robust method's
+speed against OpenVDB on ~100k faces.
 
-Usage: .venv/bin/python benchmarks/bench_offset.py [--part quality|speed|both]
-       [--size-mm 50] [--voxel-mm 0.05] [--out benchmarks/results/bench_offset.json]
+    python benchmarks/bench_offset.py [--part quality|speed|flat ...] [--size-mm 50]
+        [--voxel-mm 0.05]
 
-quality: for an icosphere (r 10 mm, 2562 vertices), a 10 x 20 x 30 mm box and, from
-../shared/meshes, the bunny at 50 mm, spot at 100 mm, the duck at 50 mm and the airplane at
+quality: for an icosphere (r 10 mm, 2562 vertices), a 10 x 20 x 30 mm box and, from the
+shared meshes, the bunny at 50 mm, spot at 100 mm, the duck at 50 mm and the airplane at
 100 mm, two layers of 0.5 and 1.0 mm (depths 0.5 and 1.5 mm) with the robust and the paper
 method: time, closed, oriented, self-intersections, nested, equidistance p50/p99/max (% of
 D_k), the region and place of the largest error, per region p99, input self-intersections.
 
-speed: ../shared/meshes/spot (5856 faces) with two Loop subdivisions (93,696 faces) scaled
-to --size-mm; for each depth the robust offset is timed (one layer) next to OpenVDB's
+speed: spot (5856 faces) with two Loop subdivisions (93,696 faces) scaled to --size-mm;
+for each depth the robust offset is timed (one layer) next to OpenVDB's
 createLevelSetFromPolygons at --voxel-mm with a narrow band just wide enough to hold that
-depth, as a ratio. A benchmark, not a test. Results are merged into --out (JSON).
+depth (in Debian's python3, the same session), as a ratio.
 
 flat: the default model (data/colour_target, 3468 faces, 2364 of them in 174 flat
 patches) and the airplane at 100 mm, two layers of 0.5 mm, with one prism per flat patch
 (shellvox.offset.planar) and, in the same process, with per-face prisms only: time, CPU time,
 pieces, shell faces and volumes (which must agree).
+
+Running some parts keeps the others' results from the current result file.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import os
 import resource
-import sys
 import time
 import warnings
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import trimesh
+from _common import (
+    DEFAULT_MODEL,
+    load_average,
+    mesh_path,
+    parser,
+    previous_details,
+    write_result,
+)
+from _openvdb import level_set_seconds
 
 import shellvox.offset.band as band
 from shellvox.offset import offset_shells, shell_report
 from shellvox.offset.intersections import intersecting_pairs
 from shellvox.offset.robust import ShellDefectWarning
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from openvdb_module import load_openvdb
-
-ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared" / "meshes"
-SPOT = SHARED / "spot" / "spot_triangulated.obj"
+NAME = "bench_offset"
+WHAT = (
+    "The robust offset shells' time against OpenVDB's mesh-to-level-set with a band "
+    "holding the same depth (spot, 93,696 faces), and the robust and paper methods' "
+    "validity and depth error on the issue's inputs (layers 0.5 + 1.0 mm)."
+)
+PARTS = ("quality", "speed", "flat")
 REAL = {
-    "bunny_50mm": ("bunny/bunny.obj", 50.0),
-    "spot_100mm": ("spot/spot_triangulated.obj", 100.0),
-    "duck_50mm": ("duck/Duck.glb", 50.0),
-    "airplane_100mm": ("airplane/colored_airplane.ply", 100.0),
+    "bunny_50mm": ("bunny", 50.0),
+    "spot_100mm": ("spot", 100.0),
+    "duck_50mm": ("duck", 50.0),
+    "airplane_100mm": ("airplane", 100.0),
 }
 THICKNESS = [0.5, 1.0]  # depths 0.5 and 1.5 mm
 
 
-def load_shared(relative: str, size_mm: float, subdivisions: int = 0) -> trimesh.Trimesh:
+def load_shared(name: str, size_mm: float, subdivisions: int = 0) -> trimesh.Trimesh:
     """Load a shared mesh merged by position, Loop-subdivided, largest extent `size_mm`."""
-    raw = trimesh.load(SHARED / relative, force="mesh")
+    raw = trimesh.load(mesh_path(name), force="mesh")
     mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
     if subdivisions > 0:
@@ -67,15 +75,15 @@ def load_shared(relative: str, size_mm: float, subdivisions: int = 0) -> trimesh
     return mesh
 
 
-def inputs() -> dict[str, trimesh.Trimesh]:
-    """Return the six done-criteria inputs (the shared ones only when present)."""
+def inputs(quick: bool) -> dict[str, trimesh.Trimesh]:
+    """Return the six done-criteria inputs (``quick``: the two made here, smaller)."""
     meshes = {
-        "icosphere_r10": trimesh.creation.icosphere(subdivisions=4, radius=10.0),
+        "icosphere_r10": trimesh.creation.icosphere(subdivisions=1 if quick else 4, radius=10.0),
         "box_10x20x30": trimesh.creation.box((10.0, 20.0, 30.0)),
     }
-    for name, (relative, size) in REAL.items():
-        if (SHARED / relative).is_file():
-            meshes[name] = load_shared(relative, size)
+    if not quick:
+        for name, (shared, size) in REAL.items():
+            meshes[name] = load_shared(shared, size)
     return meshes
 
 
@@ -117,14 +125,14 @@ def quality_row(mesh: trimesh.Trimesh, method: str) -> dict[str, Any]:
     }
 
 
-def quality(names: list[str] | None) -> dict[str, Any]:
+def quality(names: list[str] | None, quick: bool) -> dict[str, Any]:
     """Return quality rows for every input and method, printing a table as they come."""
     rows: dict[str, Any] = {}
     print(
         f"{'mesh':>15} {'method':>6} {'D':>4} {'closed':>6} {'orient':>6} {'SI':>4} "
         f"{'nested':>6} {'p50%':>8} {'p99%':>8} {'max%':>8} {'worst at':>12} {'time_s':>7}"
     )
-    for name, mesh in inputs().items():
+    for name, mesh in inputs(quick).items():
         if names and name not in names:
             continue
         for method in ("robust", "paper"):
@@ -148,23 +156,21 @@ def quality(names: list[str] | None) -> dict[str, Any]:
 
 
 def speed(
-    size_mm: float, voxel_mm: float, depths: list[float], subdivisions: int
+    size_mm: float, voxel_mm: float, depths: list[float], subdivisions: int, quick: bool
 ) -> dict[str, Any]:
     """Time the robust offset (one layer per depth) against OpenVDB's mesh-to-level-set."""
-    mesh = load_shared("spot/spot_triangulated.obj", size_mm, subdivisions)
+    if quick:  # a small sphere: the robust offset takes minutes on spot
+        mesh = trimesh.creation.icosphere(subdivisions=1, radius=size_mm / 2)
+    else:
+        mesh = load_shared("spot", size_mm, subdivisions)
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
-    vdb = load_openvdb()
-    transform = vdb.createLinearTransform(voxelSize=voxel_mm)
-    points32 = np.ascontiguousarray(vertices, dtype=np.float32)
-    tris32 = np.ascontiguousarray(faces, dtype=np.int32)
-    print(
-        f"mesh: spot, Loop x{subdivisions}, {len(faces)} faces, {size_mm} mm, voxel {voxel_mm} mm"
-    )
+    label = "icosphere (quick)" if quick else f"spot, Loop x{subdivisions}"
+    print(f"mesh: {label}, {len(faces)} faces, {size_mm} mm, voxel {voxel_mm} mm")
     print(f"{'depth_mm':>9} {'robust_s':>9} {'openvdb_s':>10} {'ratio':>7} {'shell_faces':>12}")
     runs = []
     for depth in depths:
-        load_before = os.getloadavg()
+        load_before = load_average()
         start = time.perf_counter()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -180,14 +186,11 @@ def speed(
             "peak_rss_gb_so_far": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
         }
         half_width = float(np.ceil(depth / voxel_mm) + 2)
-        start = time.perf_counter()
-        grid = vdb.FloatGrid.createLevelSetFromPolygons(
-            points32, triangles=tris32, transform=transform, halfWidth=half_width
-        )
-        vdb_s = time.perf_counter() - start
+        vdb = level_set_seconds(vertices, faces, voxel_mm, half_width)
+        vdb_s = vdb["seconds"]
         print(
             f"{depth:9.2f} {robust_s:9.2f} {vdb_s:10.2f} {robust_s / vdb_s:7.2f} "
-            f"{len(shell.faces):12d}   (vdb active voxels {grid.activeVoxelCount()}) {valid}",
+            f"{len(shell.faces):12d}   (vdb active voxels {vdb['active_voxels']}) {valid}",
             flush=True,
         )
         runs.append(
@@ -197,14 +200,14 @@ def speed(
                 "openvdb_s": vdb_s,
                 "ratio": robust_s / vdb_s,
                 "shell_faces": len(shell.faces),
-                "openvdb_active_voxels": int(grid.activeVoxelCount()),
-                "load_avg_1_5_15_before": list(load_before),
-                "load_avg_1_5_15_after": list(os.getloadavg()),
+                "openvdb_active_voxels": vdb["active_voxels"],
+                "load_avg_1_5_15_before": load_before,
+                "load_avg_1_5_15_after": load_average(),
                 **valid,
             }
         )
     return {
-        "mesh": f"spot, Loop x{subdivisions}",
+        "mesh": label,
         "n_faces": len(faces),
         "size_mm": size_mm,
         "voxel_mm": voxel_mm,
@@ -212,12 +215,11 @@ def speed(
     }
 
 
-def flat() -> dict[str, Any]:
+def flat(quick: bool) -> dict[str, Any]:
     """Time the robust shells with and without one prism per flat patch."""
-    cases = {"colour_target": (ROOT / "data" / "colour_target" / "colour_target.obj", None)}
-    airplane = SHARED / "airplane" / "colored_airplane.ply"
-    if airplane.is_file():
-        cases["airplane_100mm"] = (airplane, 100.0)
+    cases = {"colour_target": (DEFAULT_MODEL, None)}
+    if not quick:
+        cases["airplane_100mm"] = (mesh_path("airplane"), 100.0)
     keep = band.flat_patches
     rows: dict[str, Any] = {}
     for name, (path, size) in cases.items():
@@ -233,13 +235,13 @@ def flat() -> dict[str, Any]:
                 band.flat_patches = lambda pairs, n, d: (np.full(n, -1), 0)
             try:
                 pieces = band.layer_pieces(band.features(v, f), np.full(len(f), 0.5))
-                load = os.getloadavg()
+                load = load_average()
                 start, cpu = time.perf_counter(), time.process_time()
                 shells = offset_shells(v, f, [0.5, 0.5])
                 row = {
                     "seconds": time.perf_counter() - start,
                     "cpu_seconds": time.process_time() - cpu,
-                    "load_avg_1_5_15_before": list(load),
+                    "load_avg_1_5_15_before": load,
                     "pieces_layer_1": int(sum(len(p) for p, _ in pieces)),
                     "shell_faces": [len(s.faces) for s in shells],
                     "volumes_mm3": [
@@ -259,36 +261,71 @@ def flat() -> dict[str, Any]:
     return rows
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--part", choices=("quality", "speed", "flat", "both"), default="both")
-    parser.add_argument("--meshes", type=str, default="", help="comma list (quality part)")
-    parser.add_argument("--size-mm", type=float, default=50.0)
-    parser.add_argument("--voxel-mm", type=float, default=0.05)
-    parser.add_argument("--depths", type=str, default="0.5,1.0,1.5")
-    parser.add_argument("--subdivisions", type=int, default=2, help="Loop subdivisions")
-    parser.add_argument(
-        "--out", type=Path, default=ROOT / "benchmarks" / "results" / "bench_offset.json"
-    )
-    args = parser.parse_args(argv)
-    if not SPOT.is_file():
-        print(f"{SPOT} is absent: the benchmark needs ../shared/meshes", file=sys.stderr)
-        return 1
-    result: dict[str, Any] = json.loads(args.out.read_text()) if args.out.is_file() else {}
-    if args.part in ("quality", "both"):
+def summary(details: dict[str, Any]) -> list[dict[str, Any]]:
+    """Rows of the robust speed against OpenVDB, then of each input's quality per method."""
+    rows: list[dict[str, Any]] = []
+    speed_part = details.get("speed")
+    if speed_part:
+        for run in speed_part["runs"]:
+            rows.append(
+                {
+                    "case": f"{speed_part['mesh']}, {speed_part['n_faces']:,} faces, "
+                    f"{speed_part['size_mm']:g} mm, depth {run['depth_mm']:g} mm",
+                    "method": "robust",
+                    "faces": speed_part["n_faces"],
+                    "seconds": round(run["robust_s"], 1),
+                    "openvdb_s": round(run["openvdb_s"], 1),
+                    "ratio": round(run["ratio"], 2),
+                    "closed": run["closed"] and run["oriented"],
+                    "self_intersections": run["self_intersections"],
+                }
+            )
+    for name, methods in details.get("quality", {}).items():
+        for method, row in methods.items():
+            errors = [layer["error_pct"] for layer in row["layers"] if layer["error_pct"]]
+            rows.append(
+                {
+                    "case": name,
+                    "method": method,
+                    "faces": row["n_faces"],
+                    "seconds": round(row["time_s"], 2),
+                    "closed": all(x["closed"] and x["oriented"] for x in row["layers"]),
+                    "self_intersections": sum(x["self_intersections"] for x in row["layers"]),
+                    "p99_error_pct": round(max(e["p99"] for e in errors), 3) if errors else None,
+                }
+            )
+    return rows
+
+
+def main() -> None:
+    parsed = parser(__doc__)
+    parsed.add_argument("--part", action="append", choices=PARTS, help="default: all")
+    parsed.add_argument("--meshes", type=str, default="", help="comma list (quality part)")
+    parsed.add_argument("--size-mm", type=float, default=50.0)
+    parsed.add_argument("--voxel-mm", type=float, default=0.05)
+    parsed.add_argument("--depths", type=str, default="0.5,1.0,1.5")
+    parsed.add_argument("--subdivisions", type=int, default=2, help="Loop subdivisions")
+    args = parsed.parse_args()
+    parts = args.part or list(PARTS)
+    details = previous_details(NAME, quick=args.quick) if args.part or args.meshes else {}
+    details.pop("run", None)
+    if "quality" in parts:
         names = [n for n in args.meshes.split(",") if n] or None
-        result.setdefault("quality", {}).update(quality(names))
-        result["quality_setup"] = {"thickness_mm": THICKNESS, "n_samples": 20_000}
-        args.out.write_text(json.dumps(result, indent=1) + "\n")
-    if args.part == "flat":
-        result["flat"] = flat()
-        args.out.write_text(json.dumps(result, indent=1) + "\n")
-    if args.part in ("speed", "both"):
+        rows = quality(names, args.quick)
+        details["quality"] = {**details.get("quality", {}), **rows} if names else rows
+        details["quality_setup"] = {"thickness_mm": THICKNESS, "n_samples": 20_000}
+    if "flat" in parts:
+        details["flat"] = flat(args.quick)
+    if "speed" in parts:
         depths = [float(x) for x in args.depths.split(",")]
-        result["speed"] = speed(args.size_mm, args.voxel_mm, depths, args.subdivisions)
-        args.out.write_text(json.dumps(result, indent=1) + "\n")
-    return 0
+        if args.quick:
+            depths = [0.5]
+        details["speed"] = speed(args.size_mm, args.voxel_mm, depths, args.subdivisions, args.quick)
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(details), "details": details}, quick=args.quick
+    )
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()

@@ -1,28 +1,24 @@
 """What the optical thickness rule buys against one constant depth, under the model.
 
-Usage: .venv/bin/python benchmarks/bench_optical_rule.py
-       [--out benchmarks/results/bench_optical_rule.json] [--samples 20000]
+    python benchmarks/bench_optical_rule.py [--samples 20000]
 
 For the default model, spot (30 mm) and the duck (30 mm) on the J750, with the profile's
 optics and with every material's scattering scaled by 0.5 and by 2 (the rule and the
 separation recomputed for each): the thickness of the optical rule, then at 20,000
 surface samples (:func:`shellvox.voxel.colour._depth_effect.depth_effect`): the share of the
 surface within delta_e of its settled colour with the rule's depths and with one
-constant depth of the same mean, and the mean depth each needs for 95 % of the surface.
-The model only, no voxels: what the rule is meant to do. A benchmark, not a test.
+constant depth of the same mean (the peer), and the mean depth each needs for 95 % of
+the surface. The model only, no voxels: what the rule is meant to do.
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import time
-from pathlib import Path
 from typing import Any
 
-from report_models import MODELS as ALL_MODELS
-from report_models import ROOT
+from _common import COLOUR_MODELS, mesh_path, parser, write_result
 
 from shellvox.config import MaterialSettings
 from shellvox.loading import load_model
@@ -31,7 +27,13 @@ from shellvox.printer import PrinterProfile, build_material_plan, layer_model, l
 from shellvox.thickness import DEFAULT_RULE, face_thickness
 from shellvox.voxel.colour import depth_effect, sample_surface
 
-MODELS = {name: ALL_MODELS[name] for name in ("default", "spot_30mm", "duck_30mm")}
+NAME = "bench_optical_rule"
+WHAT = (
+    "Share of the surface within delta_e of its settled colour with the optical "
+    "thickness rule's depths against one constant depth of the same mean (the model "
+    "only, no voxels), and the constant depth needed for the same coverage."
+)
+MODELS = {name: COLOUR_MODELS[name] for name in ("default", "spot_30mm", "duck_30mm")}
 
 
 def _scaled(mesh: ColouredMesh, size_mm: float | None) -> ColouredMesh:
@@ -64,23 +66,50 @@ def one(mesh: ColouredMesh, profile: PrinterProfile, samples: int) -> dict[str, 
     return {"faces": mesh.n_faces, "rule_seconds": round(rule_s, 2), **effect}
 
 
+def summary(details: dict[str, Any]) -> list[dict[str, Any]]:
+    rows = []
+    for key, row in details["cases"].items():
+        model, scattering = key.split(" S x")
+        rows.append(
+            {
+                "model": model,
+                "scattering": f"x{scattering}",
+                "rule_mean_depth_mm": row["mean_depth_mm"],
+                "covered_by_rule": row["adaptive"]["covered_share"],
+                "covered_by_constant": row["constant"]["covered_share"],
+                "constant_over_rule_for_95pct": row["for_95_percent"]["constant_over_adaptive"],
+                "constant_over_rule_same_coverage": row["for_same_coverage"][
+                    "constant_over_adaptive"
+                ],
+            }
+        )
+    return rows
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "--out", type=Path, default=ROOT / "benchmarks/results/bench_optical_rule.json"
-    )
-    parser.add_argument("--samples", type=int, default=20_000)
-    args = parser.parse_args()
+    parsed = parser(__doc__)
+    parsed.add_argument("--samples", type=int, default=20_000)
+    args = parsed.parse_args()
+    models = {"default": MODELS["default"]} if args.quick else MODELS
+    samples = 2_000 if args.quick else args.samples
     base = load_profile("j750")
     results: dict[str, Any] = {}
-    for factor in (1.0, 0.5, 2.0):
+    for factor in (1.0,) if args.quick else (1.0, 0.5, 2.0):
         profile = base if factor == 1.0 else _with_scattering(base, factor)
-        for name, (path, size) in MODELS.items():
-            mesh = _scaled(load_model(path), size)
+        for name, (shared, size) in models.items():
+            mesh = _scaled(load_model(mesh_path(shared)), size)
             key = f"{name} S x{factor:g}"
-            results[key] = one(mesh, profile, args.samples)
-            print(key, json.dumps(results[key]))
-    args.out.write_text(json.dumps(results, indent=2) + "\n")
+            results[key] = one(mesh, profile, samples)
+            print(key, json.dumps(results[key]), flush=True)
+    details = {
+        "setup": f"J750 profile (scattering as shipped, x0.5, x2), default rule; {samples} "
+        "surface samples; delta_e of the rule's colour layer",
+        "cases": results,
+    }
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(details), "details": details}, quick=args.quick
+    )
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

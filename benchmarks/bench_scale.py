@@ -1,23 +1,21 @@
 """Build time and memory with 1 and 2 slab workers: forked pool and Dask LocalCluster.
 
+    python benchmarks/bench_scale.py [MODEL ...] [--size-mm 35] [--copies 4] [--repeat 5]
+        [--configs fork-1,fork-2] [more build options]
+
 Each configuration runs ``shellvox build`` in a child process (J750 grid by default)
 while this script samples the whole process tree with psutil every 0.25 s: the peak RSS
 of the main process and of each worker, the forked workers' USS and PSS (what a forked
 worker really holds beyond the pages it shares with the parent), and the CPU seconds of
 the main process against its workers (the parent's share: writers, halftone, VDB
 assembly). Voxels per second are the grid's voxels over the build time the manifest
-reports. The checkpoint's cost is measured as the same build with ``--no-checkpoint``.
-
-    .venv/bin/python benchmarks/bench_scale.py /work/shared/meshes/spot/spot_triangulated.obj \
-        --size-mm 40
-
-Models are given as paths (several: one configuration per list, for trays once they
-exist). Writes ``benchmarks/results/bench_scale.json``.
+reports. The peer is the same build with one worker (the speed-up of the median times);
+the checkpoint's cost is measured as the same build with ``--no-checkpoint``
+(``--configs fork-1,fork-1-checkpoint``). Without MODEL, a tray of ``--copies`` spots.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import statistics
@@ -30,9 +28,13 @@ from typing import Any
 
 import psutil
 import trimesh
+from _common import load_average, mesh_path, parser, write_result
 
-REPO = Path(__file__).resolve().parents[1]
-RESULTS = REPO / "benchmarks" / "results" / "bench_scale.json"
+NAME = "bench_scale"
+WHAT = (
+    "Build time and memory of a tray of spot copies with two slab workers against one "
+    "(forked pool; Dask LocalCluster and checkpoints on request), rounds alternating."
+)
 
 CONFIGS = {
     "fork-1": ["--workers", "1", "--no-checkpoint"],
@@ -96,9 +98,8 @@ def run_config(
         out = Path(folder) / "out"
         argv = [sys.executable, "-m", "shellvox.cli", "build", *map(str, models), "-o", str(out),
                 "--scale", f"{scale:.8g}", "--no-progress", *options]  # fmt: skip
-        env = dict(os.environ, PYTHONPATH=str(REPO))
         started = time.perf_counter()
-        child = psutil.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        child = psutil.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         peaks: dict[int, dict[str, float]] = {}
         cpu: dict[int, float] = {}
         roles: dict[int, str] = {}
@@ -165,27 +166,59 @@ def _summary(done: list[dict[str, Any]], copies: int, rounds: int) -> dict[str, 
     return summary
 
 
+def summary(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per configuration and tray: median times, and the speed-up over 1 worker."""
+    rows = []
+    keys = sorted({(r["copies"], r["config"]) for r in results}, key=lambda k: (k[0], k[1]))
+    median: dict[tuple[int, str], float] = {}
+    for copies, config in keys:
+        mine = [r for r in results if r["copies"] == copies and r["config"] == config]
+        median[copies, config] = statistics.median(r["wall_s"] for r in mine)
+        uss = [u for r in mine for u in r["worker_peak_uss_mb"]]
+        rows.append(
+            {
+                "config": config,
+                "copies": copies,
+                "rounds": len(mine),
+                "median_wall_s": round(median[copies, config], 2),
+                "median_build_s": round(statistics.median(r["build_s"] for r in mine), 2),
+                "median_voxels_per_s": round(statistics.median(r["voxels_per_s"] for r in mine)),
+                "worker_peak_uss_mb": round(max(uss), 1) if uss else None,
+                "main_peak_rss_mb": round(max(r["main_peak_rss_mb"] for r in mine), 1),
+            }
+        )
+    for row in rows:
+        kind = row["config"].rsplit("-", 1)[0]
+        one = median.get((row["copies"], f"{kind}-1"))
+        if row["config"].endswith("-2") and one is not None:
+            row["speedup_over_1_worker"] = round(one / row["median_wall_s"], 3)
+    return rows
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("models", nargs="+", type=Path)
-    parser.add_argument("--size-mm", type=float, default=40.0, help="largest extent of a model")
-    parser.add_argument("--configs", default=",".join(CONFIGS), help="which configurations")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="JSON results file")
-    parser.add_argument(
-        "--copies", default="1", help="comma list: trays of that many copies (--layout auto)"
+    parsed = parser(__doc__)
+    parsed.add_argument("models", nargs="*", type=Path, help="default: spot")
+    parsed.add_argument("--size-mm", type=float, default=35.0, help="largest extent of a model")
+    parsed.add_argument("--configs", default="fork-1,fork-2", help=f"among {','.join(CONFIGS)}")
+    parsed.add_argument(
+        "--copies", default="4", help="comma list: trays of that many copies (--layout auto)"
     )
-    parser.add_argument(
-        "--repeat", type=int, default=1, help="rounds of every configuration (order alternates)"
+    parsed.add_argument(
+        "--repeat", type=int, default=5, help="rounds of every configuration (order alternates)"
     )
-    parser.add_argument(
+    parsed.add_argument(
         "--smaps-every", type=float, default=2.0,
         help="seconds between USS/PSS readings (0.25: each sample, for memory studies)",
     )  # fmt: skip
-    args, extra = parser.parse_known_args()  # the rest: more build options
-    scale = _scale_for(args.models[0], args.size_mm)
+    args, extra = parsed.parse_known_args()  # the rest: more build options
+    if args.quick:
+        args.size_mm, args.copies, args.repeat = 5.0, "1", 1
+    models = args.models or [mesh_path("spot")]
+    scale = _scale_for(models[0], args.size_mm)
     results = []
-    summary: dict[str, float] = {}
+    summary_old: dict[str, float] = {}
     configs = args.configs.split(",")
+    load_start = load_average()
     for copies in (int(c) for c in args.copies.split(",")):
         tray = ["--copies", str(copies)] if copies > 1 else []
         done = []
@@ -194,27 +227,29 @@ def main() -> None:
             # rounds favours neither configuration.
             for name in configs if round_ % 2 == 0 else configs[::-1]:
                 options = [*CONFIGS[name], *tray, *extra]
-                result = run_config(name, args.models, options, scale, args.smaps_every)
+                result = run_config(name, models, options, scale, args.smaps_every)
                 result["copies"], result["round"] = copies, round_
                 print(json.dumps(result), flush=True)
                 done.append(result)
         results += done
-        summary.update(_summary(done, copies, args.repeat))
+        summary_old.update(_summary(done, copies, args.repeat))
     record = {
-        "models": [str(m) for m in args.models],
+        "models": [str(m) for m in models],
         "size_mm": args.size_mm,
         "copies": args.copies,
         "repeat": args.repeat,
         "smaps_every_s": args.smaps_every,
         "extra_options": extra,
         "cores": len(os.sched_getaffinity(0)),
-        "load_average": os.getloadavg(),
+        "load_average_at_start": load_start,
         "results": results,
-        "summary": summary,
+        "speedups": summary_old,
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(record, indent=2) + "\n")
-    print(json.dumps(summary, indent=2))
+    print(json.dumps(summary_old, indent=2))
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(results), "details": record}, quick=args.quick
+    )
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

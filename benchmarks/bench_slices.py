@@ -1,42 +1,45 @@
 """Speed and memory of the printer-slice writers on J750 slices of spot at 100 mm.
 
-Usage (from the repository root)::
+    python benchmarks/bench_slices.py [--slices 96] [--slab 24]
 
-    .venv/bin/python benchmarks/bench_slices.py [--slices 96] [--slab 24]
-
-Slices are 1322 x 1176 voxels (x, y: the grid of spot scaled to 100 mm on the J750) with
-a synthetic model: an elliptic section whose size varies with z, a white core, and a
-1 mm skin halftoned at random among five materials (the worst case for compression).
-Measured: one slice encoded by :func:`shellvox.voxel.io._png_encode.encode_png` and by Pillow
-(``compress_level=1``); :class:`shellvox.voxel.io._gcvf_writer.GcvfWriter` with 1 and 2 encoding
-threads (slices/s, MB/s of RGBA pixels, bytes per slice); the peak of traced memory
-(numpy allocations) while writing `--slices` and four times as many, which must not
-grow with the height; :class:`shellvox.voxel.io._png_slices.PngSliceWriter`; and the time the
-``material`` grid adds to :class:`shellvox.voxel.io.vdb._writer.VdbStackWriter`.
+Slices are 1322 x 1176 voxels (x, y: the grid of spot scaled to 100 mm on the J750) with a
+synthetic model: an elliptic section whose size varies with z, a white core, and a 1 mm
+skin halftoned at random among five materials (the worst case for compression). Measured:
+one slice encoded by :func:`shellvox.voxel.io._png_encode.encode_png` and by Pillow
+(``compress_level=1``, the peer); :class:`shellvox.voxel.io._gcvf_writer.GcvfWriter` with
+1 and 2 encoding threads (slices/s, MB/s of RGBA pixels, bytes per slice); the peak of
+traced memory (numpy allocations) while writing `--slices` and four times as many, which
+must not grow with the height; :class:`shellvox.voxel.io._png_slices.PngSliceWriter`; and
+the time the ``material`` grid adds to
+:class:`shellvox.voxel.io.vdb._writer.VdbStackWriter`.
 """
 
 from __future__ import annotations
 
-import argparse
 import io
 import json
-import sys
 import tempfile
 import time
 import tracemalloc
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from _common import parser, write_result
 from PIL import Image
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from shellvox.printer import load_profile
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.io import GcvfWriter, PngSliceWriter, encode_png
+from shellvox.voxel.io.vdb import VdbStackWriter
 
-from shellvox.printer import load_profile  # noqa: E402
-from shellvox.voxel.grid import GridSpec  # noqa: E402
-from shellvox.voxel.io import GcvfWriter, PngSliceWriter, encode_png  # noqa: E402
-from shellvox.voxel.io.vdb import VdbStackWriter  # noqa: E402
+NAME = "bench_slices"
+WHAT = (
+    "Speed and memory of the printer-slice writers on synthetic J750 slices of spot "
+    "at 100 mm (1322 x 1176 voxels): the PNG encoder against Pillow's level 1, the "
+    "job writer with 1 and 2 threads, the PNG folder, and the VDB's material grid."
+)
 
 N_Y, N_X = 1176, 1322
 TABLE = [
@@ -170,11 +173,54 @@ def vdb_material(n_z: int, rows: int, folder: Path) -> dict[str, object]:
     return result
 
 
+def summary(details: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per writer: milliseconds and kilobytes per slice."""
+    one = details["one_slice"]
+    rows: list[dict[str, Any]] = [
+        {"case": "encode_png, one slice", "slices": 1, "ms_per_slice": one["encode_png_ms"],
+         "kb_per_slice": one["encode_png_kb"]},
+        {"case": "Pillow level 1, one slice", "slices": 1,
+         "ms_per_slice": one["pillow_level1_ms"], "kb_per_slice": one["pillow_level1_kb"]},
+    ]  # fmt: skip
+    taller = {**details["gcvf_4x_taller"], "label": ", 4x taller"}
+    for run in [*details["gcvf"], taller]:
+        rows.append(
+            {
+                "case": f"GcvfWriter, {run['threads']} thread{'s' * (run['threads'] > 1)}"
+                + run.get("label", ""),
+                "slices": run["slices"],
+                "ms_per_slice": round(1e3 * run["seconds"] / run["slices"], 1),
+                "kb_per_slice": round(run["bytes_per_slice"] / 1e3),
+                "peak_traced_mb": run["peak_traced_mb_above_input"],
+            }
+        )
+    png = details["png_folder"]
+    rows.append(
+        {
+            "case": "PngSliceWriter",
+            "slices": png["slices"],
+            "ms_per_slice": round(1e3 * png["seconds"] / png["slices"], 1),
+        }
+    )
+    vdb = details["vdb_material_grid"]
+    for key, label in (("seconds_without_material", "without"), ("seconds_with_material", "with")):
+        rows.append(
+            {
+                "case": f"VdbStackWriter, {label} the material grid",
+                "slices": vdb["slices"],
+                "ms_per_slice": round(1e3 * vdb[key] / vdb["slices"], 1),
+            }
+        )
+    return rows
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--slices", type=int, default=96)
-    parser.add_argument("--slab", type=int, default=24, help="z rows per slab")
-    args = parser.parse_args()
+    parsed = parser(__doc__)
+    parsed.add_argument("--slices", type=int, default=96)
+    parsed.add_argument("--slab", type=int, default=24, help="z rows per slab")
+    args = parsed.parse_args()
+    if args.quick:
+        args.slices, args.slab = 8, 4
     with tempfile.TemporaryDirectory() as name:
         folder = Path(name)
         result = {
@@ -185,6 +231,10 @@ def main() -> None:
             "vdb_material_grid": vdb_material(args.slices // 2, args.slab, folder),
         }
     print(json.dumps(result, indent=1))
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(result), "details": result}, quick=args.quick
+    )
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

@@ -13,21 +13,19 @@ leaves, in the same run, with:
   memory (15, 8) and with the smallest (9, 1), which Z_RLE (distance 1 only) does not need;
 - ``zlib-ng 2``: the build's fast setting (``shellvox.voxel.io.compress``) per leaf, for reference.
 
+zlib-ng's ``Z_RLE``, the library's own way of packing runs, is the peer.
+
 Every stream is inflated with Python's zlib and compared with its leaf's bytes. Times
 are the best of ``--repeat`` rounds, the encoders alternating within each round; MB/s
 counts raw leaf bytes.
 
-    .venv/bin/python benchmarks/bench_vdb_leaves.py [--printer j750] [--scale S] [MODEL]
-
-Writes ``benchmarks/results/bench_vdb_leaves.json``.
+    python benchmarks/bench_vdb_leaves.py [--printer j750] [--scale S] [MODEL]
 """
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import json
-import sys
 import tempfile
 import time
 import zlib
@@ -36,19 +34,22 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _common import DEFAULT_MODEL, ROOT, parser, write_result
 from numpy.typing import NDArray
 from zlib_ng import zlib_ng
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
+import shellvox.voxel.io.vdb._leaves as leaves_module
+from shellvox.cli import main as shellvox
+from shellvox.voxel.io import compress
+from shellvox.voxel.io._deflate import compress_segments
 
-import shellvox.voxel.io.vdb._leaves as leaves_module  # noqa: E402
-from shellvox.cli import main as shellvox  # noqa: E402
-from shellvox.voxel.io import compress  # noqa: E402
-from shellvox.voxel.io._deflate import compress_segments  # noqa: E402
-
-RESULTS = REPO / "benchmarks" / "results" / "bench_vdb_leaves.json"
-MODEL = REPO / "data" / "colour_target" / "colour_target.obj"
+NAME = "bench_vdb_leaves"
+WHAT = (
+    "Time and bytes of the VDB leaves' run encoder (one compiled call a batch) on a "
+    "build's own density and layer leaves, against zlib-ng's Z_RLE per leaf (and "
+    "zlib-ng level 2 for reference), in the same run."
+)
+MODEL = DEFAULT_MODEL
 
 Batch = tuple[NDArray[np.uint8], NDArray[np.int64]]
 
@@ -114,16 +115,33 @@ def check(batches: list[Batch], streams: list[list[bytes]]) -> None:
                 raise AssertionError("a stream does not inflate to its leaf")
 
 
+def summary(details: dict[str, Any]) -> list[dict[str, Any]]:
+    return [
+        {
+            "encoder": name,
+            "MB_per_s": row["MB_per_s"],
+            "us_per_leaf": row["us_per_leaf"],
+            "bytes": row["bytes"],
+            "time_over_run_encoder": row["time / run encoder"],
+            "bytes_over_run_encoder": row["bytes / run encoder"],
+        }
+        for name, row in details["encoders"].items()
+    ]
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("model", nargs="?", type=Path, default=MODEL)
-    parser.add_argument("--printer", default="j750")
-    parser.add_argument("--scale", type=float, default=None)
-    parser.add_argument("--repeat", type=int, default=5)
-    args = parser.parse_args()
+    parsed = parser(__doc__)
+    parsed.add_argument("model", nargs="?", type=Path, default=MODEL)
+    parsed.add_argument("--printer", default="j750")
+    parsed.add_argument("--scale", type=float, default=None)
+    parsed.add_argument("--repeat", type=int, default=5)
+    args = parsed.parse_args()
     build_args = ["--printer", args.printer]
     if args.scale is not None:
         build_args += ["--scale", str(args.scale)]
+    if args.quick:
+        build_args += ["--voxel-size", "0.1,0.1,0.1"]
+        args.repeat = 1
     tick = time.perf_counter()
     batches = record_leaves(args.model, build_args)
     build_s = time.perf_counter() - tick
@@ -160,8 +178,8 @@ def main() -> None:
         }
         print(name, json.dumps(rows[name]))
     results = {
-        "model": str(args.model.resolve().relative_to(REPO))
-        if args.model.resolve().is_relative_to(REPO)
+        "model": str(args.model.resolve().relative_to(ROOT))
+        if args.model.resolve().is_relative_to(ROOT)
         else str(args.model),
         "build_args": build_args,
         "build_seconds": round(build_s, 1),
@@ -171,7 +189,10 @@ def main() -> None:
         "repeat": args.repeat,
         "encoders": rows,
     }
-    RESULTS.write_text(json.dumps(results, indent=1) + "\n")
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(results), "details": results}, quick=args.quick
+    )
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

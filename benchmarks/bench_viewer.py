@@ -1,9 +1,10 @@
 """Latency of ``shellvox view`` on a large build: time to first slice, per-slice latency.
 
-Usage (from the repository root, on a finished build)::
+    python benchmarks/bench_viewer.py [BUILD] [--screen 1600x1000] [--source auto|tiff|zarr]
 
-    .venv/bin/python benchmarks/bench_viewer.py /tmp/spot100 [--screen 1600x1000] \
-        [--source auto|tiff|zarr] [--out FILE]
+Without BUILD, spot at 100 mm is built first on the J750 grid with the default formats
+(5.8 G voxels; a few minutes). There is no external peer: the latencies are absolute
+(the page asks again after 0.1 s of scrolling).
 
 The server runs in this process (a thread), and the requests are the page's own: for
 a screen of W x H device pixels, the slice fitted to the screen (every ``step``-th voxel,
@@ -24,29 +25,35 @@ once (colour: layers + colour; depth: layers + depth; ...), timed until the last
   the surface's colours, one pass over the pages) may still be reading.
 - ``settled``: the same once that pass has ended, and eight consecutive colour slices on
   each axis (a scroll).
-
-Writes ``benchmarks/results/bench_viewer.json``.
 """
 
 from __future__ import annotations
 
-import argparse
 import http.client
 import json
 import math
 import os
 import statistics
+import subprocess
 import sys
+import tempfile
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from _common import mesh_path, parser, scale_for, write_result
 
-from shellvox.output import file_summary  # noqa: E402
-from shellvox.viewer import BuildFolder, ViewerServer  # noqa: E402
+from shellvox.output import file_summary
+from shellvox.viewer import BuildFolder, ViewerServer
+
+NAME = "bench_viewer"
+WHAT = (
+    "Latency of shellvox view on a large build (spot at 100 mm, 5.8 G voxels): "
+    "opening, and every axis and mode of slices fitted to a 1600 x 1000 screen, cold, "
+    "warmed, zoomed to one voxel per pixel and once the opening pass has ended."
+)
 
 MODES = {
     "colour": ("layers", "colour"),
@@ -121,33 +128,90 @@ def serve(folder: BuildFolder, *, warm: bool) -> tuple[ViewerServer, threading.T
     return server, thread
 
 
+def build(out: Path, quick: bool) -> str:
+    """Build spot at 100 mm on the J750 grid (quick: the default model, coarse) into `out`."""
+    if quick:
+        model, options = mesh_path("default"), ["--voxel-size", "0.1,0.1,0.1"]
+        what = "the default model at 0.1 mm voxels, default formats"
+    else:
+        model, options = mesh_path("spot"), ["--scale", repr(scale_for("spot", 100.0))]
+        what = "spot at 100 mm on the J750 grid, default formats"
+    command = [sys.executable, "-m", "shellvox.cli", "build", str(model), "-o", str(out),
+               "--printer", "j750", "--no-progress", *options]  # fmt: skip
+    subprocess.run(command, check=True, capture_output=True)
+    return what
+
+
+def summary(details: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per phase and axis: the slowest slice (every mode) and its mode."""
+
+    def worst(seconds: dict[str, Any], key: str | None) -> tuple[float, str]:
+        pairs = []
+        for mode, value in seconds.items():
+            if isinstance(value, list):
+                pairs.append((max(value), mode))
+            else:
+                pairs.append((value[key] if key else max(value.values()), mode))
+        return max(pairs)
+
+    first = details["first_slice"]
+    rows: list[dict[str, Any]] = [
+        {"phase": "open + first slice", "axis": "z", "max_s": first["total_seconds"],
+         "slowest_mode": "colour"},
+    ]  # fmt: skip
+    for phase, key in (("cold", None), ("warmed", "max"), ("zoomed", "first"), ("settled", "max")):
+        if phase not in details:
+            continue
+        for axis, seconds in details[phase]["seconds"].items():
+            value, mode = worst(seconds, key)
+            rows.append({"phase": phase, "axis": axis, "max_s": value, "slowest_mode": mode})
+    for axis, scroll in details.get("settled", {}).get("scroll_colour", {}).items():
+        rows.append(
+            {"phase": "scroll (next slices)", "axis": axis, "max_s": scroll["max_next"],
+             "slowest_mode": "colour"}
+        )  # fmt: skip
+    return rows
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("build", type=Path)
-    parser.add_argument("--screen", default="1600x1000", help="device pixels W x H")
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/bench_viewer.json")
-    parser.add_argument("--source", choices=("auto", "tiff", "zarr"), default="auto")
-    args = parser.parse_args()
+    parsed = parser(__doc__)
+    parsed.add_argument("build", nargs="?", type=Path, help="a finished build's folder")
+    parsed.add_argument("--screen", default="1600x1000", help="device pixels W x H")
+    parsed.add_argument("--source", choices=("auto", "tiff", "zarr"), default="auto")
+    args = parsed.parse_args()
+    if args.build is not None:
+        result = measure(args.build, args, str(args.build))
+    else:
+        with tempfile.TemporaryDirectory() as folder:
+            made = build(Path(folder) / "build", args.quick)
+            result = measure(Path(folder) / "build", args, made)
+    path = write_result(
+        NAME, {"what": WHAT, "summary": summary(result), "details": result}, quick=args.quick
+    )
+    print(f"wrote {path}")
+
+
+def measure(build_folder: Path, args: Any, described: str) -> dict[str, Any]:
+    """Serve `build_folder` in this process and time the page's requests."""
     width, height = (int(v) for v in args.screen.split("x"))
     load = os.getloadavg()
     pool = ThreadPoolExecutor(4)
-    result: dict[str, object] = {
-        "command": f"benchmarks/bench_viewer.py BUILD --screen {args.screen} "
-        f"--source {args.source}",
-        "machine": f"{os.cpu_count()} cores shared with other jobs; load average at start "
-        f"{load[0]:.1f}, {load[1]:.1f}, {load[2]:.1f}",
+    result: dict[str, Any] = {
+        "screen": args.screen,
+        "source": args.source,
+        "load_average_at_start": [round(v, 2) for v in load],
     }
 
     # time to first slice, as `shellvox view` starts: open, index the stacks, z in colour
     started = time.perf_counter()
-    folder = BuildFolder.open(args.build, source=args.source)
+    folder = BuildFolder.open(build_folder, source=args.source)
     opened = time.perf_counter() - started
     server, thread = serve(folder, warm=False)
     n_z, n_y, n_x = folder.grid.shape_zyx
     region = fitted_region(folder, "z", width, height)
     first = view(pool, server.port, "colour", "z", n_z // 2, region)
     result["build"] = {
-        "folder": str(args.build),
+        "folder": described,
         "stacks": sorted({type(s).__name__ for s in folder.stacks.values()}),
         "grid_zyx": [n_z, n_y, n_x],
         "voxels": n_z * n_y * n_x,
@@ -183,7 +247,7 @@ def main() -> None:
     thread.join()
 
     # warmed: the server decodes the whole-model pages first (as `shellvox view` does)
-    folder = BuildFolder.open(args.build, source=args.source)
+    folder = BuildFolder.open(build_folder, source=args.source)
     started = time.perf_counter()
     server, thread = serve(folder, warm=True)
     assert folder._warming is not None
@@ -256,9 +320,7 @@ def main() -> None:
     server.server_close()
     thread.join()
     pool.shutdown()
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=1) + "\n")
-    print(f"wrote {args.out}")
+    return result
 
 
 if __name__ == "__main__":

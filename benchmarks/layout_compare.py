@@ -2,9 +2,11 @@
 
 Every file must be byte-identical, except manifest.json, compared as JSON without its
 measured ``seconds`` (the wall times of the stages). The VDB's UUID is a hash of its
-content (voxel/vdb_format.py), so volume.vdb is compared byte for byte too.
+content (voxel/io/vdb/), so volume.vdb is compared byte for byte too.
 
-    .venv/bin/python benchmarks/layout_compare.py /work/layout-ref/before /work/layout-ref/after
+    .venv/bin/python benchmarks/layout_compare.py BEFORE AFTER
+
+Exit status 0 when every file is the same, 1 otherwise.
 """
 
 from __future__ import annotations
@@ -47,4 +49,9 @@ def main(before: Path, after: Path) -> int:
 
 
 if __name__ == "__main__":
+    if sys.argv[1:2] in (["-h"], ["--help"]):
+        print(__doc__)
+        raise SystemExit(0)
+    if len(sys.argv) != 3:
+        raise SystemExit("usage: python benchmarks/layout_compare.py BEFORE AFTER")
     sys.exit(main(Path(sys.argv[1]), Path(sys.argv[2])))

@@ -1,12 +1,18 @@
 #!/usr/bin/env bash
-# The four builds of issue 23 ("a layout that shows the pipeline"): run them into OUT
-# (default /work/layout-ref/before) and compare two such folders with
-# benchmarks/layout_compare.py (every file byte for byte, UUIDs and timings aside).
-#   bash benchmarks/layout_identity.sh /work/layout-ref/after
+# The byte-identity check of builds across a refactor: four builds (the default model on
+# the J750, spot at 20 mm, constant layers with the offset shells, the duck with layers from
+# the shells and the rule file) into OUT; run it before and after the change and compare
+# the two folders with benchmarks/layout_compare.py (every file byte for byte, the
+# manifest's timings aside):
+#   bash benchmarks/layout_identity.sh ../layout-ref/before     # on the old code
+#   bash benchmarks/layout_identity.sh ../layout-ref/after      # on the new code
+#   .venv/bin/python benchmarks/layout_compare.py ../layout-ref/before ../layout-ref/after
+# The meshes come from $SHELLVOX_MESHES (default ../shared/meshes, as every benchmark:
+# benchmarks/_common.py); $SV is the shellvox command (default .venv/bin/shellvox).
 set -euo pipefail
+OUT="$(realpath -m "${1:?usage: bash benchmarks/layout_identity.sh OUT}")"
 cd "$(dirname "$0")/.."
-OUT="${1:-/work/layout-ref/before}"
-MESHES="${MESHES:-$(pwd)/../shared/meshes}"
+MESHES="$(.venv/bin/python benchmarks/_common.py meshes)"
 SV="${SV:-.venv/bin/shellvox}"
 rm -rf "$OUT"; mkdir -p "$OUT"
 # 1. the default model on the J750 (as `make demo`)
