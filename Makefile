@@ -8,7 +8,7 @@ BIN := $(VENV)/bin
 OUT ?= out/demo
 MODEL ?= data/colour_target/colour_target.obj
 
-.PHONY: setup demo test test-fast fuzz lint clean
+.PHONY: setup demo test test-fast docs wheel-check bench fuzz lint clean
 
 setup:
 	@bash scripts/bootstrap.sh
@@ -24,6 +24,23 @@ test: setup
 	$(BIN)/ruff format --check .
 	bash scripts/typecheck.sh
 	$(BIN)/python -m pytest -n auto --dist loadgroup --max-worker-restart=0 --durations=25
+
+# The documentation (docs/_build/html): Sphinx with warnings as errors; the tutorials are
+# notebooks executed at every build, then every docstring example runs (doctest builder).
+docs: setup
+	rm -rf docs/_build/html docs/_build/doctest
+	cd docs && PATH="$(abspath $(BIN)):$$PATH" ../$(BIN)/python -m sphinx -W --keep-going -b html . _build/html
+	cd docs && PATH="$(abspath $(BIN)):$$PATH" ../$(BIN)/python -m sphinx -W --keep-going -b doctest . _build/doctest
+
+# The benchmarks (benchmarks/README.md): all, or some (BENCH="build scale"); each writes
+# benchmarks/results/bench_NAME.json. Test meshes from $SHELLVOX_MESHES (../shared/meshes).
+BENCH ?=
+bench: setup
+	$(BIN)/python benchmarks/run.py $(BENCH)
+
+# What users install: the wheel, in a fresh venv without extras (scripts/check_wheel.sh).
+wheel-check: setup
+	bash scripts/check_wheel.sh
 
 # The quick loop: lint, types, the doctests and the tests not marked slow.
 test-fast: setup
@@ -47,4 +64,4 @@ lint: setup
 	bash scripts/typecheck.sh
 
 clean:
-	rm -rf out .pytest_cache .mypy_cache .ruff_cache
+	rm -rf out .pytest_cache .mypy_cache .ruff_cache .typecheck docs/_build docs/_generated docs/jupyter_execute build dist

@@ -72,7 +72,7 @@ def hash_grids(lo: FloatArray, hi: FloatArray) -> Iterator[HashGrid]:
     holding the low corner of the two boxes' intersection (``max(lo_i, lo_j)``), where
     both boxes are binned, so it is found once. Entries per box are thus bounded (27 in
     the fine grid, 8 per coarser level) whatever the sizes: long sliver triangles among
-    tiny ones (CAD fans) no longer span billions of cells.
+    tiny ones (CAD fans) never span billions of cells.
 
     Parameters
     ----------

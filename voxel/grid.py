@@ -34,6 +34,7 @@ class GridSpec:
 
     Examples
     --------
+    >>> from shellvox import GridSpec
     >>> grid = GridSpec((0.0, 0.0, 0.0), (0.5, 1.0, 2.0), (2, 3, 4))
     >>> grid.index_to_world([[1, 2, 3]]).tolist()
     [[1.5, 2.0, 2.0]]

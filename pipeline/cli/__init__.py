@@ -44,22 +44,23 @@ def _subcommands() -> dict[str, ModuleType]:
     }
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = _Parser(
+def parser() -> argparse.ArgumentParser:
+    """Return the command line's argument parser (every command and option; the CLI reference)."""
+    top = _Parser(
         prog="shellvox",
         description="Per-face colour-layer shells and layered voxel stacks for colour 3D printing.",
     )
-    parser.add_argument("--version", action="version", version=f"shellvox {__version__}")
-    parser.add_argument(
+    top.add_argument("--version", action="version", version=f"shellvox {__version__}")
+    top.add_argument(
         "--debug", action="store_true", help="show the traceback of a failure (for bug reports)"
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = top.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module in _subcommands().items():
         doc = (module.__doc__ or "").strip().splitlines()[0]
         command = sub.add_parser(name, help=doc, description=doc)
         module.add_arguments(command)
         command.set_defaults(handler=module.run)
-    return parser
+    return top
 
 
 class _Parser(argparse.ArgumentParser):
@@ -115,9 +116,9 @@ def _run(argv: list[str]) -> int:
     with signals_raise():
         try:
             with DeferredSignals():
-                parser = _parser()
+                arguments = parser()
             unblock_signals()  # blocked since the start by python -m shellvox.cli
-            args = parser.parse_args(argv)
+            args = arguments.parse_args(argv)
             status: int = args.handler(args)
             return status
         except (SystemExit, GeneratorExit):

@@ -91,7 +91,9 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
         "--icc", type=Path, metavar="FILE", help="CMYK ICC output profile for the separation"
     )
     materials.add_argument(
-        "--backing", metavar="ROLE", help="material role of the backing layers (default white)"
+        "--backing",
+        metavar="ROLE",
+        help="material role of the backing layers (default: the profile's)",
     )
     materials.add_argument(
         "--core", metavar="ROLE", help="material role of the core (default: the profile's)"

@@ -46,10 +46,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=None,
         metavar="MM",
-        help=f"grid step of the field method (default {SHELL_STEP_MM}: |d - D| p99 about 1.3 um "
-        "on spot at 100 mm, raised where a large surface would give more than "
+        help=f"grid step of the field method (default {SHELL_STEP_MM}: the depth error p99 about "
+        "1.3 um on spot at 100 mm, raised where a large surface would give more than "
         f"{MAX_FIELD_TRIANGLES // 1_000_000} M triangles before simplification; halving it "
-        "quarters the error and quadruples the triangles)",
+        "halves the error and quadruples the triangles)",
     )
     parser.add_argument(
         "--layer-height",
