@@ -47,7 +47,7 @@ from _common import load_average, mesh_path, parser, previous_details, write_res
 from _openvdb import level_set_seconds
 
 from shellvox import load_model
-from shellvox.offset.intersections import count_self_intersections, intersecting_pairs
+from shellvox.offset.crossing.intersections import count_self_intersections, intersecting_pairs
 from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface, winding_numbers
 
 NAME = "bench_field_shells"

@@ -17,8 +17,8 @@ depth (in Debian's python3, the same session), as a ratio.
 
 flat: the default model (data/colour_target, 3468 faces, 2364 of them in 174 flat
 patches) and the airplane at 100 mm, two layers of 0.5 mm, with one prism per flat patch
-(shellvox.offset.planar) and, in the same process, with per-face prisms only: time, CPU time,
-pieces, shell faces and volumes (which must agree).
+(shellvox.offset.reference.planar) and, in the same process, with per-face prisms only: time, CPU
+time, pieces, shell faces and volumes (which must agree).
 
 Running some parts keeps the others' results from the current result file.
 """
@@ -42,10 +42,10 @@ from _common import (
 )
 from _openvdb import level_set_seconds
 
-import shellvox.offset.band as band
+import shellvox.offset.reference.band as band
 from shellvox.offset import offset_shells, shell_report
-from shellvox.offset.intersections import intersecting_pairs
-from shellvox.offset.robust import ShellDefectWarning
+from shellvox.offset.crossing.intersections import intersecting_pairs
+from shellvox.offset.reference.robust import ShellDefectWarning
 
 NAME = "bench_offset"
 WHAT = (

@@ -16,8 +16,8 @@ from shellvox.offset._validate import (
     check_thickness,
 )
 from shellvox.offset.adjacency import edge_adjacency
-from shellvox.offset.paper import paper_offset
-from shellvox.offset.robust import robust_offset
+from shellvox.offset.reference.paper import paper_offset
+from shellvox.offset.reference.robust import robust_offset
 
 Method = Literal["robust", "paper"]
 METHODS: tuple[str, ...] = ("robust", "paper")
@@ -64,8 +64,8 @@ def offset_shells(
         Layer ``k`` is at cumulative depth ``D_k(f) = sum_{j <= k} t_j(f)``.
     method : {"robust", "paper"}, optional
         ``"robust"`` (default): closed, oriented, self-intersection-free, nested shells,
-        see :mod:`shellvox.offset.robust`. ``"paper"``: the reference construction of Zhu and Chen,
-        see :mod:`shellvox.offset.paper`.
+        see :mod:`shellvox.offset.reference.robust`. ``"paper"``: the reference construction of Zhu
+        and Chen, see :mod:`shellvox.offset.reference.paper`.
 
     Returns
     -------

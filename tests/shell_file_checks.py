@@ -13,7 +13,7 @@ import numpy as np
 import trimesh
 from meshlab_process import HAVE_PYMESHLAB, meshlab_checks, needs_meshlab
 
-from shellvox.offset.intersections import count_self_intersections
+from shellvox.offset.crossing.intersections import count_self_intersections
 
 __all__ = ["HAVE_PYMESHLAB", "header", "meshlab_checks", "needs_meshlab", "trimesh_checks"]
 

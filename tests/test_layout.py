@@ -46,7 +46,7 @@ LAYERS = {
 READERS = ("shellvox.report", "shellvox.viewer", "shellvox.reading")
 STAGES = ("model", "loading", "thickness", "printer", "output", "fdm", "run", "stack", "tray",
           "report", "viewer", "cli")  # fmt: skip
-MAX_TOP_MODULES = {"pipeline": 8, "voxel": 10}
+MAX_TOP_MODULES = {"pipeline": 8, "voxel": 10, "offset": 10}
 MAX_LINES = 1000  # a sanity limit: modules are split by concept, not by a count
 #: The one decorator of compiled kernels: every part of the package may import it.
 COMPILED = "shellvox.voxel._compiled"
@@ -162,9 +162,12 @@ def _broken_rule(name: str, target: str) -> str | None:
     if _within(name, OFFSET):
         if _stage(target):
             return "shellvox.offset never imports the stages"
-        if _within(target, VOXEL) and target not in (f"{VOXEL}.geometry._nearest", COMPILED):
-            return "offset imports only voxel.geometry._nearest (and the kernels' decorator)"
-        return None
+        if not _within(target, VOXEL) or target in (f"{VOXEL}.geometry._nearest", COMPILED):
+            return None
+        field_scan = _within(target, f"{VOXEL}.geometry") or target == f"{VOXEL}.grid"
+        if _within(name, f"{OFFSET}.field") and field_scan:
+            return None  # the field method scans the layer field with the voxels' kernels
+        return "offset imports only voxel.geometry._nearest (the field method: the scan)"
     if not _stage(target):
         return None
     reader = next((r for r in READERS if _within(name, r)), None)
@@ -200,7 +203,7 @@ def _violations() -> list[str]:
 def test_the_walk_sees_the_modules() -> None:
     assert len(MODULES) > 100
     assert "shellvox.run._task" in GRAPH["shellvox.run._runner"]
-    assert "shellvox.voxel.geometry._nearest" in GRAPH["shellvox.offset.guards"]
+    assert "shellvox.voxel.geometry._nearest" in GRAPH["shellvox.offset.reference.guards"]
 
 
 def test_no_import_circles() -> None:
@@ -215,7 +218,9 @@ def test_the_rules_catch_a_broken_import() -> None:
     assert _broken_rule("shellvox.run._runner", "shellvox.stack._plan") is not None
     assert _broken_rule("shellvox.voxel.slab", "shellvox.voxel.io._tiff_pages") is not None
     assert _broken_rule("shellvox.voxel.geometry._nearest", "shellvox.errors") is not None
-    assert _broken_rule("shellvox.offset.robust", "shellvox.voxel.grid") is not None
+    assert _broken_rule("shellvox.offset.reference.robust", "shellvox.voxel.grid") is not None
+    assert _broken_rule("shellvox.offset.field.layer_field", "shellvox.voxel.grid") is None
+    assert _broken_rule("shellvox.offset.field.layer_field", "shellvox.voxel.slab") is not None
     assert _broken_rule("shellvox.config", "shellvox.printer._material_plan") is not None
     assert _broken_rule("shellvox.viewer._depth", "shellvox.stack._stack") is not None
     assert _broken_rule("shellvox.stack._stack", "shellvox.report._previews") is not None
@@ -233,6 +238,8 @@ def test_every_stage_is_a_subpackage() -> None:
         assert (ROOT / "pipeline" / stage / "__init__.py").is_file(), stage
     for part in ("geometry", "colour", "io"):
         assert (ROOT / "voxel" / part / "__init__.py").is_file(), part
+    for part in ("field", "crossing", "quality", "reference"):
+        assert (ROOT / "offset" / part / "__init__.py").is_file(), part
 
 
 def test_no_test_folder_shadows_the_package() -> None:

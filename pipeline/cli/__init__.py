@@ -97,7 +97,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             # offset's own warning class (offset cannot import pipeline); imported here, not
             # at the top: importing this package must stay light (signals are held back
             # from the first line of `python -m shellvox.cli`, which imports it first)
-            from shellvox.offset.robust import ShellDefectWarning
+            from shellvox.offset.reference.robust import ShellDefectWarning
 
             warnings.simplefilter("always", ShellDefectWarning)
             warnings.showwarning = _show_warning

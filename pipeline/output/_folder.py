@@ -59,7 +59,8 @@ class BuildFolder:
     def write_shells(self, shells: Sequence[Shell]) -> list[Shell]:
         """Write ``shells/shell_<k>.ply`` as given; return the shells as read back.
 
-        The shells come ready for their files (:func:`shellvox.offset.for_file.shell_for_file`).
+        The shells come ready for their files
+        (:func:`shellvox.offset.reference.for_file.shell_for_file`).
         """
         (self.path / "shells").mkdir(exist_ok=True)
         files = save_shells(self.path / "shells", shells, stack=self.stack)

@@ -2,10 +2,10 @@
 
 ``field`` meshes the zero set of each layer's field, the exact distance to the nearest face
 minus that face's cumulative depth (the rule of the voxel layers, :mod:`shellvox.voxel.slab`),
-sampled on a grid of step ``step_mm`` (:mod:`shellvox.voxel.geometry._layer_field`: marching
+sampled on a grid of step ``step_mm`` (:mod:`shellvox.offset.field.layer_field`: marching
 tetrahedra, closed, 2-manifold, free of self-intersections and nested by construction), then
 simplifies the shells under an error bound and a no-crossing check
-(:mod:`shellvox.offset.simplify`). ``robust`` and ``paper`` are
+(:mod:`shellvox.offset.field.simplify`). ``robust`` and ``paper`` are
 :func:`shellvox.offset.offset_shells`' exact Booleans and the paper's reference construction. The
 ``field`` shells need no cleaning for their files.
 """
@@ -23,10 +23,10 @@ from shellvox.model import face_areas
 from shellvox.offset import offset_shells
 from shellvox.offset._validate import check_choice, check_mesh, check_thickness
 from shellvox.offset.adjacency import edge_adjacency
-from shellvox.offset.for_file import ShellForFile, shell_for_file
+from shellvox.offset.field.layer_field import field_surfaces
+from shellvox.offset.field.simplify import DEFAULT_LIMITS, GuardLimits, simplify_shells
+from shellvox.offset.reference.for_file import ShellForFile, shell_for_file
 from shellvox.offset.shells import Shell
-from shellvox.offset.simplify import DEFAULT_LIMITS, GuardLimits, simplify_shells
-from shellvox.voxel.geometry import field_surfaces
 from shellvox.voxel.geometry._nearest import SurfaceIndex
 
 ShellMethod = Literal["field", "robust", "paper"]
@@ -73,7 +73,8 @@ class MethodShells(NamedTuple):
         ``simplify``) and the simplification's record.
     crossing_free : bool
         The shells, all together, were tested and no two of their triangles cross
-        (``field``, when simplified: :attr:`shellvox.offset.simplify.Simplified.crossing_free`).
+        (``field``, when simplified:
+        :attr:`shellvox.offset.field.simplify.Simplified.crossing_free`).
     """
 
     shells: list[Shell]
@@ -154,7 +155,7 @@ def ready_for_file(shell: Shell, method: str) -> ShellForFile:
 
     The field shells have no vertex clusters or slivers to clean (their simplification kept
     them closed, manifold and crossing-free, checked); the exact ones go through
-    :func:`shellvox.offset.for_file.shell_for_file`.
+    :func:`shellvox.offset.reference.for_file.shell_for_file`.
     """
     if method == "field":
         return ShellForFile(shell, {"cleaning": "none (field shells)"})

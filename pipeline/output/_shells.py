@@ -1,10 +1,10 @@
 """Shell meshes as files: written as float64 PLY, read back and checked.
 
-The shells come ready for their files (:func:`shellvox.offset.for_file.shell_for_file`: cleaned and
-jittered, by the caller); here each is written as it is given, with
-``property double x/y/z`` (trimesh's PLY export would round to float32), read back with
-trimesh, and checked on what was read (:func:`shellvox.offset.quality.mesh_checks`, after merging
-coincident vertices), so what is reported is what the file holds.
+The shells come ready for their files (:func:`shellvox.offset.reference.for_file.shell_for_file`:
+cleaned and jittered, by the caller); here each is written as it is given, with ``property double
+x/y/z`` (trimesh's PLY export would round to float32), read back with trimesh, and checked on what
+was read (:func:`shellvox.offset.quality.measures.mesh_checks`, after merging coincident vertices),
+so what is reported is what the file holds.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import trimesh
 from shellvox import __version__
 from shellvox.atomic import atomic_path
 from shellvox.errors import ShellvoxWarning
-from shellvox.offset.quality import mesh_checks
+from shellvox.offset.quality.measures import mesh_checks
 from shellvox.offset.shells import Shell
 from shellvox.output._ply import write_ply
 
@@ -40,9 +40,9 @@ class WrittenShell:
         Where the file is (or will be, once its temporary name is renamed).
     cleaning : dict
         What made the shell ready for the file, as given
-        (:attr:`shellvox.offset.for_file.ShellForFile.cleaning`; empty when not given).
+        (:attr:`shellvox.offset.reference.for_file.ShellForFile.cleaning`; empty when not given).
     checks : dict
-        :func:`shellvox.offset.quality.mesh_checks` of the mesh read back.
+        :func:`shellvox.offset.quality.measures.mesh_checks` of the mesh read back.
     as_given : bool
         The file read back holds exactly the vertices and faces given.
     """
@@ -69,7 +69,7 @@ def save_shells(
     out_dir : Path
         Existing folder.
     shells : sequence of Shell
-        Ready for their files (:func:`shellvox.offset.for_file.shell_for_file`).
+        Ready for their files (:func:`shellvox.offset.reference.for_file.shell_for_file`).
     cleaning : sequence of dict, optional
         What made each shell ready, for :attr:`WrittenShell.cleaning`.
     stack : contextlib.ExitStack, optional
@@ -113,7 +113,8 @@ def write_shell(
     path : Path
         File to write (e.g. a temporary name from :func:`shellvox.atomic.atomic_path`).
     shell : Shell
-        Written as given (ready for the file: :func:`shellvox.offset.for_file.shell_for_file`).
+        Written as given (ready for the file:
+        :func:`shellvox.offset.reference.for_file.shell_for_file`).
     target : Path, optional
         The name the file will have, for :attr:`WrittenShell.path` and messages.
     cleaning : dict, optional

@@ -5,8 +5,8 @@ come first, in this process. With the ``"distance"`` rule and ``shell_meshes`` t
 second realisation of the layers, computed beside the voxels in a spawned process
 (:class:`shellvox.run._children.ChildCall`: it dies with the build); the voxels do not depend
 on them, so a failure there is a warning, not an error. The shells for the files are
-cleaned and jittered here (:func:`shellvox.offset.for_file.shell_for_file`; in the spawned process
-when there is one); the voxels of the ``"shells"`` rule use them as computed.
+cleaned and jittered here (:func:`shellvox.offset.reference.for_file.shell_for_file`; in the spawned
+process when there is one); the voxels of the ``"shells"`` rule use them as computed.
 """
 
 from __future__ import annotations
@@ -115,8 +115,8 @@ class ShellJob:
 
         Their ``shells`` are None when there are none or they failed; the seconds are
         those of the shells computed beside the slabs and of the wait for them. The files'
-        shells are cleaned and jittered (:func:`shellvox.offset.for_file.shell_for_file`); with the
-        "shells" rule :attr:`shells` stays as computed (the voxels' shells), and without
+        shells are cleaned and jittered (:func:`shellvox.offset.reference.for_file.shell_for_file`);
+        with the "shells" rule :attr:`shells` stays as computed (the voxels' shells), and without
         shell meshes to write those are what is returned.
         """
         if self._pending is None:
@@ -183,7 +183,7 @@ def timed_shells(
     """Return the offset shells of the model and the seconds they took (picklable).
 
     With `for_files`, the shells are those for the files
-    (:func:`shellvox.offset.for_file.shell_for_file`: cleaned and jittered).
+    (:func:`shellvox.offset.reference.for_file.shell_for_file`: cleaned and jittered).
     """
     tick = time.perf_counter()
     shells = method_shells(vertices, faces, thickness, method=config.shell_method).shells

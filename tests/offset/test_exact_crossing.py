@@ -12,8 +12,8 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from shellvox.offset.exact_crossing import confirmed_crossings
-from shellvox.offset.intersections import _crossing, intersecting_pairs
+from shellvox.offset.crossing.exact_crossing import confirmed_crossings
+from shellvox.offset.crossing.intersections import _crossing, intersecting_pairs
 
 #: Two triangles of the layer-field shell of spot at 100 mm (step 0.1 mm) next to a node
 #: where the field is nearly zero: the float test with its tolerance reports them.

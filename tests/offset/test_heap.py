@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shellvox.offset.heap import heap_blocks
+from shellvox.offset.field.heap import heap_blocks
 
 pytestmark = pytest.mark.skipif(
     platform.libc_ver()[0] != "glibc" or not Path("/proc/self/maps").is_file(),

@@ -8,8 +8,8 @@ import shapely
 import trimesh
 
 from shellvox.offset import Shell, offset_shells, shell_report
-from shellvox.offset.band import ARC_STEP_RAD
-from shellvox.offset.quality import equidistance, mesh_checks
+from shellvox.offset.quality.measures import equidistance, mesh_checks
+from shellvox.offset.reference.band import ARC_STEP_RAD
 
 
 def _tm(shell: Shell) -> trimesh.Trimesh:
@@ -148,7 +148,7 @@ def test_offset_prints_nothing(capfd):
 def test_report_of_shells_tested_together_needs_no_second_crossing_test(monkeypatch):
     # Nesting of shell 2 in shell 1 without the crossing test when both were tested
     # together: the same report; layer 1 in the surface is still tested.
-    from shellvox.offset import quality
+    from shellvox.offset.quality import measures as quality
 
     box = trimesh.creation.box((10.0, 10.0, 10.0))
     shells = offset_shells(box.vertices, box.faces, [0.5, 1.0])

@@ -1,4 +1,4 @@
-"""The baselines of the shell report against analytic answers (offset/baselines.py)."""
+"""The baselines of the shell report against analytic answers (offset/quality/baselines.py)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from shellvox.offset.baselines import slicer_thickness, vertex_normal_offset
+from shellvox.offset.quality.baselines import slicer_thickness, vertex_normal_offset
 
 
 def test_vertex_normal_offset_of_a_regular_icosahedron_is_a_smaller_icosahedron():

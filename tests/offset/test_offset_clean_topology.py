@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-import shellvox.offset.clean as clean
-from shellvox.offset.clean import CleanedMesh, clean_shell
+import shellvox.offset.reference.clean as clean
+from shellvox.offset.reference.clean import CleanedMesh, clean_shell
 
 
 def test_a_topology_change_without_crossings_keeps_the_input(monkeypatch):

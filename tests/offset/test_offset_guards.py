@@ -1,12 +1,13 @@
-"""Shell guards (shellvox.offset.guards) on shells whose defects are known by construction."""
+"""Shell guards (shellvox.offset.reference.guards) on shells whose defects are known by
+construction."""
 
 from __future__ import annotations
 
 import numpy as np
 import trimesh
 
-from shellvox.offset.guards import Surface, too_deep, too_deep_count
-from shellvox.offset.intersections import count_self_intersections
+from shellvox.offset.crossing.intersections import count_self_intersections
+from shellvox.offset.reference.guards import Surface, too_deep, too_deep_count
 
 
 def _box(size: float) -> tuple[np.ndarray, np.ndarray]:

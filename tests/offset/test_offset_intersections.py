@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from shellvox.offset import intersections
-from shellvox.offset.intersections import (
+from shellvox.offset.crossing import intersections
+from shellvox.offset.crossing.intersections import (
     _candidate_pairs,
     _crossing,
     count_self_intersections,

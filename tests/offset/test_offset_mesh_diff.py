@@ -1,11 +1,12 @@
-"""Matching the faces of a changed mesh to the faces of the original (shellvox.offset.mesh_diff)."""
+"""Matching the faces of a changed mesh to the faces of the original
+(shellvox.offset.reference.mesh_diff)."""
 
 from __future__ import annotations
 
 import numpy as np
 import trimesh
 
-from shellvox.offset.mesh_diff import face_origin
+from shellvox.offset.reference.mesh_diff import face_origin
 
 
 def test_face_origin_follows_permutations_and_finds_changed_faces():

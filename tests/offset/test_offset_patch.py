@@ -1,4 +1,5 @@
-"""Local recomputation of a robust core around triangles deeper than asked (shellvox.offset.robust).
+"""Local recomputation of a robust core around triangles deeper than asked
+(shellvox.offset.reference.robust).
 
 The defects are made by hand (a corner of the exact core pushed deeper, as a Boolean fold
 or crack does); the truth is the analytic inner box, independent of the construction.
@@ -12,10 +13,10 @@ import scipy.sparse
 import scipy.sparse.csgraph
 import trimesh
 
-from shellvox.offset import core_cut, robust
-from shellvox.offset.band import features, layer_pieces
-from shellvox.offset.guards import Surface, too_deep, too_deep_count
-from shellvox.offset.union import to_manifold
+from shellvox.offset.reference import core_cut, robust
+from shellvox.offset.reference.band import features, layer_pieces
+from shellvox.offset.reference.guards import Surface, too_deep, too_deep_count
+from shellvox.offset.reference.union import to_manifold
 
 SIZE = 10.0
 DEPTH = 0.5

@@ -1,4 +1,5 @@
-"""One prism per flat patch (shellvox.offset.planar): exact geometry, fallbacks, same shells.
+"""One prism per flat patch (shellvox.offset.reference.planar): exact geometry, fallbacks, same
+shells.
 
 Truths: analytic areas of mitred polygon offsets and analytic box offsets; the per-face
 prisms (the construction the patches replace) as the reference for the shells; trimesh
@@ -11,12 +12,12 @@ import numpy as np
 import pytest
 import trimesh
 
-import shellvox.offset.band as band
+import shellvox.offset.reference.band as band
 from shellvox.offset import offset_shells
 from shellvox.offset.adjacency import edge_adjacency, face_normals
-from shellvox.offset.intersections import intersecting_pairs
-from shellvox.offset.pieces import GROW_FRACTION, OUTSIDE_FRACTION
-from shellvox.offset.planar import coplanar_pairs, flat_patches, patch_prisms
+from shellvox.offset.crossing.intersections import intersecting_pairs
+from shellvox.offset.reference.pieces import GROW_FRACTION, OUTSIDE_FRACTION
+from shellvox.offset.reference.planar import coplanar_pairs, flat_patches, patch_prisms
 
 
 def _grid(cells: set[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray]:

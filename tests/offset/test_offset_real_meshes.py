@@ -2,8 +2,8 @@
 
 The issue's done criteria at depths 0.5 and 1.5 mm; each case takes about half a minute
 to a few minutes, hence slow. Truths are independent of the construction: trimesh's
-exact closest points for distances, the crossing test of shellvox.offset.intersections (itself
-tested against hand-made cases) and winding numbers for nesting.
+exact closest points for distances, the crossing test of shellvox.offset.crossing.intersections
+(itself tested against hand-made cases) and winding numbers for nesting.
 """
 
 from __future__ import annotations

@@ -1,10 +1,10 @@
 """Depth steps: where neighbouring faces take different depths, the shell steps sharply.
 
 Each face's prism goes to its own depth, as the voxel layers take the depth of the
-nearest face (shellvox.offset.robust, "Depth steps"). Truths: the analytic profile of a step on a
-flat top, and the voxel rule's depth (the nearest face's) read off the same geometry.
-Also the defect guard: a step is no defect (before, the guard's one-ring rule flagged
-the step's wall as too deep and the shells were recomputed in every union order).
+nearest face (shellvox.offset.reference.robust, "Depth steps"). Truths: the analytic profile of a
+step on a flat top, and the voxel rule's depth (the nearest face's) read off the same geometry. Also
+the defect guard: a step is no defect (before, the guard's one-ring rule flagged the step's wall as
+too deep and the shells were recomputed in every union order).
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import numpy as np
 import trimesh
 
 from shellvox.offset import offset_shells
-from shellvox.offset.intersections import intersecting_pairs
-from shellvox.offset.pieces import GROW_FRACTION
+from shellvox.offset.crossing.intersections import intersecting_pairs
+from shellvox.offset.reference.pieces import GROW_FRACTION
 
 
 def test_a_step_on_a_flat_top_is_sharp_and_no_defect():

@@ -1,4 +1,4 @@
-"""Union of overlapping pieces (shellvox.offset.union) against analytic volumes."""
+"""Union of overlapping pieces (shellvox.offset.reference.union) against analytic volumes."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from shellvox.offset.union import morton_order, union_pieces
+from shellvox.offset.reference.union import morton_order, union_pieces
 
 
 def _cubes(corners: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray]:

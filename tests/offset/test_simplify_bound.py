@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from shellvox.offset.simplify import _raw_error_at_nearest
+from shellvox.offset.field.simplify import _raw_error_at_nearest
 from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface
 
 

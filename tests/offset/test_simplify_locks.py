@@ -15,10 +15,10 @@ import trimesh
 from meshlab_process import HAVE_PYMESHLAB, meshlab_crossing_faces, needs_meshlab
 from scipy.spatial import cKDTree
 
-from shellvox.offset import simplify_passes
-from shellvox.offset.simplify import GuardLimits, simplify_shells
-from shellvox.offset.simplify_passes import manifold_simplify
-from shellvox.voxel.geometry._layer_field import field_surfaces
+from shellvox.offset.field import simplify_passes
+from shellvox.offset.field.layer_field import field_surfaces
+from shellvox.offset.field.simplify import GuardLimits, simplify_shells
+from shellvox.offset.field.simplify_passes import manifold_simplify
 from shellvox.voxel.geometry._nearest import SurfaceIndex
 
 #: One try at Manifold's first tolerance (the error bounds are tested elsewhere).

@@ -1,8 +1,8 @@
 """Shell files: float64 PLY, cleaned of degenerate faces, valid as trimesh and MeshLab read them.
 
 Truths: the real readers (trimesh, pymeshlab when installed), the crossing test of
-shellvox.offset.intersections on the mesh read back and merged, analytic volumes, the topology of
-the meshes built here by hand, and exact rational arithmetic (fractions) for the
+shellvox.offset.crossing.intersections on the mesh read back and merged, analytic volumes, the
+topology of the meshes built here by hand, and exact rational arithmetic (fractions) for the
 triangles MeshLab misjudges.
 """
 
@@ -20,10 +20,10 @@ from shellvox.cli import main
 from shellvox.errors import ShellvoxWarning
 from shellvox.offset import offset_shells
 from shellvox.offset.adjacency import edge_adjacency
-from shellvox.offset.clean import clean_degenerate, clean_shell, folded_faces
-from shellvox.offset.for_file import shell_for_file
-from shellvox.offset.jitter import JITTER_FRACTION
-from shellvox.offset.robust import ShellDefectWarning
+from shellvox.offset.reference.clean import clean_degenerate, clean_shell, folded_faces
+from shellvox.offset.reference.for_file import shell_for_file
+from shellvox.offset.reference.jitter import JITTER_FRACTION
+from shellvox.offset.reference.robust import ShellDefectWarning
 from shellvox.offset.shells import Shell
 from shellvox.output import read_ply, save_shells, write_ply, write_shell
 
@@ -300,7 +300,7 @@ def test_folded_faces_finds_faces_back_to_back():
 def test_a_tested_shell_read_back_as_given_is_not_tested_again(tmp_path, monkeypatch):
     # The field method's guard tests all shells together; a file that reads back as given
     # takes that count, one that does not (here: a vertex moved on the way) is tested.
-    from shellvox.offset import quality
+    from shellvox.offset.quality import measures as quality
     from shellvox.output import _shells
 
     box = trimesh.creation.box((4.0, 4.0, 4.0))

@@ -2,7 +2,7 @@
 
 Truths: exact rational arithmetic (fractions) for the triangles MeshLab misjudges,
 MeshLab itself (pymeshlab, when installed) and the exact coplanarity test of
-shellvox.offset.intersections.
+shellvox.offset.crossing.intersections.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import trimesh
 from meshlab_process import meshlab_checks, meshlab_crossing_faces, needs_meshlab
 from scipy.spatial.transform import Rotation
 
-from shellvox.offset.intersections import coplanar_pairs, count_self_intersections
-from shellvox.offset.jitter import JITTER_FRACTION, jitter_vertices
+from shellvox.offset.crossing.intersections import coplanar_pairs, count_self_intersections
+from shellvox.offset.reference.jitter import JITTER_FRACTION, jitter_vertices
 from shellvox.output import write_ply
 
 

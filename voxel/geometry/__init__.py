@@ -5,15 +5,17 @@
   by :mod:`~shellvox.voxel.geometry._distance_scan` into the exact nearest faces within reach;
   :mod:`~shellvox.voxel.geometry._closest_point` the compiled point-triangle test;
 - :mod:`~shellvox.voxel.geometry._nearest` exact nearest points and generalised winding numbers of
-  points (libigl), the one module of :mod:`voxel` that :mod:`offset` uses;
+  points (libigl);
 - :mod:`~shellvox.voxel.geometry._layer_kernel` the per-voxel pass: layers, SDF band, colour voxels.
+
+:mod:`shellvox.offset` uses :mod:`~shellvox.voxel.geometry._nearest`, and its field method
+the scan of the nearest faces (:mod:`shellvox.offset.field.layer_field`).
 """
 
 from __future__ import annotations
 
 from shellvox.voxel.geometry._closest_point import barycentric
 from shellvox.voxel.geometry._distance_scan import nearest_in_reach, nearest_within
-from shellvox.voxel.geometry._layer_field import field_surfaces
 from shellvox.voxel.geometry._layer_kernel import (
     LayerInputs,
     LayerOutputs,
@@ -44,7 +46,6 @@ __all__ = [
     "closest_barycentric",
     "colour_voxels",
     "distance_to_surface",
-    "field_surfaces",
     "inside_slab",
     "layer_material_counts",
     "nearest_faces",

@@ -10,10 +10,18 @@ import numpy as np
 import numpy.typing as npt
 
 from shellvox.offset._validate import FloatArray, IntArray
-from shellvox.offset.crossing_kernels import cell_pair_hits, crossing_pairs
-from shellvox.offset.exact_crossing import confirmed_crossings
-from shellvox.offset.hash_grid import HashGrid, hash_grids
+from shellvox.offset.crossing.crossing_kernels import cell_pair_hits, crossing_pairs
+from shellvox.offset.crossing.exact_crossing import confirmed_crossings
+from shellvox.offset.crossing.hash_grid import HashGrid, hash_grids
 
+#: Default amplitude of a jitter (:mod:`shellvox.offset.reference.jitter`,
+#: :mod:`shellvox.offset.field.simplify_passes`) as a fraction of the mesh extent: 0.5 nm
+#: on a 50 mm part, 1e8 times the round-off of its coordinates, 1/2000 of the cleaning
+#: tolerance (1 um at 0.5 mm) and 100 times the tolerance of the crossing test (1e-10 of
+#: the extent), so that a crossing the jitter makes is larger than that tolerance and is
+#: seen. At 1e-9, faces it left crossing below that tolerance were still flagged by
+#: MeshLab on a torus.
+JITTER_FRACTION = 1e-8
 #: Threads testing candidate pairs at most (the compiled walk releases the GIL).
 MAX_THREADS = 2
 
@@ -33,10 +41,10 @@ def intersecting_pairs(
     in which each triangle meets the other's plane overlap over a positive length (the
     interval test of Moeller [1]_), with a tolerance of ``1e-10`` of the mesh extent;
     every pair that float test reports is confirmed in exact arithmetic
-    (:func:`shellvox.offset.exact_crossing.confirmed_crossings`), so round-off near clustered
-    vertices reports none that do not meet.
-    Pairs sharing one vertex are tested too: both segments then start at that vertex, so
-    they count when the triangles pass through each other beyond it (a fold at a vertex).
+    (:func:`shellvox.offset.crossing.exact_crossing.confirmed_crossings`), so round-off near
+    clustered vertices reports none that do not meet. Pairs sharing one vertex are tested too: both
+    segments then start at that vertex, so they count when the triangles pass through each other
+    beyond it (a fold at a vertex).
 
     Parameters
     ----------
@@ -44,7 +52,8 @@ def intersecting_pairs(
     faces : (F, 3) int64
     chunk : int, optional
         Candidate pairs walked by one call of the compiled narrow phase
-        (:func:`shellvox.offset.crossing_kernels.cell_pair_hits`; they are never materialised).
+        (:func:`shellvox.offset.crossing.crossing_kernels.cell_pair_hits`; they are never
+        materialised).
     only : (F,) bool, optional
         Test only the pairs with at least one face in `only` (all pairs by default): the
         pairs of a mesh that changed in a few places, among faces changed or crossing
@@ -75,8 +84,8 @@ def intersecting_pairs(
     with ThreadPoolExecutor(_threads(), thread_name_prefix="shellvox-crossings") as pool:
         for grid in hash_grids(lo, hi):
             # Leaders in sorted order, a bounded number of pairs at a time; the pairs are
-            # walked and tested in one compiled loop (shellvox.offset.crossing_kernels), which
-            # releases the GIL: the spans of a grid are tested side by side.
+            # walked and tested in one compiled loop (shellvox.offset.crossing.crossing_kernels),
+            # which releases the GIL: the spans of a grid are tested side by side.
             def walk(span: tuple[int, int], grid: HashGrid = grid) -> IntArray:
                 hit: IntArray = cell_pair_hits(
                     span[0],
@@ -138,8 +147,8 @@ def _candidate_chunks(
 ) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield the pairs ``i < j`` of overlapping boxes (closed), each exactly once.
 
-    The pairs of every grid of :func:`shellvox.offset.hash_grid.hash_grids`, a bounded number at a
-    time, so memory is ``O(F + chunk)`` however many boxes crowd into one cell (fans of
+    The pairs of every grid of :func:`shellvox.offset.crossing.hash_grid.hash_grids`, a bounded
+    number at a time, so memory is ``O(F + chunk)`` however many boxes crowd into one cell (fans of
     sliver triangles put over a thousand there).
 
     Parameters
@@ -179,7 +188,7 @@ def coplanar_pairs(vertices: FloatArray, faces: IntArray, *, chunk: int = 200_00
     These are the pairs :func:`intersecting_pairs` leaves undecided: bounding boxes
     overlapping, and the corners of one triangle within its tolerance (``1e-10`` of the
     mesh extent) of the other's plane. A test without such a tolerance reads their
-    round-off as crossings at random (see :mod:`shellvox.offset.jitter`).
+    round-off as crossings at random (see :mod:`shellvox.offset.reference.jitter`).
 
     Parameters
     ----------
@@ -231,7 +240,7 @@ def _crossing(a: FloatArray, b: FloatArray, eps: float) -> npt.NDArray[np.bool_]
     """Triangle-triangle crossing test on ``(P, 3, 3)`` pairs; ``(P,)`` bool.
 
     The narrow phase of :func:`intersecting_pairs`
-    (:func:`shellvox.offset.crossing_kernels.crossing_kernel`), pair by pair.
+    (:func:`shellvox.offset.crossing.crossing_kernels.crossing_kernel`), pair by pair.
     """
     out = np.zeros(len(a), dtype=np.bool_)
     crossing_pairs(

@@ -1,15 +1,14 @@
 """Exact confirmation of triangle pairs that a floating-point test reports as crossing.
 
-The compiled narrow phase of :func:`shellvox.offset.intersections.intersecting_pairs` works in
-float64 with a tolerance of ``1e-10`` of the mesh extent. Where many vertices gather within
-about a micrometre of one point (the shells meshed from the layer field put several
-vertices within ``1e-5`` of a grid step of a node where the field is nearly zero), its
-rounding reports pairs that do not meet: on the 93,696-face spot at 100 mm, step 0.1 mm,
-19 such pairs among 31.6 million triangles, none of which an exact test confirms. Each
-reported pair is decided again here in exact arithmetic on the float64 coordinates (each
-a dyadic rational: the pair's coordinates times one power of two are Python integers, and
-only the ends of the intervals along the planes' common line are fractions), with the same
-rule as the float test (Moeller's interval test [1]_):
+The compiled narrow phase of :func:`shellvox.offset.crossing.intersections.intersecting_pairs` works
+in float64 with a tolerance of ``1e-10`` of the mesh extent. Where many vertices gather within about
+a micrometre of one point (the shells meshed from the layer field put several vertices within
+``1e-5`` of a grid step of a node where the field is nearly zero), its rounding reports pairs that
+do not meet: on the 93,696-face spot at 100 mm, step 0.1 mm, 19 such pairs among 31.6 million
+triangles, none of which an exact test confirms. Each reported pair is decided again here in exact
+arithmetic on the float64 coordinates (each a dyadic rational: the pair's coordinates times one
+power of two are Python integers, and only the ends of the intervals along the planes' common line
+are fractions), with the same rule as the float test (Moeller's interval test [1]_):
 
 * a pair crosses when each triangle meets the other's plane and the two segments in which
   they do overlap over a positive length along the planes' common line;

@@ -1,9 +1,9 @@
-"""Checks a robust shell must pass before it is accepted (see :mod:`shellvox.offset.robust`).
+"""Checks a robust shell (:mod:`~.reference.robust`) must pass before it is accepted.
 
 manifold3d's Booleans always return a closed manifold, but near-coplanar overlaps of
 pieces occasionally give a geometrically wrong one: crossing triangles, or a thin crack
 or a fold of the shell cut deeper than any piece reaches. Both are found here;
-:mod:`shellvox.offset.robust` then recomputes the core around the deep triangles, or tries
+:mod:`shellvox.offset.reference.robust` then recomputes the core around the deep triangles, or tries
 another order of the Booleans.
 """
 
@@ -15,7 +15,7 @@ import scipy.spatial
 import trimesh
 
 from shellvox.offset._validate import FloatArray, IntArray
-from shellvox.offset.intersections import intersecting_pairs
+from shellvox.offset.crossing.intersections import intersecting_pairs
 from shellvox.voxel.geometry._nearest import SurfaceIndex, nearest_faces
 
 #: A shell point deeper than ``(1 + DEEP_TOLERANCE) * D`` is a defect: the pieces reach

@@ -2,8 +2,8 @@
 
 :func:`cut_core` subtracts the union of a layer's pieces from the previous core,
 :func:`uncross` simplifies a shell whose triangles cross, and :func:`patch_core`
-recomputes the core in boxes around defective triangles; :mod:`shellvox.offset.robust` strings
-them together (its docstring explains when each step runs and why).
+recomputes the core in boxes around defective triangles; :mod:`shellvox.offset.reference.robust`
+strings them together (its docstring explains when each step runs and why).
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ import scipy.sparse.csgraph
 import scipy.spatial
 
 from shellvox.offset._validate import FloatArray, IntArray
-from shellvox.offset.intersections import intersecting_pairs
-from shellvox.offset.mesh_diff import face_origin
-from shellvox.offset.union import to_manifold, union_pieces
+from shellvox.offset.crossing.intersections import intersecting_pairs
+from shellvox.offset.reference.mesh_diff import face_origin
+from shellvox.offset.reference.union import to_manifold, union_pieces
 
 #: Extra subtraction rounds where a Boolean left part of the previous boundary behind.
 REPAIR_ROUNDS = 3
@@ -47,7 +47,7 @@ def cut_core(
     d_min, d_max : float, mm
         Smallest and largest depth of the layer.
     leaf : int
-        Leaf size of the union tree (:func:`shellvox.offset.union.union_pieces`).
+        Leaf size of the union tree (:func:`shellvox.offset.reference.union.union_pieces`).
 
     Returns
     -------
@@ -126,8 +126,8 @@ def _crossing_pairs(
     """Return the crossing pairs of a shell, testing only what changed since `previous`.
 
     Faces with the same corners as a face of the previous shell
-    (:func:`shellvox.offset.mesh_diff.face_origin`) that did not cross there cannot cross each
-    other here; every pair with a new face or a formerly crossing one is tested.
+    (:func:`shellvox.offset.reference.mesh_diff.face_origin`) that did not cross there cannot cross
+    each other here; every pair with a new face or a formerly crossing one is tested.
 
     Parameters
     ----------

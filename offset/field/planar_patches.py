@@ -27,8 +27,8 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from shellvox.offset.field.patch_topology import boundary_loops, patches, twins
 from shellvox.voxel._compiled import kernel
-from shellvox.voxel.geometry._patch_topology import boundary_loops, patches, twins
 
 #: Vertices of a patch lie within this distance (mm) of one plane.
 PLANE_TOLERANCE_MM = 1e-9

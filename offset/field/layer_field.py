@@ -8,9 +8,9 @@ by the project's own scan (:func:`shellvox.voxel.geometry._distance_scan.nearest
 the deepest depth plus two steps) and inside test
 (:func:`shellvox.voxel.geometry._winding.inside_slab`), one slab of node planes at a time (memory
 bounded by the slab), and every layer's zero set is meshed in the same pass by marching tetrahedra
-(:mod:`shellvox.voxel.geometry._marching_tets`). Its planar patches (most of a faceted part's
+(:mod:`shellvox.offset.field.marching_tets`). Its planar patches (most of a faceted part's
 surface) are then triangulated again from their boundaries
-(:mod:`shellvox.voxel.geometry._planar_patches`): the same surface, several times fewer triangles.
+(:mod:`shellvox.offset.field.planar_patches`): the same surface, several times fewer triangles.
 
 A deeper layer has a depth at least as large on every face, so its field is no higher at
 every node and its surface is nested inside the shallower one by construction (strictly
@@ -26,9 +26,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from shellvox.voxel._compiled import kernel
-from shellvox.voxel.geometry._distance_scan import NearestInReach, nearest_in_reach
-from shellvox.voxel.geometry._marching_tets import (
+from shellvox.offset.field.marching_tets import (
     EDGES,
     TABLE,
     TETS,
@@ -39,7 +37,9 @@ from shellvox.voxel.geometry._marching_tets import (
     count_triangles,
     march_slab,
 )
-from shellvox.voxel.geometry._planar_patches import merge_planar_patches
+from shellvox.offset.field.planar_patches import merge_planar_patches
+from shellvox.voxel._compiled import kernel
+from shellvox.voxel.geometry._distance_scan import NearestInReach, nearest_in_reach
 from shellvox.voxel.geometry._voronoi import voronoi_regions
 from shellvox.voxel.geometry._winding import inside_slab
 from shellvox.voxel.grid import GridSpec
@@ -239,7 +239,7 @@ def _layer_bits(
 ) -> None:
     """Set bit ``k`` of a node where it lies inside layer ``k`` (field ``<= 0``, ties inside).
 
-    The same expression as :func:`shellvox.voxel.geometry._marching_tets.march_slab`'s node value,
+    The same expression as :func:`shellvox.offset.field.marching_tets.march_slab`'s node value,
     so a crossed edge always has one value ``<= 0`` and one ``> 0``.
     """
     flat_inside = inside.reshape(-1)

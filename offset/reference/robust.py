@@ -4,13 +4,13 @@ The layer-``k`` core is ``{x in P : dist(x, T_f) >= D_k(f) for every face f}`` (
 face's band, each of its own depth, removed from the solid ``P``); its boundary is shell
 ``k``. This is the classical offset-by-Minkowski-sum definition [1]_ with a per-face
 radius. We realise it with mesh Booleans (manifold3d [2]_, float64 input and output)
-rather than by intersecting neighbour planes (:mod:`shellvox.offset.paper`) or on a grid: the
-Boolean output is closed and oriented by construction, where the depth exceeds the local
-thickness the core is simply empty there (the band fills the part), and layer ``k``'s core
-is cut from layer ``k - 1``'s, so the shells are nested by construction. A level set [3]_
-would also be robust but chamfers convex creases to the voxel size, which breaks the exact
-flat faces and creases asked for here. The removed set is the union of convex pieces
-(:mod:`shellvox.offset.band`, :mod:`shellvox.offset.pieces`):
+rather than by intersecting neighbour planes (:mod:`shellvox.offset.reference.paper`) or on a grid:
+the Boolean output is closed and oriented by construction, where the depth exceeds the local
+thickness the core is simply empty there (the band fills the part), and layer ``k``'s core is cut
+from layer ``k - 1``'s, so the shells are nested by construction. A level set [3]_ would also be
+robust but chamfers convex creases to the voxel size, which breaks the exact flat faces and creases
+asked for here. The removed set is the union of convex pieces
+(:mod:`shellvox.offset.reference.band`, :mod:`shellvox.offset.reference.pieces`):
 
 * a prism per face, ``T_f`` swept along its normal to ``-D_k(f)``: its cap is exactly the
   moved plane, so flat regions and convex creases come out exact (at a convex edge the
@@ -42,28 +42,32 @@ Pieces overlap their neighbours by ``GROW_FRACTION * D`` along the surface (sliv
 triangles' corners by at most ten times that) so that no surface edge lies exactly on a
 piece boundary; without it, Booleans left slivers of material along reflex edges.
 
-The union is built bottom-up along a Morton curve (:mod:`shellvox.offset.union`): runs of 16
-neighbouring pieces first, then neighbouring results pairwise, each Boolean evaluated
-eagerly so that every Boolean joins two neighbouring regions. Coplanar neighbouring
-faces of equal depth share one prism (:mod:`shellvox.offset.planar`).
+The union is built bottom-up along a Morton curve (:mod:`shellvox.offset.reference.union`): runs of
+16 neighbouring pieces first, then neighbouring results pairwise, each Boolean evaluated eagerly so
+that every Boolean joins two neighbouring regions. Coplanar neighbouring faces of equal depth share
+one prism (:mod:`shellvox.offset.reference.planar`).
 
 manifold3d guarantees a manifold result, but not an embedded or exact one: near-coplanar
 overlaps of pieces (nearly flat reflex edges) can leave sub-micrometre crossing
 triangles, a folded triangle or a thin crack cut into the core, and which ones depends
-on the order of the Booleans. Hence the guards (:mod:`shellvox.offset.guards`), in this order:
+on the order of the Booleans. Hence the guards (:mod:`shellvox.offset.reference.guards`), in this
+order:
 
 1. components of about zero volume are dropped (:func:`drop_slivers`);
 2. where part of the previous boundary survived the cut (a mis-classified region), the
-   nearby pieces are subtracted once more (:data:`shellvox.offset.core_cut.REPAIR_ROUNDS`);
-3. a shell with crossing triangles (:func:`shellvox.offset.intersections.intersecting_pairs`) is
-   simplified to ``shellvox.offset.core_cut.SIMPLIFY_FRACTION * D`` (manifold3d's edge collapse);
+   nearby pieces are subtracted once more
+   (:data:`shellvox.offset.reference.core_cut.REPAIR_ROUNDS`);
+3. a shell with crossing triangles
+(:func:`shellvox.offset.crossing.intersections.intersecting_pairs`) is
+   simplified to ``shellvox.offset.reference.core_cut.SIMPLIFY_FRACTION * D`` (manifold3d's edge
+   collapse);
 4. where triangles still cross, or lie deeper than any piece reaches
-   (:func:`shellvox.offset.guards.too_deep`; a fold between layers that only touch is caught
-   here, not by the crossing test), the core is recomputed locally (:func:`patch_core`): in
-   boxes around them, from the previous core and the pieces reaching into the boxes,
-   united in another order; the boxes grow each round (:data:`PATCH_ROUNDS`). After a
-   simplification or a patch only pairs with a new triangle, or one that crossed
-   before, are tested again (:mod:`shellvox.offset.mesh_diff`);
+   (:func:`shellvox.offset.reference.guards.too_deep`; a fold between layers that only touch is
+   caught here, not by the crossing test), the core is recomputed locally (:func:`patch_core`): in
+   boxes around them, from the previous core and the pieces reaching into the boxes, united in
+   another order; the boxes grow each round (:data:`PATCH_ROUNDS`). After a simplification or a
+   patch only pairs with a new triangle, or one that crossed before, are tested again
+   (:mod:`shellvox.offset.reference.mesh_diff`);
 5. a shell still defective after the patches is recomputed with another leaf size of
    the union tree (:data:`LEAF_SIZES`); the best attempt is kept, and a
    :class:`ShellDefectWarning` names what remains.
@@ -93,11 +97,11 @@ import numpy as np
 import numpy.typing as npt
 
 from shellvox.offset._validate import FloatArray, IntArray
-from shellvox.offset.band import features, layer_pieces
-from shellvox.offset.core_cut import cut_core, patch_core, uncross
-from shellvox.offset.guards import Surface, too_deep
-from shellvox.offset.pieces import Group
-from shellvox.offset.union import LEAF, to_manifold
+from shellvox.offset.reference.band import features, layer_pieces
+from shellvox.offset.reference.core_cut import cut_core, patch_core, uncross
+from shellvox.offset.reference.guards import Surface, too_deep
+from shellvox.offset.reference.pieces import Group
+from shellvox.offset.reference.union import LEAF, to_manifold
 
 #: Leaf sizes of the union tree tried in turn while a layer's shell crosses itself.
 LEAF_SIZES = (LEAF, 13, 11, 19)
@@ -135,7 +139,7 @@ def robust_offset(
     -----
     ShellDefectWarning
         When a shell still has crossing triangles, or triangles deeper than asked (see
-        :func:`shellvox.offset.guards.too_deep_count`), after every union order was tried.
+        :func:`shellvox.offset.reference.guards.too_deep_count`), after every union order was tried.
     """
     solid = to_manifold(vertices, faces)
     if solid.status() != m3d.Error.NoError:
@@ -173,7 +177,7 @@ class _Attempt(NamedTuple):
     crossing : int
         Crossing triangle pairs.
     deep_tri : (m,) bool
-        Triangles deeper than asked (:func:`shellvox.offset.guards.too_deep`).
+        Triangles deeper than asked (:func:`shellvox.offset.reference.guards.too_deep`).
     """
 
     vert: FloatArray
@@ -226,8 +230,8 @@ def _patched(
     A fold or crack deeper than the pieces reach, or crossing triangles: the core is
     recomputed in boxes around them (padded by ``round * PATCH_PAD * max(d)``) from the
     previous core and the pieces there alone, united in another order
-    (:func:`shellvox.offset.core_cut.patch_core`). A round's result is kept unless it has more
-    defects; the rounds end when none are left or after :data:`PATCH_ROUNDS`.
+    (:func:`shellvox.offset.reference.core_cut.patch_core`). A round's result is kept unless it has
+    more defects; the rounds end when none are left or after :data:`PATCH_ROUNDS`.
     """
     d_min, d_max = float(d.min()), float(d.max())
     for rnd in range(PATCH_ROUNDS):

@@ -1,11 +1,13 @@
-"""Compiled narrow phase of :func:`shellvox.offset.intersections.intersecting_pairs` (numba).
+"""Compiled narrow phase of the crossing test (numba).
+
+It serves :func:`shellvox.offset.crossing.intersections.intersecting_pairs`.
 
 The triangle-triangle test runs once per candidate pair, tens of millions of times on a
 shell of a million triangles; as numpy passes over ``(P, 3, 3)`` temporaries it took
 three quarters of the check. Here the pairs of one hash-grid cell are walked and tested
 in one compiled loop without materialising them (:func:`cell_pair_hits`), and the test
 (:func:`crossing_kernel`) is the interval test of Moeller [1]_ exactly as documented in
-:func:`shellvox.offset.intersections.intersecting_pairs`.
+:func:`shellvox.offset.crossing.intersections.intersecting_pairs`.
 
 Nothing here checks its input.
 

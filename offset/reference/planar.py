@@ -1,12 +1,12 @@
 """One prism per flat patch: coplanar neighbouring faces of equal depth swept together.
 
 Where several edge-connected faces lie in one plane and take the same depth, the union of
-their prisms (:func:`shellvox.offset.pieces.prisms`) is the prism over the patch they form, and
-that is what is built here: the patch's own triangles moved to ``-D n`` (bottom) and
-``+OUTSIDE_FRACTION D n`` (top), joined by walls along the patch boundary. One piece
-instead of one per face matters far beyond the count: neighbouring face prisms overlap in
-coplanar caps and walls (they are grown to overlap, see :mod:`shellvox.offset.pieces`), which the
-Booleans cut into many sliver triangles; a CAD-like mesh is mostly such patches.
+their prisms (:func:`shellvox.offset.reference.pieces.prisms`) is the prism over the patch they
+form, and that is what is built here: the patch's own triangles moved to ``-D n`` (bottom) and
+``+OUTSIDE_FRACTION D n`` (top), joined by walls along the patch boundary. One piece instead of one
+per face matters far beyond the count: neighbouring face prisms overlap in coplanar caps and walls
+(they are grown to overlap, see :mod:`shellvox.offset.reference.pieces`), which the Booleans cut
+into many sliver triangles; a CAD-like mesh is mostly such patches.
 
 As with the face prisms, the boundary moves out in the patch's plane by
 ``GROW_FRACTION * D`` (mitred corners, at most ten times that at sharp ones), so that no
@@ -23,12 +23,13 @@ import scipy.sparse
 import scipy.sparse.csgraph
 
 from shellvox.offset._validate import FloatArray, IntArray
-from shellvox.offset.intersections import intersecting_pairs
-from shellvox.offset.pieces import GROW_FRACTION, OUTSIDE_FRACTION, Group
+from shellvox.offset.crossing.intersections import intersecting_pairs
+from shellvox.offset.reference.pieces import GROW_FRACTION, OUTSIDE_FRACTION, Group
 
 #: Faces whose unit normals differ by less than this (about radians) count as coplanar.
 COPLANAR_TOL = 1e-9
-#: Largest corner move, in units of the edge growth (see :func:`shellvox.offset.pieces.prisms`).
+#: Largest corner move, in units of the edge growth (see
+#: :func:`shellvox.offset.reference.pieces.prisms`).
 MAX_MITRE = 10.0
 
 

@@ -1,4 +1,4 @@
-"""Which convex pieces make up the band a layer removes (see :mod:`shellvox.offset.robust`)."""
+"""Which convex pieces make up the band a layer removes (:mod:`~.reference.robust`)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 
 from shellvox.offset._validate import FloatArray, IntArray
 from shellvox.offset.adjacency import bend_angles, edge_adjacency, face_normals
-from shellvox.offset.pieces import MARGIN_RAD, Group, balls, prisms, sectors, vertex_caps
-from shellvox.offset.planar import coplanar_pairs, flat_patches, patch_prisms
+from shellvox.offset.reference.pieces import MARGIN_RAD, Group, balls, prisms, sectors, vertex_caps
+from shellvox.offset.reference.planar import coplanar_pairs, flat_patches, patch_prisms
 
 #: Edges bending more than this (radians) inward get a sector. Even nearly flat reflex
 #: edges need one: skipping those below 1e-3 rad left thin cracks at saddle vertices.
@@ -36,7 +36,8 @@ class Features:
     prism_faces : (P,) int64
         Non-degenerate faces (each gets a prism, or shares one with its flat patch).
     coplanar : (C, 2) int64
-        Edge-adjacent face pairs in one plane (:func:`shellvox.offset.planar.coplanar_pairs`).
+        Edge-adjacent face pairs in one plane
+        (:func:`shellvox.offset.reference.planar.coplanar_pairs`).
     edge_ends : (E, 2) int64
         Vertex pairs of the edges that get a sector (reflex, or next to a degenerate face;
         not where a flat patch covers both faces).
@@ -48,7 +49,8 @@ class Features:
     axis : (V, 3) float64
         Unit mean inward normal per vertex.
     half_angle : (V,) float64, radians
-        Widest incident inward normal from ``axis`` plus :data:`shellvox.offset.pieces.MARGIN_RAD`.
+        Widest incident inward normal from ``axis`` plus
+        :data:`shellvox.offset.reference.pieces.MARGIN_RAD`.
     """
 
     vertices: FloatArray
@@ -117,9 +119,9 @@ def layer_pieces(feat: Features, d: FloatArray) -> list[Group]:
     """Return the pieces whose union is the band of depth `d` ``(F,) float64 mm``.
 
     Prisms take their face's depth (one prism per flat patch of equal depth, see
-    :mod:`shellvox.offset.planar`), sectors the larger of their two faces', vertex pieces the
-    deepest incident face's. An edge inside a flat patch needs no sector (its bend is
-    zero up to rounding), and a vertex whose only such edges are inside patches no cap.
+    :mod:`shellvox.offset.reference.planar`), sectors the larger of their two faces', vertex pieces
+    the deepest incident face's. An edge inside a flat patch needs no sector (its bend is zero up to
+    rounding), and a vertex whose only such edges are inside patches no cap.
     """
     v, f = feat.vertices, feat.faces
     vdepth = np.zeros(len(v))

@@ -3,7 +3,7 @@
 A pass is Manifold's edge collapse (``Manifold.simplify``) and then a tidy pass over its
 result at ``TIDY`` of the tolerance. Where the shells still cross, the unsimplified
 triangles near the crossing are locked (a ``face_id`` each) and the shell is simplified
-again; see :mod:`shellvox.offset.simplify`, whose guard uses them.
+again; see :mod:`shellvox.offset.field.simplify`, whose guard uses them.
 """
 
 from __future__ import annotations
@@ -17,8 +17,7 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from shellvox.offset._validate import FloatArray, IntArray
-from shellvox.offset.intersections import intersecting_pairs
-from shellvox.offset.jitter import JITTER_FRACTION
+from shellvox.offset.crossing.intersections import JITTER_FRACTION, intersecting_pairs
 
 Mesh = tuple[FloatArray, IntArray]
 

@@ -11,7 +11,7 @@ import trimesh
 
 from shellvox.offset._validate import FloatArray, IntArray
 from shellvox.offset.adjacency import bend_angles, edge_adjacency, face_normals
-from shellvox.offset.intersections import count_self_intersections, intersecting_pairs
+from shellvox.offset.crossing.intersections import count_self_intersections, intersecting_pairs
 from shellvox.voxel.geometry._nearest import SurfaceIndex, nearest_on_surface, winding_numbers
 
 #: Barycentric coordinate below which a closest point counts as on an edge / vertex.
@@ -145,9 +145,9 @@ def mesh_checks(
     faces : (m, 3) int64
     crossing_pairs : int, optional
         The crossing triangle pairs of exactly these arrays when already counted by
-        :func:`shellvox.offset.intersections.intersecting_pairs` (with other meshes beside them,
-        whose pairs are not among these); used when no vertex is merged (merging changes
-        which pairs share a vertex), else they are counted here.
+        :func:`shellvox.offset.crossing.intersections.intersecting_pairs` (with other meshes beside
+        them, whose pairs are not among these); used when no vertex is merged (merging changes which
+        pairs share a vertex), else they are counted here.
 
     Returns
     -------
@@ -155,8 +155,9 @@ def mesh_checks(
         ``n_faces``; ``coincident_vertices`` (vertices at the position of another);
         ``zero_area_faces`` (exactly zero area, after merging) and ``zero_length_edges``;
         after merging: ``closed``, ``oriented`` (consistent winding, positive volume),
-        ``self_intersections`` (:func:`shellvox.offset.intersections.count_self_intersections`)
-        and ``volume_mm3`` (``None`` unless closed).
+        ``self_intersections``
+        (:func:`shellvox.offset.crossing.intersections.count_self_intersections`) and ``volume_mm3``
+        (``None`` unless closed).
     """
     if faces.shape[0] == 0:
         return {
@@ -213,7 +214,8 @@ def nested_in(
     inner, outer : (vertices (n, 3) float64 mm, faces (m, 3) int64)
     crossing_free : bool, optional
         The two, exactly as given, were already tested together with no crossing pair
-        (:func:`shellvox.offset.intersections.intersecting_pairs`): only the winding test is left.
+        (:func:`shellvox.offset.crossing.intersections.intersecting_pairs`): only the winding test
+        is left.
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""Convex pieces whose union is the band removed by :mod:`shellvox.offset.robust`.
+"""Convex pieces whose union is the band removed by :mod:`shellvox.offset.reference.robust`.
 
 Every function returns same-topology pieces as ``points (N, P, 3) float64 mm`` plus one
 shared triangle list ``tris (T, 3) int64`` (outward), or a list of such groups.

@@ -1,13 +1,13 @@
 """Remove degenerate triangles from a closed shell without changing its topology.
 
-The robust shells (:mod:`shellvox.offset.robust`) are exact where flat faces meet: where more than
-three moved face planes nearly meet in one point (a vertex of valence above three, e.g.
-every vertex of an icosphere), the exact offset has a cluster of vertices joined by edges
-of 1e-10 to 1e-3 mm, and where the pieces' facets nearly coincide (reflex edges and
-vertices) the Booleans leave more; manifold3d triangulates the faces around them into
-slivers, down to zero area in float32. Such a mesh is valid in float64 but does not stand
-up outside: merging the vertices a reader rounds together makes it non-manifold, and
-tests of other tools see crossings among the slivers.
+The robust shells (:mod:`shellvox.offset.reference.robust`) are exact where flat faces meet: where
+more than three moved face planes nearly meet in one point (a vertex of valence above three, e.g.
+every vertex of an icosphere), the exact offset has a cluster of vertices joined by edges of 1e-10
+to 1e-3 mm, and where the pieces' facets nearly coincide (reflex edges and vertices) the Booleans
+leave more; manifold3d triangulates the faces around them into slivers, down to zero area in
+float32. Such a mesh is valid in float64 but does not stand up outside: merging the vertices a
+reader rounds together makes it non-manifold, and tests of other tools see crossings among the
+slivers.
 
 :func:`clean_degenerate` removes both kinds down to a length ``tol`` (mm):
 
@@ -19,13 +19,13 @@ tests of other tools see crossings among the slivers.
 A collapse is refused where it would make the mesh non-manifold (the link condition) or
 turn a face over; a flip where it would duplicate an edge or turn a face over; the rounds
 repeat until nothing changes. :func:`clean_shell` then checks the result with the
-crossing test of :mod:`shellvox.offset.intersections` and for faces folded flat onto a neighbour
-(:func:`folded_faces`, a double layer that test does not see: flips and collapses among
-slivers made a few on the bunny's shells) and, where it finds either, freezes the
-vertices around them and cleans again, so the result is never less valid than the
-input. manifold3d's own ``simplify`` does not do this: it collapses short edges
-only below its internal epsilon (about ``1e-12`` of the extent, see ``CollapseShortEdges``
-in its ``edge_op.cpp``) and keeps edges between faces that are not coplanar.
+crossing test of :mod:`shellvox.offset.crossing.intersections` and for faces folded flat onto a
+neighbour (:func:`folded_faces`, a double layer that test does not see: flips and collapses among
+slivers made a few on the bunny's shells) and, where it finds either, freezes the vertices around
+them and cleans again, so the result is never less valid than the input. manifold3d's own
+``simplify`` does not do this: it collapses short edges only below its internal epsilon (about
+``1e-12`` of the extent, see ``CollapseShortEdges`` in its ``edge_op.cpp``) and keeps edges between
+faces that are not coplanar.
 """
 
 from __future__ import annotations
@@ -40,7 +40,8 @@ import scipy.spatial
 
 from shellvox.offset._validate import FloatArray, IntArray
 from shellvox.offset.adjacency import edge_adjacency
-from shellvox.offset.clean_steps import (
+from shellvox.offset.crossing.intersections import intersecting_pairs
+from shellvox.offset.reference.clean_steps import (
     MAX_CLUSTER,
     collapse_clusters,
     count_degenerate,
@@ -48,7 +49,6 @@ from shellvox.offset.clean_steps import (
     flip_low_faces,
     unit_normals,
 )
-from shellvox.offset.intersections import intersecting_pairs
 from shellvox.offset.shells import Shell
 
 BoolArray = npt.NDArray[np.bool_]
@@ -130,10 +130,11 @@ def clean_offset_shell(
 def clean_shell(vertices: FloatArray, faces: IntArray, *, tol: float) -> CleanedMesh:
     """Return the shell cleaned by :func:`clean_degenerate` with no new crossings.
 
-    Where the cleaned mesh has more crossing triangle pairs (:func:`shellvox.offset.intersections.
-    intersecting_pairs`) or more folded faces (:func:`folded_faces`) than the input, the
-    input vertices within ``2 * MAX_CLUSTER * tol`` of them are frozen and the mesh is
-    cleaned again; after :data:`MAX_FREEZES` attempts the input is returned unchanged.
+    Where the cleaned mesh has more crossing triangle pairs
+    (:func:`shellvox.offset.crossing.intersections.intersecting_pairs`) or more folded faces
+    (:func:`folded_faces`) than the input, the input vertices within ``2 * MAX_CLUSTER * tol`` of
+    them are frozen and the mesh is cleaned again; after :data:`MAX_FREEZES` attempts the input is
+    returned unchanged.
 
     Parameters
     ----------

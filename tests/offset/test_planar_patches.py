@@ -7,10 +7,10 @@ import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from shellvox.offset.intersections import intersecting_pairs
-from shellvox.voxel.geometry._layer_field import _unit_normals, field_surfaces
+from shellvox.offset.crossing.intersections import intersecting_pairs
+from shellvox.offset.field.layer_field import _unit_normals, field_surfaces
+from shellvox.offset.field.planar_patches import merge_planar_patches
 from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface
-from shellvox.voxel.geometry._planar_patches import merge_planar_patches
 
 
 def _closed(vertices: np.ndarray, faces: np.ndarray) -> trimesh.Trimesh:

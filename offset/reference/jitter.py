@@ -1,35 +1,33 @@
 """Move a shell's vertices by a tiny random amount so that no disjoint faces are coplanar.
 
-A robust shell (:mod:`shellvox.offset.robust`) is made of flat regions, one per moved face plane,
-each triangulated into many triangles whose vertices lie on the plane to within
-round-off (about ``1e-16`` of the coordinates). Two triangles of one plane that share no
-vertex and whose bounding boxes overlap are disjoint, but a triangle-triangle test
-without a coplanarity tolerance cannot tell: the signed distances of one triangle's
-corners to the other's plane are pure round-off, and Moeller's interval test [1]_ then
-answers at random. MeshLab's "Select Self Intersecting Faces" (vcg's
-``Clean::SelfIntersections`` and ``NoDivTriTriIsect``) is such a test: vcg's
-``triangle_triangle3.h`` defines ``USE_EPSILON_TEST`` but tests
-``#ifdef USE_TRI_TRI_INT_EPSILON_TEST``, so its coplanarity tolerance is never compiled
-in, and it flagged 230 to 500 faces of each bunny and spot shell (every one beside a
-coplanar, disjoint face), and a different number in a process that had loaded another
-mesh first.
+A robust shell (:mod:`shellvox.offset.reference.robust`) is made of flat regions, one per moved face
+plane, each triangulated into many triangles whose vertices lie on the plane to within round-off
+(about ``1e-16`` of the coordinates). Two triangles of one plane that share no vertex and whose
+bounding boxes overlap are disjoint, but a triangle-triangle test without a coplanarity tolerance
+cannot tell: the signed distances of one triangle's corners to the other's plane are pure round-off,
+and Moeller's interval test [1]_ then answers at random. MeshLab's "Select Self Intersecting Faces"
+(vcg's ``Clean::SelfIntersections`` and ``NoDivTriTriIsect``) is such a test: vcg's
+``triangle_triangle3.h`` defines ``USE_EPSILON_TEST`` but tests ``#ifdef
+USE_TRI_TRI_INT_EPSILON_TEST``, so its coplanarity tolerance is never compiled in, and it flagged
+230 to 500 faces of each bunny and spot shell (every one beside a coplanar, disjoint face), and a
+different number in a process that had loaded another mesh first.
 
 :func:`jitter_vertices` removes the cause rather than the symptom: the vertices of every
-such pair (:func:`shellvox.offset.intersections.coplanar_pairs`; except in planes ``x_k = c`` held
-exactly, where every test computes exact zeros) move by ``amplitude`` in a random
-direction, so corners lie ``~amplitude`` off the other triangles' planes, 1e8 times the
-round-off, and any floating-point test decides correctly; vertices elsewhere stay.
-Two triangles farther apart than ``2 * amplitude`` cannot come to meet, and a face at
-least ``tol`` high (:mod:`shellvox.offset.clean`) turns by at most ``2 * amplitude / tol`` (1e-3
-rad at the defaults), so only configurations that already touch can change: a face
-folded flat onto its neighbour, or lying on another along a line. Those are found (new
-crossing pairs of :func:`shellvox.offset.intersections.intersecting_pairs`, new folds of
-:func:`shellvox.offset.clean.folded_faces`), their vertices are kept in place, and the rest are
-moved again; if that does not settle after :data:`MAX_FREEZES` attempts, the input is
-returned unchanged. A crossing smaller than the crossing test's tolerance (1e-10 of the
-extent) would go unseen; at 100 times that amplitude none was left on the icosphere,
-bunny, spot, cylinder, capsule, torus and fan-triangulated box shells (MeshLab flags
-none), where at 10 times it MeshLab still flagged a few faces of a torus's shells.
+such pair (:func:`shellvox.offset.crossing.intersections.coplanar_pairs`; except in planes ``x_k =
+c`` held exactly, where every test computes exact zeros) move by ``amplitude`` in a random
+direction, so corners lie ``~amplitude`` off the other triangles' planes, 1e8 times the round-off,
+and any floating-point test decides correctly; vertices elsewhere stay. Two triangles farther apart
+than ``2 * amplitude`` cannot come to meet, and a face at least ``tol`` high
+(:mod:`shellvox.offset.reference.clean`) turns by at most ``2 * amplitude / tol`` (1e-3 rad at the
+defaults), so only configurations that already touch can change: a face folded flat onto its
+neighbour, or lying on another along a line. Those are found (new crossing pairs of
+:func:`shellvox.offset.crossing.intersections.intersecting_pairs`, new folds of
+:func:`shellvox.offset.reference.clean.folded_faces`), their vertices are kept in place, and the
+rest are moved again; if that does not settle after :data:`MAX_FREEZES` attempts, the input is
+returned unchanged. A crossing smaller than the crossing test's tolerance (1e-10 of the extent)
+would go unseen; at 100 times that amplitude none was left on the icosphere, bunny, spot, cylinder,
+capsule, torus and fan-triangulated box shells (MeshLab flags none), where at 10 times it MeshLab
+still flagged a few faces of a torus's shells.
 
 References
 ----------
@@ -45,15 +43,13 @@ import numpy as np
 import numpy.typing as npt
 
 from shellvox.offset._validate import FloatArray, IntArray
-from shellvox.offset.clean import folded_faces
-from shellvox.offset.intersections import coplanar_pairs, intersecting_pairs
+from shellvox.offset.crossing.intersections import (
+    JITTER_FRACTION,
+    coplanar_pairs,
+    intersecting_pairs,
+)
+from shellvox.offset.reference.clean import folded_faces
 
-#: Default amplitude as a fraction of the mesh extent: 0.5 nm on a 50 mm part, 1e8 times
-#: the round-off of its coordinates, 1/2000 of the cleaning tolerance (1 um at 0.5 mm)
-#: and 100 times the tolerance of the crossing test (1e-10 of the extent), so that a
-#: crossing the jitter makes is larger than that tolerance and is seen. At 1e-9, faces
-#: it left crossing below that tolerance were still flagged by MeshLab on a torus.
-JITTER_FRACTION = 1e-8
 #: Attempts with more vertices kept in place (see :func:`jitter_vertices`).
 MAX_FREEZES = 4
 
@@ -73,8 +69,8 @@ class JitteredMesh:
         Vertices of coplanar pairs kept in place because moving them made faces cross
         or fold.
     coplanar_pairs : int
-        Pairs of :func:`shellvox.offset.intersections.coplanar_pairs` left, but for those in a
-        plane ``x_k = c`` held exactly.
+        Pairs of :func:`shellvox.offset.crossing.intersections.coplanar_pairs` left, but for those
+        in a plane ``x_k = c`` held exactly.
     """
 
     vertices: FloatArray

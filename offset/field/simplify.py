@@ -1,6 +1,6 @@
 """Guarded simplification of nested closed shells: an error bound, then a no-crossing check.
 
-The shells meshed from the layer field (``shellvox.voxel.geometry._layer_field``) carry about nine
+The shells meshed from the layer field (``shellvox.offset.field.layer_field``) carry about nine
 triangles per grid step squared of surface where they are curved (their planar patches are
 triangulated from their boundaries): millions on a 100 mm part. They are simplified
 by Manifold's edge collapse (``manifold3d``, ``Manifold.simplify(tolerance)``: the result
@@ -15,8 +15,9 @@ most slivers and folds the first leaves), and the result is accepted only when
   exceeds a limit (the p99 over its samples; past the maximum, its largest error near each
   such point, or its error at the point's nearest point plus the distance to it: the
   creases of a faceted input, which a finer ``--shell-step`` sharpens), and
-* no two triangles of the shells cross (:func:`shellvox.offset.intersections.intersecting_pairs`
-  over all shells together, so a shell crossing a neighbouring one counts too), and no
+* no two triangles of the shells cross
+  (:func:`shellvox.offset.crossing.intersections.intersecting_pairs` over all shells
+  together, so a shell crossing a neighbouring one counts too), and no
   shell is pinched (two of its vertices at one place: Manifold keeps a collapse that makes
   the surface touch itself 2-manifold that way, a non-manifold vertex once welded).
 
@@ -32,10 +33,10 @@ plus the reach of a triangle from its centroid to its farthest corner.
 
 The simplified vertices are then moved by at most 1e-8 of the part's size (seed 0), which
 breaks the exact coplanarity of flat parts that MeshLab's triangle test misreads (see
-:mod:`shellvox.offset.for_file`); both checks run on the moved vertices, and where the move makes a
-crossing (two triangles within the move of each other) their vertices go back.
-Otherwise the tolerance is quartered and the shells simplified again from the originals;
-when every try fails the unsimplified shells are kept (they are valid by construction).
+:mod:`shellvox.offset.reference.for_file`); both checks run on the moved vertices, and where the
+move makes a crossing (two triangles within the move of each other) their vertices go back.
+Otherwise the tolerance is quartered and the shells simplified again from the originals; when every
+try fails the unsimplified shells are kept (they are valid by construction).
 """
 
 from __future__ import annotations
@@ -49,8 +50,8 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from shellvox.offset._validate import FloatArray, IntArray
-from shellvox.offset.heap import heap_blocks
-from shellvox.offset.simplify_passes import LOG, TIDY, Mesh, crossing_free
+from shellvox.offset.field.heap import heap_blocks
+from shellvox.offset.field.simplify_passes import LOG, TIDY, Mesh, crossing_free
 from shellvox.voxel.geometry._nearest import SurfaceIndex, nearest_faces
 
 #: Triangles per chunk of a pass over an unsimplified shell.
@@ -105,8 +106,8 @@ class Simplified(NamedTuple):
         rounds and error of every try.
     crossing_free : bool
         The shells, as returned and all together, were tested and no two of their
-        triangles cross (:func:`shellvox.offset.intersections.intersecting_pairs`); False for
-        shells kept unsimplified (crossing-free by construction, not tested here).
+        triangles cross (:func:`shellvox.offset.crossing.intersections.intersecting_pairs`); False
+        for shells kept unsimplified (crossing-free by construction, not tested here).
     """
 
     meshes: list[Mesh]
@@ -144,7 +145,7 @@ def simplify_shells(
 def _simplify_shells(
     meshes: list[Mesh], surface: SurfaceIndex, depth_mm: FloatArray, limits: GuardLimits
 ) -> Simplified:
-    """:func:`simplify_shells`, with large blocks from the heap (:mod:`shellvox.offset.heap`)."""
+    """:func:`simplify_shells`, with large blocks from the heap (:mod:`~.field.heap`)."""
     before = [len(f) for _, f in meshes]
     raw = [
         _depth_error(surface, depth_mm[k], v, f, samples_only=True)

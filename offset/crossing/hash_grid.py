@@ -1,7 +1,7 @@
 """A hierarchical hash grid over axis-aligned boxes: the candidate pairs of the crossing test.
 
-Used by :func:`shellvox.offset.intersections.intersecting_pairs`: boxes are binned into the cells of
-a fine grid or of the first coarser level that holds them, so every pair of overlapping
+Used by :func:`shellvox.offset.crossing.intersections.intersecting_pairs`: boxes are binned into the
+cells of a fine grid or of the first coarser level that holds them, so every pair of overlapping
 boxes meets in exactly one cell of one grid (see :func:`hash_grids`).
 """
 

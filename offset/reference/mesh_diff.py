@@ -1,10 +1,9 @@
 """Which faces of a mesh are unchanged from an earlier version of it (exact coordinates).
 
-A robust shell is repaired in a few places (:func:`shellvox.offset.core_cut.patch_core`, or
-simplified where a few sub-micrometre triangles cross); the faces outside those places come out of
-manifold3d with the same coordinates. A pair of such faces was already tested for
-crossing, so only pairs involving a new face (or one that crossed before) need testing
-again.
+A robust shell is repaired in a few places (:func:`shellvox.offset.reference.core_cut.patch_core`,
+or simplified where a few sub-micrometre triangles cross); the faces outside those places come out
+of manifold3d with the same coordinates. A pair of such faces was already tested for crossing, so
+only pairs involving a new face (or one that crossed before) need testing again.
 """
 
 from __future__ import annotations

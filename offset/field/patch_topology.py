@@ -1,6 +1,6 @@
 """Half-edge topology of labelled triangles: twins, patches and their boundary loops.
 
-The compiled kernels behind :mod:`shellvox.voxel.geometry._planar_patches`. A half-edge ``3 t + i``
+The compiled kernels behind :mod:`shellvox.offset.field.planar_patches`. A half-edge ``3 t + i``
 runs from ``faces[t, i]`` to ``faces[t, (i + 1) % 3]``; only triangles with a label
 (``>= 0``) take part.
 """

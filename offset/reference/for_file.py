@@ -5,9 +5,10 @@ vertices and slivers far below a micrometre; written in float32 (trimesh's PLY e
 they become zero-area faces and coincident vertices. Its flat regions are also exactly
 coplanar, which a triangle test without a coplanarity tolerance (MeshLab's) reads as
 crossings at random. :func:`shell_for_file` cleans the shell
-(:func:`shellvox.offset.clean.clean_offset_shell`) and moves the vertices of coplanar triangle pairs
-by a tiny random amount (:func:`shellvox.offset.jitter.jitter_vertices`, 1e-8 of the extent, seed 0:
-reproducible). The voxels never use these shells; :mod:`shellvox.output._shells` writes them.
+(:func:`shellvox.offset.reference.clean.clean_offset_shell`) and moves the vertices of coplanar
+triangle pairs by a tiny random amount (:func:`shellvox.offset.reference.jitter.jitter_vertices`,
+1e-8 of the extent, seed 0: reproducible). The voxels never use these shells;
+:mod:`shellvox.output._shells` writes them.
 """
 
 from __future__ import annotations
@@ -15,8 +16,8 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any, NamedTuple
 
-from shellvox.offset.clean import clean_offset_shell
-from shellvox.offset.jitter import jitter_vertices
+from shellvox.offset.reference.clean import clean_offset_shell
+from shellvox.offset.reference.jitter import jitter_vertices
 from shellvox.offset.shells import Shell
 
 
@@ -29,10 +30,11 @@ class ShellForFile(NamedTuple):
         The cleaned faces and the jittered vertices; the same layer and depths.
     cleaning : dict
         ``tol_mm``, ``collapsed_vertices``, ``flipped_edges``, ``max_move_mm``,
-        ``short_edges_left``, ``thin_faces_left`` (see :class:`shellvox.offset.clean.CleanedMesh`),
-        then ``jitter_mm``, ``jitter_moved_vertices``, ``jitter_kept_vertices`` and
-        ``coplanar_pairs_left`` (see :class:`shellvox.offset.jitter.JitteredMesh`); a vertex moved
-        at most ``max_move_mm + jitter_mm`` in all.
+        ``short_edges_left``, ``thin_faces_left`` (see
+        :class:`shellvox.offset.reference.clean.CleanedMesh`), then ``jitter_mm``,
+        ``jitter_moved_vertices``, ``jitter_kept_vertices`` and ``coplanar_pairs_left`` (see
+        :class:`shellvox.offset.reference.jitter.JitteredMesh`); a vertex moved at most
+        ``max_move_mm + jitter_mm`` in all.
     """
 
     shell: Shell

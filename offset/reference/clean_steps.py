@@ -1,8 +1,10 @@
-"""The steps of :func:`~shellvox.offset.clean.clean_degenerate`: collapse short edges, flip faces.
+"""The steps of cleaning a shell: collapse short edges, flip faces.
+
+They make :func:`~shellvox.offset.reference.clean.clean_degenerate`.
 
 Both work on whole arrays of one closed, manifold, consistently oriented mesh and refuse
 what would break that (the link condition, faces turned over, duplicated edges); see
-:mod:`shellvox.offset.clean` for the procedure and its tolerances.
+:mod:`shellvox.offset.reference.clean` for the procedure and its tolerances.
 """
 
 from __future__ import annotations

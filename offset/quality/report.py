@@ -10,9 +10,9 @@ import numpy.typing as npt
 import trimesh
 
 from shellvox.offset._validate import FloatArray, IntArray, check_mesh, check_thickness
-from shellvox.offset.baselines import slicer_thickness, vertex_normal_offset
-from shellvox.offset.intersections import count_self_intersections
-from shellvox.offset.quality import equidistance, mesh_checks, nested_in, percentiles
+from shellvox.offset.crossing.intersections import count_self_intersections
+from shellvox.offset.quality.baselines import slicer_thickness, vertex_normal_offset
+from shellvox.offset.quality.measures import equidistance, mesh_checks, nested_in, percentiles
 from shellvox.offset.shells import Shell
 
 
@@ -49,8 +49,8 @@ def shell_report(
     seed : int, optional
         Sampling seed.
     checks : sequence of dict, optional
-        :func:`shellvox.offset.quality.mesh_checks` of each shell when already measured (on its
-        file read back); default: measured here.
+        :func:`shellvox.offset.quality.measures.mesh_checks` of each shell when already measured (on
+        its file read back); default: measured here.
     crossing_free : bool, optional
         The shells, exactly as given and all together, were already tested with no
         crossing pair: a shell's nesting in the one before it needs only the winding test
@@ -61,10 +61,11 @@ def shell_report(
     dict
         Plain JSON types. ``input_self_intersections`` counts crossing face pairs of the
         input (a self-intersecting input bounds no well-defined solid).
-        ``layers[k]["shell"]`` holds :func:`shellvox.offset.quality.mesh_checks`
+        ``layers[k]["shell"]`` holds :func:`shellvox.offset.quality.measures.mesh_checks`
         keys, ``nested`` (inside the previous shell, or the surface for layer 1) and
-        ``equidistance`` (:func:`shellvox.offset.quality.equidistance`); ``layers[k]["baselines"]``
-        the same for ``vertex_normal`` and the thickness error of ``slicer_contour``.
+        ``equidistance`` (:func:`shellvox.offset.quality.measures.equidistance`);
+        ``layers[k]["baselines"]`` the same for ``vertex_normal`` and the thickness error of
+        ``slicer_contour``.
     """
     v, f = check_mesh(vertices, faces)
     t = check_thickness(thickness, f.shape[0])

@@ -19,10 +19,10 @@ are ordered (a deeper layer lower at every node) give zero sets nested by constr
 The float64 vertices keep that: on the 93,696-face spot at 100 mm, step 0.1 mm (31.6
 million triangles in two layers), no pair crosses in exact arithmetic; a float test with a
 tolerance reports pairs among the vertices clustered within a micrometre of a node where
-the field is nearly zero (see :mod:`shellvox.offset.exact_crossing`).
+the field is nearly zero (see :mod:`shellvox.offset.crossing.exact_crossing`).
 
 A node's sign bits come in (one bit per level, set when inside); the field value is only
-computed on crossed edges, by a caller-supplied rule (:mod:`shellvox.voxel.geometry._layer_field`:
+computed on crossed edges, by a caller-supplied rule (:mod:`shellvox.offset.field.layer_field`:
 the distance to the nearest face minus that face's depth). Triangles are oriented with
 their normal towards the positive side (outward for a signed distance negative inside).
 

@@ -1,0 +1,12 @@
+"""The field method's shells: the layer field meshed, its planar patches, their simplification.
+
+- :mod:`~shellvox.offset.field.layer_field` samples the layer field (the exact nearest
+  face of every node, :mod:`shellvox.voxel.geometry`) and marches it;
+- :mod:`~shellvox.offset.field.marching_tets` marching tetrahedra on the node grid;
+- :mod:`~shellvox.offset.field.planar_patches` and
+  :mod:`~shellvox.offset.field.patch_topology` planar patches triangulated again from
+  their boundaries;
+- :mod:`~shellvox.offset.field.simplify`, :mod:`~shellvox.offset.field.simplify_passes`
+  the simplification within an error bound that makes no crossing, and
+  :mod:`~shellvox.offset.field.heap` the allocator's settings around it.
+"""
