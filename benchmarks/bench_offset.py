@@ -174,7 +174,7 @@ def speed(
         start = time.perf_counter()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            (shell,) = offset_shells(vertices, faces, [depth])
+            (shell,) = offset_shells(vertices, faces, [depth], method="robust")
         robust_s = time.perf_counter() - start
         defects = [str(w.message) for w in caught if issubclass(w.category, ShellDefectWarning)]
         shell_mesh = trimesh.Trimesh(shell.vertices, shell.faces, process=False)
@@ -237,7 +237,7 @@ def flat(quick: bool) -> dict[str, Any]:
                 pieces = band.layer_pieces(band.features(v, f), np.full(len(f), 0.5))
                 load = load_average()
                 start, cpu = time.perf_counter(), time.process_time()
-                shells = offset_shells(v, f, [0.5, 0.5])
+                shells = offset_shells(v, f, [0.5, 0.5], method="robust")
                 row = {
                     "seconds": time.perf_counter() - start,
                     "cpu_seconds": time.process_time() - cpu,

@@ -10,7 +10,34 @@ This package never imports the stages; of :mod:`shellvox.voxel` it uses
 method, the voxels' own scan of the nearest faces.
 """
 
+from shellvox.offset.methods import (
+    DEFAULT_METHOD,
+    MAX_FIELD_TRIANGLES,
+    METHODS,
+    SHELL_STEP_MM,
+    Method,
+    MethodName,
+    MethodShells,
+    automatic_step,
+    method_shells,
+    offset_shells,
+    ready_for_file,
+)
 from shellvox.offset.quality.report import shell_report
-from shellvox.offset.shells import METHODS, Shell, offset_shells
+from shellvox.offset.shells import Shell
 
-__all__ = ["METHODS", "Shell", "offset_shells", "shell_report"]
+__all__ = [
+    "DEFAULT_METHOD",
+    "MAX_FIELD_TRIANGLES",
+    "METHODS",
+    "SHELL_STEP_MM",
+    "Method",
+    "MethodName",
+    "MethodShells",
+    "Shell",
+    "automatic_step",
+    "method_shells",
+    "offset_shells",
+    "ready_for_file",
+    "shell_report",
+]

@@ -83,6 +83,21 @@ def as_json(config: Any) -> dict[str, Any]:
     return {key: convert(value) for key, value in dataclasses.asdict(config).items()}
 
 
+def _check_method(method: str, *, closed: bool = True) -> None:
+    """Raise unless `method` is a method (:data:`shellvox.offset.METHODS`), closed if asked."""
+    from shellvox.offset import METHODS
+
+    if method not in METHODS:
+        raise InputError("--method", f"got {method!r}", f"choose among {', '.join(METHODS)}")
+    if closed and not METHODS[method].closed:
+        usable = " or ".join(m.name for m in METHODS.values() if m.closed)
+        raise InputError(
+            "--method",
+            f"{method}'s shells are not closed surfaces, which shell files and layers need",
+            f"use --method {usable}",
+        )
+
+
 @dataclass(frozen=True)
 class ShellConfig:
     """How shells are made (``shellvox shells``; the shell stage of ``build``).
@@ -93,10 +108,10 @@ class ShellConfig:
         Thickness of each layer, outside in (mm), the same for every face (``--thickness``);
         empty when a thickness rule sets it per face.
     method : {"field", "robust", "paper"}
-        Offset construction (see :mod:`shellvox.output._shell_methods`).
+        Offset construction, a name of :data:`shellvox.offset.METHODS`.
     step_mm : float or None, mm
         Grid step of the ``field`` method (None: automatic, see
-        :func:`shellvox.output._shell_methods.automatic_step`).
+        :func:`shellvox.offset.automatic_step`).
     layer_height_mm : float
         Printer layer height used by the slicer baseline of the report.
     """
@@ -105,6 +120,9 @@ class ShellConfig:
     method: Literal["field", "robust", "paper"] = "field"
     step_mm: float | None = None
     layer_height_mm: float = 0.027
+
+    def __post_init__(self) -> None:
+        _check_method(self.method)
 
 
 #: Output formats ``build`` can write (``--format``).
@@ -172,7 +190,7 @@ class BuildConfig:
         anyway; with the ``"distance"`` rule they run beside the voxels, in another
         process, and the manifest reports how well the two realisations agree).
     shell_method : {"field", "robust", "paper"}
-        Offset construction (see :mod:`shellvox.output._shell_methods`; ``field``, the
+        Offset construction (:data:`shellvox.offset.METHODS`; ``field``, the
         default, on its default grid step, ``--shell-step`` of ``shellvox shells``).
     margin_mm : float, mm
         Empty space around the model in the grid (at least the level-set half width).
@@ -257,6 +275,7 @@ class BuildConfig:
             raise InputError(
                 "--layers", f"got {self.layer_rule!r}", f"choose among {get_args(LayerRule)}"
             )
+        _check_method(self.shell_method, closed=self.shell_meshes or self.layer_rule == "shells")
         if self.workers < 0:
             raise InputError("--workers", f"got {self.workers}", "give 0 (one per core) or more")
         if self.compression_level is not None and not 1 <= self.compression_level <= 9:

@@ -72,7 +72,7 @@ def real_mesh_shells():
             mesh.apply_scale(size_mm / mesh.extents.max())
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                shells = offset_shells(mesh.vertices, mesh.faces, [0.5, 1.0])
+                shells = offset_shells(mesh.vertices, mesh.faces, [0.5, 1.0], method="robust")
             cache[key] = (mesh, shells, list(caught))
         return cache[key]
 

@@ -5,7 +5,10 @@ The imports are read with :mod:`ast` from every module of ``shellvox`` (the fold
 and inside functions too), so a rule broken by a lazy import counts.
 
 ``shellvox.voxel`` (voxels: grids, kernels, colour, writers) and ``shellvox.offset``
-(shell offsetting) are the bottom: neither imports the stages. The stages (the folder
+(shell offsetting) are the bottom: neither imports the stages. Inside ``shellvox.offset``,
+bottom up: its base (``_validate``, ``adjacency``, ``shells``), ``crossing``, then
+``field``, ``quality`` and ``reference`` side by side, then ``methods`` (the registry) and
+the package itself. The stages (the folder
 ``pipeline/``), bottom up (a module imports only its own layer and those below):
 
 0. bottom: ``shellvox`` (the version and the lazy public names), ``errors``, ``config``,
@@ -141,6 +144,19 @@ def _stage(name: str) -> bool:
     return not (_within(name, VOXEL) or _within(name, OFFSET))
 
 
+#: The order inside shellvox.offset, bottom up: its base modules, the crossing tests, the
+#: methods' parts side by side (none imports another), then the registry and the package.
+OFFSET_ORDER = {"base": 0, "crossing": 1, "field": 2, "quality": 2, "reference": 2, "top": 3}
+
+
+def _offset_part(name: str) -> str:
+    """Return the part of shellvox.offset that module `name` belongs to (OFFSET_ORDER)."""
+    rest = name[len(OFFSET) :].lstrip(".").split(".")[0]
+    if rest in OFFSET_ORDER:
+        return rest
+    return "top" if rest in ("", "methods") else "base"
+
+
 def _broken_rule(name: str, target: str) -> str | None:
     """Return why `name` must not import `target`, or None where it may."""
     if _within(name, VOXEL):
@@ -162,6 +178,13 @@ def _broken_rule(name: str, target: str) -> str | None:
     if _within(name, OFFSET):
         if _stage(target):
             return "shellvox.offset never imports the stages"
+        if _within(target, OFFSET):
+            mine, theirs = _offset_part(name), _offset_part(target)
+            if OFFSET_ORDER[theirs] > OFFSET_ORDER[mine] or (
+                OFFSET_ORDER[theirs] == OFFSET_ORDER[mine] == 2 and mine != theirs
+            ):
+                return "offset: base < crossing < field, quality, reference (apart) < methods"
+            return None
         if not _within(target, VOXEL) or target in (f"{VOXEL}.geometry._nearest", COMPILED):
             return None
         field_scan = _within(target, f"{VOXEL}.geometry") or target == f"{VOXEL}.grid"
@@ -221,6 +244,10 @@ def test_the_rules_catch_a_broken_import() -> None:
     assert _broken_rule("shellvox.offset.reference.robust", "shellvox.voxel.grid") is not None
     assert _broken_rule("shellvox.offset.field.layer_field", "shellvox.voxel.grid") is None
     assert _broken_rule("shellvox.offset.field.layer_field", "shellvox.voxel.slab") is not None
+    assert _broken_rule("shellvox.offset.field.simplify", "shellvox.offset.reference.jitter")
+    assert _broken_rule("shellvox.offset.crossing.intersections", "shellvox.offset.quality")
+    assert _broken_rule("shellvox.offset.shells", "shellvox.offset.methods") is not None
+    assert _broken_rule("shellvox.offset.methods", "shellvox.offset.field.simplify") is None
     assert _broken_rule("shellvox.config", "shellvox.printer._material_plan") is not None
     assert _broken_rule("shellvox.viewer._depth", "shellvox.stack._stack") is not None
     assert _broken_rule("shellvox.stack._stack", "shellvox.report._previews") is not None

@@ -23,6 +23,7 @@ from shellvox.config import BuildConfig, LoadOptions, MaterialSettings
 from shellvox.errors import InputError
 from shellvox.loading import load_model
 from shellvox.model import ColouredMesh
+from shellvox.offset import MethodName
 from shellvox.printer import PrinterProfile, load_profile
 from shellvox.run import RunSettings
 from shellvox.stack import build_stack
@@ -40,8 +41,6 @@ from shellvox.voxel.slab import LayerRule
 
 if TYPE_CHECKING:
     from shellvox.reading import Build
-
-ShellMethod = Literal["field", "robust", "paper"]
 
 
 @dataclass(frozen=True)
@@ -96,7 +95,7 @@ class BuildOptions:
     colour_layers: tuple[int, ...] | None = None
     layer_rule: LayerRule = "distance"
     shell_meshes: bool = False
-    shell_method: ShellMethod = "field"
+    shell_method: MethodName = "field"
     alpha: bool = False
     materials: MaterialSettings | None = field(default_factory=MaterialSettings)
     report_samples: int = 20_000

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+from shellvox import __version__
 from shellvox.api._thickness import layer_thickness
-from shellvox.config import LoadOptions
+from shellvox.atomic import write_text_atomic
+from shellvox.config import LoadOptions, as_json
 from shellvox.errors import InputError
 from shellvox.fdm import (
     SLICERS,
@@ -21,7 +25,8 @@ from shellvox.fdm import (
 )
 from shellvox.fdm._project import check_filament_count
 from shellvox.loading import load_model
-from shellvox.output import ShellMethod
+from shellvox.offset import MethodName
+from shellvox.output import sha256
 from shellvox.thickness import ThicknessRule
 
 
@@ -35,10 +40,14 @@ class FdmResult:
         ``<stem>_prusa.3mf`` and/or ``<stem>_bambu.3mf``.
     project : FdmProject
         Each face's skin filament and depth, and the volumes of the object.
+    manifest : dict
+        ``manifest.json`` beside them: the tool, the input (path, SHA-256), the filaments,
+        the slicers, the settings, the shell method of the core and the files.
     """
 
     files: tuple[Path, ...]
     project: FdmProject
+    manifest: dict[str, Any]
 
 
 def fdm_projects(
@@ -52,7 +61,7 @@ def fdm_projects(
     thickness_rule: ThicknessRule | Path | None = None,
     max_edge_mm: float | None = None,
     printer: str | Path = "j750",
-    method: ShellMethod = "robust",
+    method: MethodName = "field",
     dither: bool = False,
     load: LoadOptions | None = None,
 ) -> FdmResult:
@@ -75,8 +84,9 @@ def fdm_projects(
         raised to one extrusion width where thinner).
     thickness_rule, max_edge_mm, printer
         As :func:`shellvox.layer_thickness`.
-    method : {"robust", "paper"}
-        Offset construction of the core (:func:`shellvox.offset_shells`).
+    method : {"field", "robust", "paper"}
+        Offset construction of the core (:data:`shellvox.offset.METHODS`; default
+        ``"field"``, as every command).
     dither : bool
         Dither the filament choice over neighbouring faces (error diffusion).
     load : LoadOptions, optional
@@ -124,4 +134,16 @@ def fdm_projects(
         name=path.stem,
     )
     out.mkdir(parents=True, exist_ok=True)
-    return FdmResult(tuple(write_projects(out, path.stem, project, slicers)), project)
+    files = tuple(write_projects(out, path.stem, project, slicers))
+    manifest = {
+        "tool": f"shellvox {__version__}",
+        "input": {"path": str(path), "sha256": sha256(path)},
+        "filaments": list(chosen.hex),
+        "slicers": list(slicers),
+        "settings": as_json(settings or FdmSettings()),
+        "thickness": "--thickness" if thickness_mm is not None else "the thickness rule",
+        "shell_method": method,
+        "files": [file.name for file in files],
+    }
+    write_text_atomic(out / "manifest.json", json.dumps(manifest, indent=2) + "\n")
+    return FdmResult(files, project, manifest)

@@ -20,13 +20,10 @@ from shellvox.atomic import write_text_atomic
 from shellvox.config import LoadOptions, ShellConfig, as_json
 from shellvox.errors import InputError
 from shellvox.loading import load_model
-from shellvox.offset import Shell, shell_report
+from shellvox.offset import MethodName, Shell, method_shells, ready_for_file, shell_report
 from shellvox.output import (
     SHELL_OUTPUTS,
     OutputFolder,
-    ShellMethod,
-    method_shells,
-    ready_for_file,
     save_shells,
     sha256,
     write_thickness_ply,
@@ -39,7 +36,7 @@ def offset_shells(
     faces: npt.ArrayLike,
     thickness: npt.ArrayLike,
     *,
-    method: ShellMethod = "field",
+    method: MethodName = "field",
     step_mm: float | None = None,
 ) -> list[Shell]:
     """Offset every face inward by its own cumulative depth: one closed shell per layer.
@@ -53,11 +50,12 @@ def offset_shells(
         Thickness of each layer per face, outside in; a ``(K,)`` array applies to every
         face. Layer ``k`` lies at the cumulative depth ``D_k(f) = t_1(f) + ... + t_k(f)``.
     method : {"field", "robust", "paper"}
+        A method of :data:`shellvox.offset.METHODS` (:mod:`shellvox.offset.methods`).
         ``"field"`` (default): the zero set of each layer's field (the exact distance to
         the nearest face minus that face's depth), meshed and simplified under an error
         bound: closed, 2-manifold, nested, free of crossings, seconds on 100 k faces.
-        ``"robust"``: exact Booleans of per-face pieces (minutes on large meshes).
-        ``"paper"``: Zhu and Chen's construction, the reference.
+        ``"robust"`` (a reference): exact Booleans of per-face pieces (minutes on large
+        meshes). ``"paper"`` (a reference): Zhu and Chen's construction.
     step_mm : float, mm, optional
         Grid step of ``"field"`` (default: 0.1 mm, coarser on very large surfaces).
 

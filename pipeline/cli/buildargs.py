@@ -9,12 +9,12 @@ from typing import get_args
 
 from shellvox.api import BuildOptions
 from shellvox.cli.loadargs import add_load_arguments
+from shellvox.cli.methodargs import add_method_argument
 from shellvox.cli.runargs import add_running_arguments
 from shellvox.cli.thicknessargs import add_rule_arguments
 from shellvox.cli.values import optional_length, parse_lengths, parse_voxel_size
 from shellvox.config import FORMATS, MaterialSettings
 from shellvox.errors import InputError
-from shellvox.output import SHELL_METHODS
 from shellvox.printer import load_profile, shipped_profiles
 from shellvox.voxel.colour import HALFTONES
 from shellvox.voxel.slab import LayerRule
@@ -138,12 +138,7 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
         help="also write the offset shells to DIR/shells/ (the shells of a large model take "
         "minutes, as the estimate says; `shellvox shells` makes them alone)",
     )
-    parser.add_argument(
-        "--method",
-        choices=SHELL_METHODS,
-        default="field",
-        help="offset construction of the shells (default field; see `shellvox shells`)",
-    )
+    add_method_argument(parser, "the shell meshes")
     parser.add_argument(
         "--alpha",
         action="store_true",

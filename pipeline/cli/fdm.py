@@ -10,11 +10,11 @@ import numpy as np
 
 from shellvox.api import fdm_projects
 from shellvox.cli.loadargs import add_load_arguments, load_options
+from shellvox.cli.methodargs import add_method_argument
 from shellvox.cli.thicknessargs import add_rule_arguments
 from shellvox.cli.values import optional_length, parse_lengths
 from shellvox.fdm import SLICERS, FdmSettings, check_slicers, parse_filaments
 from shellvox.fdm._project import check_filament_count
-from shellvox.offset import METHODS
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -41,12 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "thickness rule, raised to one extrusion width where thinner)",
     )
     add_rule_arguments(parser, printer=True)
-    parser.add_argument(
-        "--method",
-        choices=METHODS,
-        default=METHODS[0],
-        help=f"offset construction of the core (default {METHODS[0]})",
-    )
+    add_method_argument(parser, "the core")
     parser.add_argument(
         "--slicer",
         default=",".join(SLICERS),

@@ -8,10 +8,11 @@ from pathlib import Path
 
 from shellvox.api import write_shells
 from shellvox.cli.loadargs import add_load_arguments, load_options
+from shellvox.cli.methodargs import add_method_argument
 from shellvox.cli.thicknessargs import add_rule_arguments
 from shellvox.cli.values import optional_length, parse_lengths
 from shellvox.config import ShellConfig
-from shellvox.output import MAX_FIELD_TRIANGLES, SHELL_METHODS, SHELL_STEP_MM
+from shellvox.offset import MAX_FIELD_TRIANGLES, SHELL_STEP_MM
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,14 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(default: the per-face thickness of the thickness rule)",
     )
     add_rule_arguments(parser, printer=True)
-    parser.add_argument(
-        "--method",
-        choices=SHELL_METHODS,
-        default="field",
-        help="offset construction (default field: marching tetrahedra on the layer field, "
-        "then a guarded simplification; robust: exact Booleans of per-face pieces, minutes "
-        "on large meshes; paper: the reference)",
-    )
+    add_method_argument(parser, "the shells")
     parser.add_argument(
         "--shell-step",
         type=float,

@@ -60,7 +60,7 @@ def make_project(
     *,
     settings: FdmSettings | None = None,
     slicers: Sequence[str] = SLICERS,
-    method: str = "robust",
+    method: str = "field",
     dither: bool = False,
     lift: bool = False,
     name: str = "model",
@@ -81,7 +81,7 @@ def make_project(
     slicers : sequence of {"prusa", "bambu"}
         Checked for the filament count they take.
     method : str
-        :func:`shellvox.offset.offset_shells`' method for the core.
+        :data:`shellvox.offset.METHODS`' method for the core (default ``field``).
     dither : bool
         Dither the filament choice over neighbouring faces (CIELAB error diffusion).
     lift : bool

@@ -5,7 +5,6 @@
 - :mod:`~shellvox.output._streams` the streaming writers fed one slab at a time;
 - :mod:`~shellvox.output._manifest` what ``manifest.json`` says; :mod:`~shellvox.output._checks`
   reading it back and checking the files it lists;
-- :mod:`~shellvox.output._shell_methods` the shells by method (robust, field, paper);
 - :mod:`~shellvox.output._shells` shell meshes as files; :mod:`~shellvox.output._ply` the
   float64 PLY with per-face values.
 """
@@ -17,37 +16,23 @@ from shellvox.output._folder import BuildFolder
 from shellvox.output._manifest import Tally, stack_manifest
 from shellvox.output._outdir import LOCK_NAME, SHELL_OUTPUTS, OutputFolder, remove_leftovers, sha256
 from shellvox.output._ply import read_face_ply, write_ply, write_thickness_ply
-from shellvox.output._shell_methods import (
-    MAX_FIELD_TRIANGLES,
-    SHELL_METHODS,
-    SHELL_STEP_MM,
-    ShellMethod,
-    method_shells,
-    ready_for_file,
-)
 from shellvox.output._shells import read_ply, save_shells, write_shell
 from shellvox.output._streams import StackOutputs, gcvf_slices, gcvf_writer, zarr_shards
 
 __all__ = [
     "LOCK_NAME",
-    "MAX_FIELD_TRIANGLES",
-    "SHELL_METHODS",
     "SHELL_OUTPUTS",
-    "SHELL_STEP_MM",
     "BuildFolder",
     "OutputFolder",
-    "ShellMethod",
     "StackOutputs",
     "Tally",
     "check_files",
     "file_summary",
     "gcvf_slices",
     "gcvf_writer",
-    "method_shells",
     "read_face_ply",
     "read_manifest",
     "read_ply",
-    "ready_for_file",
     "remove_leftovers",
     "save_shells",
     "sha256",

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from shellvox.errors import ResourceError
+from shellvox.offset import METHODS
 from shellvox.run import EXTRA_SLOTS
 from shellvox.voxel.io import SHARD_ROWS, encoded_by_slabs
 
@@ -50,12 +51,6 @@ BYTES_PER_FACE = 600
 SECONDS_PER_VOXEL = 6e-8
 SECONDS_PER_BAND_VOXEL = 7e-7
 
-#: Seconds on one core per face and layer of the offset shells, by method: the robust
-#: shells of bench_offset.json's real meshes took 2.8-12.5 ms (icosphere, spot, bunny,
-#: duck, airplane at 50-100 mm, two layers); the paper's construction about 20 us; the
-#: field shells scale with the area over the grid step squared, not the faces (spot at
-#: 100 mm, 93,696 faces, two layers: about 1 ms a face and layer).
-SECONDS_PER_SHELL_FACE = {"robust": 1e-2, "paper": 2e-5, "field": 1e-3}
 
 #: Bytes on disk per voxel of the whole grid (compressed TIFF pages, VDB topology) and per
 #: voxel of the surface band (colour, level-set values), measured on the demo and spot.
@@ -168,7 +163,7 @@ def estimate_build(
     memory += min(store_rows, z) * y * x * STORE_BYTES_PER_VOXEL
     disk = int(voxels * DISK_PER_VOXEL + band * DISK_PER_BAND_VOXEL)
     seconds = (voxels * SECONDS_PER_VOXEL + band * SECONDS_PER_BAND_VOXEL) / max(1, workers)
-    shell_seconds = shell_face_layers * SECONDS_PER_SHELL_FACE[shell_method]
+    shell_seconds = shell_face_layers * METHODS[shell_method].seconds_per_face_layer
     return BuildEstimate(
         (z, y, x), voxels, band, slab_rows, workers, memory, disk, seconds, shell_seconds
     )

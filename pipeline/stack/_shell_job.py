@@ -25,8 +25,8 @@ from tqdm import tqdm
 from shellvox.config import BuildConfig
 from shellvox.errors import ShellvoxWarning
 from shellvox.model import ColouredMesh
+from shellvox.offset import method_shells, ready_for_file
 from shellvox.offset.shells import Shell
-from shellvox.output import method_shells, ready_for_file
 from shellvox.run import ChildCall
 
 #: Seconds between updates of the shells' progress bar.

@@ -8,7 +8,7 @@ import trimesh
 from PIL import Image
 
 from shellvox.cli import main
-from shellvox.stack._estimate import SECONDS_PER_SHELL_FACE
+from shellvox.offset import METHODS
 
 
 @pytest.fixture
@@ -98,7 +98,7 @@ def test_shell_meshes_only_when_asked_and_estimated(tmp_path, model, capsys):
     assert {"shells/shell_1.ply", "shells/shell_2.ply"} <= set(manifest["files"])
     n_faces = len(trimesh.load(model, process=False).faces)
     # the estimate counts every face of both layers at the field method's rate (the default)
-    rate = SECONDS_PER_SHELL_FACE[manifest["config"]["shell_method"]]
+    rate = METHODS[manifest["config"]["shell_method"]].seconds_per_face_layer
     assert manifest["config"]["shell_method"] == "field"
     assert manifest["estimate"]["shell_seconds"] == pytest.approx(n_faces * 2 * rate)
     err = capsys.readouterr().err

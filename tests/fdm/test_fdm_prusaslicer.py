@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from fdm_gcode import read_extrusion
@@ -78,6 +80,9 @@ def test_real_models_slice(shared_mesh, tmp_path, capsys, model, scale):
     )
     assert status == 0
     (project,) = out.glob("*_prusa.3mf")
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["shell_method"] == "field"  # the default of every command
+    assert manifest["files"] == [project.name]
     slice_with_prusa(project, tmp_path / "model.gcode")
     ex = read_extrusion(tmp_path / "model.gcode")  # fails at a move off the bed
     # PrusaSlicer took one value per filament of every per-filament option (its footer)

@@ -12,12 +12,11 @@ import pytest
 import trimesh
 from meshlab_process import meshlab_crossing_faces, needs_meshlab
 
-from shellvox.offset import offset_shells
+from shellvox.offset import method_shells, offset_shells
 from shellvox.offset.crossing.intersections import intersecting_pairs
 from shellvox.offset.field.layer_field import field_surfaces
 from shellvox.offset.field.marching_tets import TABLE, TRIANGLES_PER_CASE
 from shellvox.offset.field.simplify import GuardLimits
-from shellvox.output._shell_methods import method_shells
 from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface, winding_numbers
 
 NO_SIMPLIFY = GuardLimits(tries=0)

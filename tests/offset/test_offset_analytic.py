@@ -25,7 +25,7 @@ def _assert_valid(shell: Shell) -> None:
 
 def test_box_uniform_is_exact():
     box = trimesh.creation.box((10.0, 20.0, 30.0))
-    shells = offset_shells(box.vertices, box.faces, [0.5, 1.0])
+    shells = offset_shells(box.vertices, box.faces, [0.5, 1.0], method="robust")
     for shell, d in zip(shells, [0.5, 1.5], strict=True):
         _assert_valid(shell)
         half = np.array([5.0, 10.0, 15.0]) - d
@@ -45,7 +45,7 @@ def test_box_with_a_thickness_per_face_keeps_every_face_at_its_own_distance():
     axis = np.argmax(np.abs(normals), axis=1)
     sign = np.sign(normals[np.arange(12), axis]).astype(int)
     t = np.array([per_dir[(s, a)] for s, a in zip(sign, axis, strict=True)])
-    (shell,) = offset_shells(box.vertices, box.faces, t[None, :])
+    (shell,) = offset_shells(box.vertices, box.faces, t[None, :], method="robust")
     _assert_valid(shell)
     half = np.array([5.0, 10.0, 15.0])
     lo = -half + [per_dir[(-1, i)] for i in range(3)]
@@ -64,7 +64,7 @@ def test_box_with_a_thickness_per_face_keeps_every_face_at_its_own_distance():
 
 def test_icosphere_is_equidistant():
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=10.0)
-    shells = offset_shells(sphere.vertices, sphere.faces, [0.5])
+    shells = offset_shells(sphere.vertices, sphere.faces, [0.5], method="robust")
     _assert_valid(shells[0])
     report = shell_report(
         sphere.vertices, sphere.faces, [0.5], shells, baselines=False, n_samples=4000
@@ -78,7 +78,7 @@ def test_icosphere_is_equidistant():
 
 def test_report_takes_the_checks_of_the_files_read_back():
     box = trimesh.creation.box((10.0, 10.0, 10.0))
-    shells = offset_shells(box.vertices, box.faces, [0.5, 1.0])
+    shells = offset_shells(box.vertices, box.faces, [0.5, 1.0], method="robust")
     measured = shell_report(box.vertices, box.faces, [0.5, 1.0], shells, baselines=False)
     given = [mesh_checks(s.vertices, s.faces) for s in shells]
     assert given[0]["closed"] and given[0]["self_intersections"] == 0
@@ -92,7 +92,7 @@ def test_report_takes_the_checks_of_the_files_read_back():
 
 def test_thin_plate_collapses_cleanly():
     plate = trimesh.creation.box((20.0, 20.0, 1.0))
-    shells = offset_shells(plate.vertices, plate.faces, [0.3, 0.5])
+    shells = offset_shells(plate.vertices, plate.faces, [0.3, 0.5], method="robust")
     _assert_valid(shells[0])
     assert shells[0].vertices[:, 2].max() == pytest.approx(0.2, abs=1e-12)
     assert shells[1].faces.shape == (0, 3)  # 0.8 mm from both sides of a 1 mm plate
@@ -120,7 +120,7 @@ def _l_block() -> trimesh.Trimesh:
 def test_reflex_edge_is_rounded_not_creased():
     block = _l_block()
     d = 1.0
-    (robust,) = offset_shells(block.vertices, block.faces, [d])
+    (robust,) = offset_shells(block.vertices, block.faces, [d], method="robust")
     (paper,) = offset_shells(block.vertices, block.faces, [d], method="paper")
     _assert_valid(robust)
     # Robust: never deeper than d, at most the polygonal arc's sagitta shallower
@@ -138,7 +138,7 @@ def test_reflex_edge_is_rounded_not_creased():
 def test_offset_prints_nothing(capfd):
     """Library code (and the C++ it calls) reports through return values and warnings."""
     block = _l_block()
-    offset_shells(block.vertices, block.faces, [0.5, 0.5])
+    offset_shells(block.vertices, block.faces, [0.5, 0.5], method="robust")
     offset_shells(block.vertices, block.faces, [0.5], method="paper")
     captured = capfd.readouterr()
     assert captured.out == ""
@@ -151,7 +151,7 @@ def test_report_of_shells_tested_together_needs_no_second_crossing_test(monkeypa
     from shellvox.offset.quality import measures as quality
 
     box = trimesh.creation.box((10.0, 10.0, 10.0))
-    shells = offset_shells(box.vertices, box.faces, [0.5, 1.0])
+    shells = offset_shells(box.vertices, box.faces, [0.5, 1.0], method="robust")
     measured = shell_report(box.vertices, box.faces, [0.5, 1.0], shells, baselines=False)
     pairs = quality.intersecting_pairs
     tested = []

@@ -53,7 +53,7 @@ def test_random_convex_polytope_offset_is_moved_halfspaces(seed, n_points, frac)
     plane = np.einsum("ij,ij->i", normals, mesh.triangles[:, 0])
     radius = _chebyshev(normals, plane)[1]
     assert _chebyshev(normals, plane - d)[1] == pytest.approx(radius - d, rel=1e-6)
-    (shell,) = offset_shells(mesh.vertices, mesh.faces, [d])
+    (shell,) = offset_shells(mesh.vertices, mesh.faces, [d], method="robust")
     corners = _moved_halfspace_polytope(mesh, np.full(len(mesh.faces), d))
     expected = ConvexHull(corners)
     got = trimesh.Trimesh(shell.vertices, shell.faces, process=False)
@@ -76,7 +76,7 @@ def test_variable_depth_on_a_polytope_where_every_point_projects_inside(seed):
     per_square = rng.uniform(0.1, 1.9, size=6)
     key = np.argmax(np.abs(cube.face_normals), axis=1) * 2 + (cube.face_normals.sum(axis=1) > 0)
     depth = per_square[key]
-    (shell,) = offset_shells(cube.vertices, cube.faces, depth[None, :])
+    (shell,) = offset_shells(cube.vertices, cube.faces, depth[None, :], method="robust")
     corners = _moved_halfspace_polytope(cube, depth)
     got = trimesh.Trimesh(shell.vertices, shell.faces, process=False)
     assert got.is_watertight

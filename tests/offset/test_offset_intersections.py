@@ -166,7 +166,7 @@ def test_robust_offset_of_a_cylinder_checks_its_shell_exactly():
     from shellvox.offset import offset_shells
 
     cylinder = trimesh.creation.cylinder(radius=5.0, height=10.0, sections=64)
-    (shell,) = offset_shells(cylinder.vertices, cylinder.faces, [0.5])
+    (shell,) = offset_shells(cylinder.vertices, cylinder.faces, [0.5], method="robust")
     v, f = shell.vertices, shell.faces
     tri = v[f]
     lo, hi = tri.min(axis=1), tri.max(axis=1)

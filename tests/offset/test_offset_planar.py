@@ -125,7 +125,7 @@ def _per_face_only(monkeypatch):
 def test_box_shells_are_the_analytic_boxes(thickness):
     size = np.array([10.0, 8.0, 6.0])
     box = trimesh.creation.box(size).subdivide().subdivide()
-    shells = offset_shells(box.vertices, box.faces, thickness)
+    shells = offset_shells(box.vertices, box.faces, thickness, method="robust")
     for shell, depth in zip(shells, np.cumsum(thickness), strict=True):
         mesh = trimesh.Trimesh(shell.vertices, shell.faces, process=False)
         assert mesh.is_watertight and mesh.is_winding_consistent
@@ -141,9 +141,9 @@ def test_patches_give_the_shells_of_the_face_prisms(monkeypatch):
     solid = trimesh.creation.box((10.0, 10.0, 6.0)).difference(notch).subdivide()
     v, f = np.asarray(solid.vertices), np.asarray(solid.faces, dtype=np.int64)
     depth = np.where(np.arange(len(f)) % 7 == 0, 0.8, 0.5)
-    merged = offset_shells(v, f, [depth])
+    merged = offset_shells(v, f, [depth], method="robust")
     _per_face_only(monkeypatch)
-    reference = offset_shells(v, f, [depth])
+    reference = offset_shells(v, f, [depth], method="robust")
     for a, b in zip(merged, reference, strict=True):
         ma = trimesh.Trimesh(a.vertices, a.faces, process=False)
         mb = trimesh.Trimesh(b.vertices, b.faces, process=False)

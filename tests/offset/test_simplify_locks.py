@@ -105,7 +105,8 @@ def test_field_shells_of_the_bunny_are_2_manifold_as_meshlab_reads_them(tmp_path
     from conftest import shared_path
     from meshlab_process import meshlab_checks
 
-    from shellvox.output import method_shells, save_shells
+    from shellvox.offset import method_shells
+    from shellvox.output import save_shells
 
     raw = trimesh.load(shared_path("bunny/bunny.obj"), force="mesh")
     mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)

@@ -18,7 +18,6 @@ from shell_file_checks import HAVE_PYMESHLAB, header, meshlab_checks, needs_mesh
 
 from shellvox.cli import main
 from shellvox.errors import ShellvoxWarning
-from shellvox.offset import offset_shells
 from shellvox.offset.adjacency import edge_adjacency
 from shellvox.offset.reference.clean import clean_degenerate, clean_shell, folded_faces
 from shellvox.offset.reference.for_file import shell_for_file
@@ -210,7 +209,9 @@ def test_icosphere_shell_files_are_valid_as_meshlab_reads_them(icosphere_out):
 
 
 def test_a_shell_defect_warning_reaches_the_user_as_one_line(tmp_path, capsys, monkeypatch):
-    import shellvox.output._shell_methods as shells_cli
+    from shellvox.offset import METHODS
+
+    robust = METHODS["robust"]
 
     def defective(*args, **kwargs):
         warnings.warn(
@@ -218,9 +219,9 @@ def test_a_shell_defect_warning_reaches_the_user_as_one_line(tmp_path, capsys, m
             ShellDefectWarning,
             stacklevel=2,
         )
-        return offset_shells(*args, **kwargs)
+        return robust.make(*args, **kwargs)
 
-    monkeypatch.setattr(shells_cli, "offset_shells", defective)
+    monkeypatch.setitem(METHODS, "robust", robust._replace(make=defective))
     trimesh.creation.box((10.0, 8.0, 6.0)).export(tmp_path / "box.stl")
     assert (
         main(

@@ -13,7 +13,7 @@ from vdb_checks import describe_grids
 from shellvox.config import BuildConfig
 from shellvox.errors import SlabWorkerDied
 from shellvox.model import ColouredMesh
-from shellvox.output._shell_methods import method_shells
+from shellvox.offset import method_shells
 from shellvox.stack import build_stack
 
 

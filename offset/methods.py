@@ -1,0 +1,315 @@
+"""The shell offsetting methods, one registry: what each is, how it is made, how it is filed.
+
+:data:`METHODS` maps a method's name to a :class:`Method`; :func:`offset_shells` and
+:func:`method_shells` dispatch through it, and the command line's choices, the
+configuration's check and the documentation read it. The methods:
+
+- ``field`` (the default): each layer's field, the exact distance to the nearest face minus
+  that face's cumulative depth (the voxel layers' own rule, :mod:`shellvox.voxel.slab`),
+  sampled on a grid and meshed (:mod:`shellvox.offset.field.layer_field`), then simplified
+  under an error bound with no crossing (:mod:`shellvox.offset.field.simplify`): closed,
+  2-manifold, nested, seconds on 100 k faces; the files need no cleaning.
+- ``robust`` (a reference): the exact union of per-face convex pieces
+  (:mod:`shellvox.offset.reference.robust`): exact creases by construction, minutes on a
+  scan; its files are cleaned and jittered (:mod:`shellvox.offset.reference.for_file`).
+  It is the oracle the field shells are measured against in tests and benchmarks.
+- ``paper`` (a reference): Zhu and Chen's three-plane construction, the seed of the
+  per-face offset (:mod:`shellvox.offset.reference.paper`); not guaranteed closed or free of
+  crossings on curved or deep input: for comparison, not for printing.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import Any, Literal, NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from shellvox.offset._validate import (
+    FloatArray,
+    IntArray,
+    check_choice,
+    check_mesh,
+    check_thickness,
+)
+from shellvox.offset.adjacency import edge_adjacency
+from shellvox.offset.field.simplify import DEFAULT_LIMITS, GuardLimits
+from shellvox.offset.reference.for_file import ShellForFile
+from shellvox.offset.shells import Shell
+
+MethodName = Literal["field", "robust", "paper"]
+
+#: Default grid step of the ``field`` shells (``--shell-step``), mm. On spot at 100 mm
+#: (93,696 faces, depths 0.5 and 1.5 mm) 0.1 mm gave |d - D| p99 1.3 um and max 25 um before
+#: simplification; 0.05 mm halves the error at four times the triangles and eight times the
+#: nodes (benchmarks/bench_field_shells.py).
+SHELL_STEP_MM = 0.1
+
+#: Marching-tetrahedra triangles of one layer per mm^2 of surface times the step squared
+#: (spot at 100 mm: 16.5 M triangles of 19,127 mm^2 at 0.1 mm, 8.6).
+TRIANGLES_PER_AREA = 8.7
+
+#: Triangles all layers may have before simplification at the automatic step (about 320
+#: bytes each at the peak: 11.5 GB; spot at 100 mm, two layers, 31.6 M, keeps 0.1 mm).
+MAX_FIELD_TRIANGLES = 36_000_000
+
+
+class MethodShells(NamedTuple):
+    """Shells of one method and its record.
+
+    Attributes
+    ----------
+    shells : list of Shell
+        Outside in.
+    record : dict
+        ``method``; for ``field``: ``step_mm``, ``grid_zyx``, ``seconds`` (``field``,
+        ``simplify``) and the simplification's record.
+    crossing_free : bool
+        The shells, all together, were tested and no two of their triangles cross
+        (``field``, when simplified:
+        :attr:`shellvox.offset.field.simplify.Simplified.crossing_free`).
+    """
+
+    shells: list[Shell]
+    record: dict[str, Any]
+    crossing_free: bool = False
+
+
+#: What a method computes: ``(vertices, faces, depth (K, F) mm, step_mm, limits)``.
+Make = Callable[[FloatArray, IntArray, FloatArray, float | None, GuardLimits], MethodShells]
+
+
+class Method(NamedTuple):
+    """One shell offsetting method.
+
+    Attributes
+    ----------
+    name : str
+    summary : str
+        One line: what it is and what it costs (the CLI's help, the docs).
+    make : callable
+        ``(vertices, faces, depth (K, F) mm, step_mm, limits) -> MethodShells``, on
+        checked arguments.
+    for_file : callable
+        ``Shell -> ShellForFile``: the shell made ready for its file.
+    reference : bool
+        A reference method (exact or historical), not the default's speed.
+    closed : bool
+        Its shells are closed surfaces (what shell files, layers from shells and FDM
+        cores need).
+    seconds_per_face_layer : float
+        Seconds on one core per face and layer (the build's estimate): the robust shells of
+        bench_offset.json's real meshes took 2.8-12.5 ms (icosphere, spot, bunny, duck,
+        airplane at 50-100 mm, two layers); the paper's construction about 20 us; the field
+        shells scale with the area over the grid step squared (spot at 100 mm, 93,696
+        faces, two layers: about 1 ms a face and layer).
+    """
+
+    name: str
+    summary: str
+    make: Make
+    for_file: Callable[[Shell], ShellForFile]
+    reference: bool
+    closed: bool
+    seconds_per_face_layer: float
+
+
+def automatic_step(area_mm2: float, layers: int) -> float:
+    """Return the grid step of the ``field`` shells for a surface (mm).
+
+    ``SHELL_STEP_MM``, raised (to whole hundredths of a mm) where the layers' triangles
+    before simplification would pass ``MAX_FIELD_TRIANGLES``; a 120 mm polyhedron of
+    53,660 mm^2 with two layers gets 0.17 mm.
+
+    >>> automatic_step(19127.0, 2), automatic_step(53660.0, 2)
+    (0.1, 0.17)
+    """
+    needed = math.sqrt(TRIANGLES_PER_AREA * area_mm2 * layers / MAX_FIELD_TRIANGLES)
+    return max(SHELL_STEP_MM, math.ceil(round(needed * 100.0, 6)) / 100.0)
+
+
+def _shells(meshes: list[tuple[FloatArray, IntArray]], depth: FloatArray) -> list[Shell]:
+    return [
+        Shell(vertices=mv, faces=mf, layer=k + 1, depth_mm=np.ascontiguousarray(depth[k]))
+        for k, (mv, mf) in enumerate(meshes)
+    ]
+
+
+def _field(
+    v: FloatArray, f: IntArray, depth: FloatArray, step_mm: float | None, limits: GuardLimits
+) -> MethodShells:
+    from shellvox.offset.field.layer_field import field_surfaces
+    from shellvox.offset.field.simplify import simplify_shells
+    from shellvox.voxel.geometry._nearest import SurfaceIndex
+
+    if step_mm is None:
+        tri = v[f]
+        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        step_mm = automatic_step(float(area.sum()), depth.shape[0])
+    tick = time.perf_counter()
+    field = field_surfaces(v, f, depth, step_mm)
+    field_s = time.perf_counter() - tick
+    simplified = simplify_shells(field.surfaces, SurfaceIndex.build(v, f), depth, limits=limits)
+    record = {
+        "method": "field",
+        "step_mm": step_mm,
+        "grid_zyx": list(field.grid.shape_zyx),
+        "unbalanced_rows": field.n_unbalanced_rows,
+        "marched_faces": field.marched_faces,
+        "seconds": {"field": field_s, "simplify": time.perf_counter() - tick - field_s},
+        "simplify": simplified.record,
+    }
+    return MethodShells(_shells(simplified.meshes, depth), record, simplified.crossing_free)
+
+
+def _robust(
+    v: FloatArray, f: IntArray, depth: FloatArray, step_mm: float | None, limits: GuardLimits
+) -> MethodShells:
+    from shellvox.offset.reference.robust import robust_offset
+
+    return MethodShells(_shells(robust_offset(v, f, depth), depth), {"method": "robust"})
+
+
+def _paper(
+    v: FloatArray, f: IntArray, depth: FloatArray, step_mm: float | None, limits: GuardLimits
+) -> MethodShells:
+    from shellvox.offset.reference.paper import paper_offset
+
+    return MethodShells(_shells(paper_offset(v, f, depth), depth), {"method": "paper"})
+
+
+def _as_made(shell: Shell) -> ShellForFile:
+    return ShellForFile(shell, {"cleaning": "none (field shells)"})
+
+
+def _cleaned(shell: Shell) -> ShellForFile:
+    from shellvox.offset.reference.for_file import shell_for_file
+
+    return shell_for_file(shell)
+
+
+#: Every method by name; the first is the default.
+METHODS: dict[str, Method] = {
+    "field": Method(
+        "field",
+        "the layer field meshed and simplified: closed, nested, no crossings, seconds",
+        _field,
+        _as_made,
+        reference=False,
+        closed=True,
+        seconds_per_face_layer=1e-3,
+    ),
+    "robust": Method(
+        "robust",
+        "reference: exact Booleans of per-face pieces, exact creases, minutes on a scan",
+        _robust,
+        _cleaned,
+        reference=True,
+        closed=True,
+        seconds_per_face_layer=1e-2,
+    ),
+    "paper": Method(
+        "paper",
+        "reference: Zhu and Chen's three-plane construction, for comparison only",
+        _paper,
+        _cleaned,
+        reference=True,
+        closed=False,
+        seconds_per_face_layer=2e-5,
+    ),
+}
+DEFAULT_METHOD: MethodName = "field"
+
+
+def method_shells(
+    vertices: npt.ArrayLike,
+    faces: npt.ArrayLike,
+    thickness: npt.ArrayLike,
+    *,
+    method: MethodName = DEFAULT_METHOD,
+    step_mm: float | None = None,
+    limits: GuardLimits = DEFAULT_LIMITS,
+) -> MethodShells:
+    """Offset every face inward by its own cumulative depth; the shells and their record.
+
+    Parameters
+    ----------
+    vertices : (V, 3) array_like of float, mm
+    faces : (F, 3) array_like of int
+        Closed, consistently outward-oriented triangles.
+    thickness : (K, F) or (K,) array_like of float, mm
+        Thickness of each layer per face (``> 0``), outside in; a ``(K,)`` array applies to
+        all faces. Layer ``k`` is at cumulative depth ``D_k(f) = sum_{j <= k} t_j(f)``.
+    method : {"field", "robust", "paper"}, optional
+        A name of :data:`METHODS` (default ``"field"``).
+    step_mm : float, mm, optional
+        Grid step of ``field`` (> 0); None (default): :func:`automatic_step`.
+    limits : GuardLimits, optional
+        Bounds of ``field``'s simplification.
+
+    Returns
+    -------
+    MethodShells
+
+    Raises
+    ------
+    ValueError
+        An unknown method, a bad step, a mesh that is not closed and consistently
+        oriented, or a bad thickness.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> box = trimesh.creation.box((4.0, 4.0, 4.0))
+    >>> out = method_shells(box.vertices, box.faces, [0.5], step_mm=0.25)
+    >>> round(float(out.shells[0].vertices[:, 0].max()), 4), out.record["method"]
+    (1.5, 'field')
+    """
+    chosen = METHODS[check_choice("method", method, METHODS)]
+    if step_mm is not None and not (np.isfinite(step_mm) and step_mm > 0):
+        raise ValueError(f"step_mm must be positive and finite, got {step_mm}")
+    v, f = check_mesh(vertices, faces)
+    t = check_thickness(thickness, f.shape[0])
+    edge_adjacency(f)  # raises ValueError unless closed and consistently oriented
+    return chosen.make(v, f, np.cumsum(t, axis=0), step_mm, limits)
+
+
+def offset_shells(
+    vertices: npt.ArrayLike,
+    faces: npt.ArrayLike,
+    thickness: npt.ArrayLike,
+    *,
+    method: MethodName = DEFAULT_METHOD,
+    step_mm: float | None = None,
+) -> list[Shell]:
+    """Offset every face inward by its own cumulative depth, one shell per layer.
+
+    :func:`method_shells` without the record; the parameters are the same.
+
+    Returns
+    -------
+    list of Shell
+        ``K`` shells, outside in.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> box = trimesh.creation.box((10.0, 10.0, 10.0))
+    >>> shells = offset_shells(box.vertices, box.faces, [0.5, 1.0], method="robust")
+    >>> [float(s.vertices[:, 0].max()) for s in shells]
+    [4.5, 3.5]
+    """
+    return method_shells(vertices, faces, thickness, method=method, step_mm=step_mm).shells
+
+
+def ready_for_file(shell: Shell, method: str) -> ShellForFile:
+    """Return a shell ready for its file, as its method wants it.
+
+    The field shells go as they are (their simplification kept them closed, manifold and
+    crossing-free, checked); the reference methods' are cleaned and jittered
+    (:func:`shellvox.offset.reference.for_file.shell_for_file`).
+    """
+    return METHODS[check_choice("method", method, METHODS)].for_file(shell)
