@@ -1,6 +1,7 @@
 """The documentation covers the package and says no more than is true.
 
-Every public name of ``shellvox`` is in the API reference; the exit statuses page lists
+Every public name of ``shellvox`` is in the API reference, every public function has an
+example; the exit statuses page lists
 the statuses :mod:`shellvox.faults` defines; the README stays short and its Python example
 runs; no page, README or docstring tells the project's history (CHANGELOG.md does).
 """
@@ -8,6 +9,7 @@ runs; no page, README or docstring tells the project's history (CHANGELOG.md doe
 from __future__ import annotations
 
 import ast
+import inspect
 import re
 from pathlib import Path
 
@@ -30,6 +32,16 @@ def test_every_public_name_is_in_the_api_reference():
     page = (DOCS / "reference" / "api.md").read_text(encoding="utf-8")
     named = set(re.findall(r"shellvox\.([A-Za-z_]+)", page))
     missing = sorted(set(shellvox.__all__) - named - {"__version__", "data"})
+    assert missing == []
+
+
+def test_every_public_function_has_an_example():
+    # the examples run in tests/test_doctests.py and in `make docs`
+    functions = [
+        name for name in shellvox.__all__ if inspect.isfunction(getattr(shellvox, name, None))
+    ]
+    assert len(functions) > 10
+    missing = [n for n in functions if ">>>" not in (inspect.getdoc(getattr(shellvox, n)) or "")]
     assert missing == []
 
 

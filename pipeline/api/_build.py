@@ -342,6 +342,15 @@ def plan_tray_build(
     Returns
     -------
     TrayRequest
+
+    Examples
+    --------
+    >>> import shellvox
+    >>> request = shellvox.plan_tray_build([shellvox.data.colour_target()], "tray", copies=2)
+    >>> len(request.plan.placements)
+    2
+    >>> print(request.plan.lines()[0])
+    tray of 2 model(s), layout auto, gap 5 mm (at least 3.75 mm), printer tray 490 x 390 x 200 mm:
     """
     options = options or BuildOptions()
     started = time.perf_counter()

@@ -174,6 +174,22 @@ def calibrate(
     Returns
     -------
     Calibration
+
+    Examples
+    --------
+    A printer exactly as assumed, "measured" by the model itself:
+
+    >>> import shellvox
+    >>> from shellvox.printer import Readings, read_chart, write_cgats
+    >>> from shellvox.voxel.colour import predict
+    >>> chart = shellvox.make_chart("chart")
+    >>> read = read_chart("chart/chart.json")
+    >>> spectra = predict(read.optics, list(read.patches))
+    >>> ids = tuple(patch.patch_id for patch in read.patches)
+    >>> write_cgats("readings.txt", Readings(ids, read.optics.wavelengths_nm, spectra))
+    >>> fit = shellvox.calibrate("chart/chart.json", "readings.txt", "mine.toml")
+    >>> shellvox.load_profile("mine.toml").optics.assumed
+    False
     """
     out = Path(out_profile)
     if not out.parent.is_dir():

@@ -122,6 +122,16 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
     ------
     InputError
         A ``ValueError`` whose message names the file, the problem and the fix.
+
+    Examples
+    --------
+    >>> import shellvox
+    >>> mesh = shellvox.load_model(shellvox.data.colour_target())
+    >>> mesh.faces.shape, np.ptp(mesh.vertices, axis=0).round(2).tolist()  # mm
+    ((3468, 3), [24.0, 16.0, 6.0])
+    >>> inch = shellvox.load_model(shellvox.data.colour_target(), shellvox.LoadOptions(scale=0.5))
+    >>> np.ptp(inch.vertices, axis=0).round(2).tolist()
+    [12.0, 8.0, 3.0]
     """
     options = options or LoadOptions()
     path = Path(path)

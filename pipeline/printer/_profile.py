@@ -198,6 +198,15 @@ def load_profile(name_or_path: str | Path) -> PrinterProfile:
     InputError
         Unknown name, unreadable file, invalid TOML, or a missing, mistyped or
         inconsistent key (the message names the file, the key and the fix).
+
+    Examples
+    --------
+    >>> import shellvox
+    >>> profile = shellvox.load_profile("j750")
+    >>> [material.name for material in profile.materials][:3]
+    ['Background', 'VeroCyan-V', 'VeroMagenta-V']
+    >>> profile.optics.assumed  # no measured chart yet: the optics are assumed
+    True
     """
     text_name = str(name_or_path)
     path = Path(name_or_path)

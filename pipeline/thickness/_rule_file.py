@@ -91,6 +91,13 @@ def load_rule(path: str | Path) -> ThicknessRule:
     InputError
         Unreadable file, TOML syntax error, unknown table or key, wrong type or value out
         of range; the message names the file and the key and says what to write.
+
+    Examples
+    --------
+    >>> import shellvox
+    >>> rule = shellvox.load_rule(shellvox.data.thickness_rule())
+    >>> rule.layers.colour, rule.layers.backing_mm
+    ((1,), (0.5,))
     """
     path = Path(path)
     try:
