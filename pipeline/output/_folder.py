@@ -62,8 +62,11 @@ class BuildFolder:
         The shells come ready for their files
         (:func:`shellvox.offset.reference.for_file.shell_for_file`).
         """
-        (self.path / "shells").mkdir(exist_ok=True)
-        files = save_shells(self.path / "shells", shells, stack=self.stack)
+        folder = self.path / "shells"
+        folder.mkdir(exist_ok=True)
+        # unwound after the files' own removal: an interrupted build leaves no empty folder
+        self.stack.callback(_remove_if_empty, folder)
+        files = save_shells(folder, shells, stack=self.stack)
         self.written.extend(file.path for file in files)
         return [file.shell for file in files]
 
@@ -84,3 +87,9 @@ class BuildFolder:
         write_text_atomic(self.path / "manifest.json", text)
         written: dict[str, Any] = json.loads(text)
         return written
+
+
+def _remove_if_empty(folder: Path) -> None:
+    """Remove `folder` if nothing is in it (a build's files renamed into it stay)."""
+    with contextlib.suppress(OSError):
+        folder.rmdir()
