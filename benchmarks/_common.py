@@ -24,7 +24,10 @@ import sys
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import trimesh
 
 ROOT = Path(__file__).resolve().parents[1]
 MESHES = Path(os.environ.get("SHELLVOX_MESHES", ROOT.parent / "shared" / "meshes"))
@@ -95,6 +98,20 @@ def scaled_mesh(name: str, size_mm: float | None = None, stretch_z: float = 1.0)
         vertices *= size_mm / float((vertices.max(axis=0) - vertices.min(axis=0)).max())
     vertices[:, 2] *= stretch_z
     return dataclasses.replace(mesh, vertices=vertices)
+
+
+def load_shared(name: str, size_mm: float, subdivisions: int = 0) -> trimesh.Trimesh:
+    """Load a shared mesh merged by position, Loop-subdivided, largest extent `size_mm`."""
+    import trimesh
+
+    raw = trimesh.load(mesh_path(name), force="mesh")
+    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
+    mesh.merge_vertices(merge_tex=True, merge_norm=True)
+    if subdivisions > 0:
+        mesh = mesh.subdivide_loop(iterations=subdivisions)
+    mesh.apply_scale(size_mm / mesh.extents.max())
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    return mesh
 
 
 def parser(doc: str | None) -> argparse.ArgumentParser:

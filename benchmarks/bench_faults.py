@@ -22,28 +22,26 @@ peer is the contract itself (every count should be 0). Counted:
   build), ``next_failed`` (the next build did not succeed and verify).
 
 Processes are found by scanning ``/proc`` (a run is started in a session of its own, so
-its process group is its pid), as the tests' fault harness does.
+its process group is its pid), with the tests' helpers in :mod:`shellvox.testing`.
 """
 
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import json
 import os
 import random
 import shutil
 import signal
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from _common import DEFAULT_MODEL, load_average, parser, write_result
+
+from shellvox.testing import Command, holds_nothing, temporary_files, verified_files
 
 NAME = "bench_faults"
 WHAT = (
@@ -55,9 +53,6 @@ WHAT = (
 MODEL = DEFAULT_MODEL
 EXPECTED = {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGKILL: -signal.SIGKILL}
 
-#: Names shellvox gives its temporary files; no shellvox output starts with a dot.
-TEMPORARY_HINTS = (".partial", ".vdb-spool", ".staging", ".shellvox.lock")
-
 #: A build of the default model that takes a few seconds (71 x 171 x 251 voxels).
 FAST = (
     "--voxel-size", "0.1,0.1,0.1", "--workers", "2", "--slab-mb", "16",
@@ -65,129 +60,9 @@ FAST = (
 )  # fmt: skip
 
 
-# ------------------------------------------------------------- runs and their processes
-
-
-def group(pgid: int) -> list[tuple[int, str]]:
-    """Return ``(pid, command line)`` of the live (not zombie) processes of a group."""
-    found = []
-    for entry in os.scandir("/proc"):
-        if not entry.name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry.name}/stat", encoding="ascii", errors="replace") as stream:
-                stat = stream.read()
-            with open(f"/proc/{entry.name}/cmdline", "rb") as stream:
-                cmdline = stream.read().replace(b"\0", b" ").decode(errors="replace").strip()
-        except OSError:  # gone meanwhile
-            continue
-        # "pid (comm) state ppid pgrp ...": comm may hold spaces and parentheses
-        fields = stat[stat.rindex(")") + 2 :].split()
-        if fields[0] not in ("Z", "X") and int(fields[2]) == pgid:
-            found.append((int(entry.name), cmdline))
-    return found
-
-
-@dataclass
-class Run:
-    """A finished (or hung: ``status`` None) run, and its processes alive after it."""
-
-    status: int | None
-    stderr: str
-    seconds: float
-    left: list[tuple[int, str]] = field(default_factory=list)
-
-
-class Command:
-    """A ``python -m shellvox.cli ...`` process in its own session, output to files.
-
-    Output goes to files, not pipes: an orphaned child holding a pipe would block a reader.
-    """
-
-    def __init__(self, argv: list[str], workdir: Path) -> None:
-        workdir.mkdir(parents=True, exist_ok=True)
-        (workdir / "tmpdir").mkdir(exist_ok=True)
-        self._err = open(workdir / "stderr.txt", "w+b")  # noqa: SIM115
-        environment = dict(os.environ, TMPDIR=str(workdir / "tmpdir"), COLUMNS="200")
-        environment.pop("PYTHONWARNINGS", None)
-        self.started = time.monotonic()
-        self.popen = subprocess.Popen(
-            [sys.executable, "-m", "shellvox.cli", *map(str, argv)],
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL,
-            stderr=self._err,
-            cwd=workdir,
-            env=environment,
-            start_new_session=True,
-        )
-        self.pid = self.popen.pid
-
-    def finish(self, timeout: float = 120.0, grace: float = 2.0) -> Run:
-        """Wait for the main process, then up to `grace` s for its group to vanish.
-
-        A run that does not exit within `timeout` s is killed (with its group) and
-        reported with ``status=None``; processes left after `grace` are reported, then killed.
-        """
-        try:
-            status: int | None = self.popen.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            status = None
-        seconds = time.monotonic() - self.started
-        deadline = time.monotonic() + grace
-        left = group(self.pid)
-        while left and time.monotonic() < deadline:
-            time.sleep(0.05)
-            left = group(self.pid)
-        if status is None or left:
-            for pid, _ in left:
-                with contextlib.suppress(ProcessLookupError):
-                    os.kill(pid, signal.SIGKILL)
-            self.popen.kill()
-            self.popen.wait()
-        self._err.flush()
-        self._err.seek(0)
-        stderr = self._err.read().decode(errors="replace")
-        self._err.close()
-        return Run(status, stderr, seconds, left)
-
-
 def build_argv(out: Path, *extra: str) -> list[str]:
     """Return the arguments of a fast build of the default model into `out`."""
     return ["build", str(MODEL), "-o", str(out), *FAST, *extra]
-
-
-def temporary_files(folder: Path) -> list[Path]:
-    """Return what a run left in `folder` (recursively) that is not a shellvox output."""
-    if not folder.exists():
-        return []
-    return sorted(
-        path
-        for path in folder.rglob("*")
-        if path.name.startswith(".") or any(hint in path.name for hint in TEMPORARY_HINTS)
-    )
-
-
-def holds_nothing(folder: Path) -> bool:
-    """Return whether `folder` is absent or empty (no build, no temporary file)."""
-    return not folder.exists() or not any(folder.rglob("*"))
-
-
-def verified_files(folder: Path) -> None:
-    """Check a finished build against its manifest (every file, size and SHA-256)."""
-    import tifffile
-
-    manifest = json.loads((folder / "manifest.json").read_text())
-    present = {str(p.relative_to(folder)) for p in folder.rglob("*") if not p.is_dir()}
-    assert present == {"manifest.json", *manifest["files"]}, present
-    for name, record in manifest["files"].items():
-        data = (folder / name).read_bytes()
-        assert len(data) == record["bytes"], name
-        assert hashlib.sha256(data).hexdigest() == record["sha256"], name
-    n_z, n_y, n_x = manifest["grid"]["shape_zyx"]
-    for name in ("layers.tif", "colour.tif"):
-        with tifffile.TiffFile(folder / name) as tif:
-            assert len(tif.pages) == n_z
-            assert tif.pages[0].shape[:2] == (n_y, n_x)
 
 
 # ------------------------------------------------------------------------------ trials
@@ -239,7 +114,7 @@ def trial(index: int, signum: int, delay: float, voxel: str, root: Path) -> dict
         status=result.status,
         exit_after_signal_s=round(exited, 2) if result.status is not None else None,
         hang=result.status is None,
-        orphans=[f"{pid} {cmdline[:100]}" for pid, cmdline in result.left],
+        orphans=[f"{p.pid} {p.cmdline[:100]}" for p in result.left],
         traceback="Traceback" in result.stderr,
         stderr_tail=result.stderr.strip().splitlines()[-3:],
     )

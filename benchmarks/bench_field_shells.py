@@ -30,24 +30,26 @@ Running some parts keeps the others' results from the current result file.
 from __future__ import annotations
 
 import json
-import multiprocessing
 import re
 import subprocess
 import sys
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import trimesh
-from _common import load_average, mesh_path, parser, previous_details, write_result
-from _openvdb import level_set_seconds
+from _common import load_average, load_shared, mesh_path, parser, previous_details, write_result
 
 from shellvox import load_model
-from shellvox.offset.crossing.intersections import count_self_intersections, intersecting_pairs
+from shellvox.offset.crossing.intersections import intersecting_pairs
+from shellvox.testing import (
+    MeshLabCrashedError,
+    level_set_seconds,
+    meshlab_checks,
+    trimesh_checks,
+)
 from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface, winding_numbers
 
 NAME = "bench_field_shells"
@@ -73,18 +75,6 @@ MESHES = {
 }
 
 
-def load_shared(name: str, size_mm: float, subdivisions: int = 0) -> trimesh.Trimesh:
-    """Load a shared mesh merged by position, Loop-subdivided, largest extent `size_mm`."""
-    raw = trimesh.load(mesh_path(name), force="mesh")
-    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
-    mesh.merge_vertices(merge_tex=True, merge_norm=True)
-    if subdivisions > 0:
-        mesh = mesh.subdivide_loop(iterations=subdivisions)
-    mesh.apply_scale(size_mm / mesh.extents.max())
-    assert mesh.is_watertight and mesh.is_winding_consistent
-    return mesh
-
-
 def run_shells(model: Path, out: Path, extra: list[str]) -> float:
     """Run ``shellvox shells`` as a child process and return its wall time (s)."""
     command = [sys.executable, "-m", "shellvox.cli", "shells", str(model), "-o", str(out)]
@@ -100,65 +90,6 @@ def run_shells(model: Path, out: Path, extra: list[str]) -> float:
 # ------------------------------------------------------------------ reading back
 
 
-def _zero_area(vertices: np.ndarray, faces: np.ndarray) -> int:
-    tri = vertices[faces]
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    return int(np.count_nonzero(np.linalg.norm(cross, axis=1) == 0.0))
-
-
-def trimesh_checks(path: Path) -> dict[str, Any]:
-    """Read with trimesh, merge coincident vertices (as a slicer does), and measure."""
-    mesh = trimesh.load(path, process=False, force="mesh")
-    n_vertices = len(mesh.vertices)
-    mesh.merge_vertices()
-    v = np.asarray(mesh.vertices, dtype=np.float64)
-    f = np.asarray(mesh.faces, dtype=np.int64)
-    normals = np.asarray(mesh.face_normals)
-    pairs = np.asarray(mesh.face_adjacency)
-    dot = np.einsum("ij,ij->i", normals[pairs[:, 0]], normals[pairs[:, 1]])
-    return {
-        "merged_vertices": n_vertices - len(v),
-        "closed": bool(mesh.is_watertight),
-        "oriented": bool(mesh.is_winding_consistent) and float(mesh.volume) > 0,
-        "zero_area_faces": _zero_area(v, f),
-        "self_intersections": count_self_intersections(v, f),
-        "folded_edges": int(np.count_nonzero(dot < -1.0 + 1e-6)),  # faces back to back
-        "n_faces": len(f),
-    }
-
-
-def _meshlab(path: str) -> dict[str, Any]:
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.load_new_mesh(path)
-    ms.meshing_remove_duplicate_vertices()
-    topo = ms.get_topological_measures()
-    mesh = ms.current_mesh()
-    ms.compute_selection_by_self_intersections_per_face()
-    return {
-        "two_manifold": bool(topo["is_mesh_two_manifold"]),
-        "boundary_edges": int(topo["boundary_edges"]),
-        "non_manifold_edges": int(topo["non_two_manifold_edges"]),
-        "non_manifold_vertices": int(topo["non_two_manifold_vertices"]),
-        "zero_area_faces": _zero_area(mesh.vertex_matrix(), mesh.face_matrix()),
-        "self_intersecting_faces": int(ms.current_mesh().selected_face_number()),
-        "n_faces": int(mesh.face_number()),
-    }
-
-
-def meshlab_checks(path: Path) -> dict[str, Any]:
-    """MeshLab's reading of a shell, in a spawned process (pymeshlab crashes now and then)."""
-    for _ in range(2):
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(1, mp_context=context) as pool:
-            try:
-                return pool.submit(_meshlab, str(path)).result(900)
-            except BrokenProcessPool:
-                continue
-    return {"crashed": "MeshLab's process died twice"}
-
-
 def validity(mesh: trimesh.Trimesh, out: Path) -> dict[str, Any]:
     """Read the shells of `out` back and measure them against `mesh` and each other."""
     surface = SurfaceIndex.build(np.asarray(mesh.vertices), np.asarray(mesh.faces, np.int64))
@@ -169,7 +100,10 @@ def validity(mesh: trimesh.Trimesh, out: Path) -> dict[str, Any]:
         shell = trimesh.load(path, process=False, force="mesh")
         loaded.append(shell)
         row: dict[str, Any] = {"depth_mm": depth, **trimesh_checks(path)}
-        row["meshlab"] = meshlab_checks(path)
+        try:  # MeshLab in a spawned process (pymeshlab crashes now and then)
+            row["meshlab"] = meshlab_checks(path)
+        except MeshLabCrashedError:
+            row["meshlab"] = {"crashed": "MeshLab's process died twice"}
         if len(shell.faces):
             points = np.concatenate([shell.sample(200_000, seed=0), shell.vertices])
             error = np.abs(distance_to_surface(surface, points) - depth)

@@ -35,17 +35,18 @@ import trimesh
 from _common import (
     DEFAULT_MODEL,
     load_average,
+    load_shared,
     mesh_path,
     parser,
     previous_details,
     write_result,
 )
-from _openvdb import level_set_seconds
 
 import shellvox.offset.reference.band as band
 from shellvox.offset import offset_shells, shell_report
 from shellvox.offset.crossing.intersections import intersecting_pairs
 from shellvox.offset.reference.robust import ShellDefectWarning
+from shellvox.testing import level_set_seconds
 
 NAME = "bench_offset"
 WHAT = (
@@ -61,18 +62,6 @@ REAL = {
     "airplane_100mm": ("airplane", 100.0),
 }
 THICKNESS = [0.5, 1.0]  # depths 0.5 and 1.5 mm
-
-
-def load_shared(name: str, size_mm: float, subdivisions: int = 0) -> trimesh.Trimesh:
-    """Load a shared mesh merged by position, Loop-subdivided, largest extent `size_mm`."""
-    raw = trimesh.load(mesh_path(name), force="mesh")
-    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
-    mesh.merge_vertices(merge_tex=True, merge_norm=True)
-    if subdivisions > 0:
-        mesh = mesh.subdivide_loop(iterations=subdivisions)
-    mesh.apply_scale(size_mm / mesh.extents.max())
-    assert mesh.is_watertight and mesh.is_winding_consistent
-    return mesh
 
 
 def inputs(quick: bool) -> dict[str, trimesh.Trimesh]:

@@ -285,21 +285,44 @@ def offset_shells(
     method: MethodName = DEFAULT_METHOD,
     step_mm: float | None = None,
 ) -> list[Shell]:
-    """Offset every face inward by its own cumulative depth, one shell per layer.
+    """Offset every face inward by its own cumulative depth: one closed shell per layer.
 
-    :func:`method_shells` without the record; the parameters are the same.
+    Parameters
+    ----------
+    vertices : (V, 3) array_like of float, mm
+    faces : (F, 3) array_like of int
+        Closed, consistently outward-oriented triangles.
+    thickness : (K, F) or (K,) array_like of float, mm
+        Thickness of each layer per face, outside in; a ``(K,)`` array applies to every
+        face. Layer ``k`` lies at the cumulative depth ``D_k(f) = t_1(f) + ... + t_k(f)``.
+    method : {"field", "robust", "paper"}
+        A method of :data:`shellvox.offset.METHODS` (:mod:`shellvox.offset.methods`).
+        ``"field"`` (default): the zero set of each layer's field (the exact distance to
+        the nearest face minus that face's depth), meshed and simplified under an error
+        bound: closed, 2-manifold, nested, free of crossings, seconds on 100 k faces.
+        ``"robust"`` (a reference): exact Booleans of per-face pieces (minutes on large
+        meshes). ``"paper"`` (a reference): Zhu and Chen's construction.
+    step_mm : float, mm, optional
+        Grid step of ``"field"`` (default: 0.1 mm, coarser on very large surfaces).
 
     Returns
     -------
     list of Shell
-        ``K`` shells, outside in.
+        ``K`` shells, outside in: ``vertices (n, 3) float64 mm``, ``faces (m, 3) int64``,
+        ``layer`` (1-based) and ``depth_mm (F,)``.
+
+    Raises
+    ------
+    ValueError
+        A mesh that is not closed and consistently oriented, a bad thickness or method.
 
     Examples
     --------
     >>> import trimesh
+    >>> import shellvox
     >>> box = trimesh.creation.box((10.0, 10.0, 10.0))
-    >>> shells = offset_shells(box.vertices, box.faces, [0.5, 1.0], method="robust")
-    >>> [float(s.vertices[:, 0].max()) for s in shells]
+    >>> shells = shellvox.offset_shells(box.vertices, box.faces, [0.5, 1.0])
+    >>> [round(float(s.vertices[:, 0].max()), 6) for s in shells]
     [4.5, 3.5]
     """
     return method_shells(vertices, faces, thickness, method=method, step_mm=step_mm).shells

@@ -27,6 +27,8 @@ the heavy libraries). Its parts, each importing only those below it
   as a function; :mod:`shellvox.cli` the command line;
 - readers of a finished build: :mod:`shellvox.reading` (arrays), :mod:`shellvox.report`
   (previews) and :mod:`shellvox.viewer` (the browser viewer).
+- on top, for the tests and benchmarks only: :mod:`shellvox.testing`, checks of what
+  shellvox writes by tools that are not shellvox's (MeshLab, trimesh, OpenVDB).
 """
 
 import lazy_loader

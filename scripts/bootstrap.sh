@@ -37,7 +37,7 @@ if [ ${#need[@]} -gt 0 ]; then
 fi
 
 # The venv uses the system interpreter; Debian's pyopenvdb (numpy 1.x) is not imported in it:
-# the tests read volume.vdb back in /usr/bin/python3 itself (tests/openvdb_worker.py).
+# the tests read volume.vdb back in /usr/bin/python3 itself (shellvox.testing, pipeline/testing/_openvdb_worker.py).
 PYTHON=/usr/bin/python3
 stamp=.venv/.shellvox-installed
 want="$(cat requirements.lock pyproject.toml | sha256sum | cut -c1-16)"

@@ -11,14 +11,9 @@ import shutil
 import subprocess
 
 import pytest
-from fault_harness import (
-    assert_failed,
-    assert_succeeded,
-    build_argv,
-    holds_nothing,
-    run,
-    verified_files,
-)
+from fault_harness import assert_failed, assert_succeeded, build_argv, run
+
+from shellvox.testing import holds_nothing, verified_files
 
 
 @pytest.fixture

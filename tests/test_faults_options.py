@@ -13,17 +13,10 @@ import subprocess
 import sys
 
 import pytest
-from fault_harness import (
-    REPO,
-    Command,
-    assert_failed,
-    build_argv,
-    run,
-    temporary_files,
-    wait_for,
-)
+from fault_harness import REPO, assert_failed, build_argv, run, wait_for
 
 from shellvox.run import RUN_FOLDER
+from shellvox.testing import Command, temporary_files
 
 TWO_GB = 2 * 1024**3
 

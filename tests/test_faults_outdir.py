@@ -8,15 +8,9 @@ import os
 import signal
 
 import pytest
-from fault_harness import (
-    Command,
-    assert_failed,
-    assert_succeeded,
-    build_argv,
-    run,
-    verified_files,
-    wait_for,
-)
+from fault_harness import assert_failed, assert_succeeded, build_argv, run, wait_for
+
+from shellvox.testing import Command, verified_files
 
 
 @pytest.mark.parametrize(

@@ -16,17 +16,9 @@ import time
 from pathlib import Path
 
 import pytest
-from fault_harness import (
-    Command,
-    assert_failed,
-    assert_succeeded,
-    build_argv,
-    holds_nothing,
-    run,
-    temporary_files,
-    verified_files,
-    wait_for,
-)
+from fault_harness import assert_failed, assert_succeeded, build_argv, run, wait_for
+
+from shellvox.testing import Command, holds_nothing, temporary_files, verified_files
 
 STATUS = {signal.SIGINT: 130, signal.SIGTERM: 143}
 

@@ -22,6 +22,8 @@ the package itself. The stages (the folder
 6. ``tray`` (several models, one job)
 7. ``api`` (what each command does, as functions)
 8. ``cli``
+9. ``testing`` (checks of what shellvox writes, by tools that are not shellvox's, for the
+   tests and the benchmarks: no part of the package imports it)
 
 ``report``, ``viewer`` and ``reading`` read an output folder: they import the bottom and
 ``output`` (``report`` also the viewer's stack pages); only ``api`` and ``cli`` import them.
@@ -45,6 +47,7 @@ LAYERS = {
     "shellvox.loading": 2, "shellvox.thickness": 2,
     "shellvox.printer": 2, "shellvox.output": 3, "shellvox.fdm": 3, "shellvox.run": 4,
     "shellvox.stack": 5, "shellvox.tray": 6, "shellvox.api": 7, "shellvox.cli": 8,
+    "shellvox.testing": 9,
 }  # fmt: skip
 READERS = ("shellvox.report", "shellvox.viewer", "shellvox.reading")
 STAGES = ("model", "loading", "thickness", "printer", "output", "fdm", "run", "stack", "tray",
@@ -252,6 +255,9 @@ def test_the_rules_catch_a_broken_import() -> None:
     assert _broken_rule("shellvox.viewer._depth", "shellvox.stack._stack") is not None
     assert _broken_rule("shellvox.stack._stack", "shellvox.report._previews") is not None
     assert _broken_rule("shellvox.cli.inspect", "shellvox.report._previews") is None
+    assert _broken_rule("shellvox.cli", "shellvox.testing") is not None
+    assert _broken_rule("shellvox.voxel.io.vdb", "shellvox.testing._openvdb") is not None
+    assert _broken_rule("shellvox.testing._shell_files", "shellvox.offset.crossing") is None
 
 
 @pytest.mark.parametrize("package", sorted(MAX_TOP_MODULES))

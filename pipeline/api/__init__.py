@@ -20,9 +20,10 @@ from shellvox.api._build import (
 from shellvox.api._chart import Calibration, ChartResult, calibrate, make_chart
 from shellvox.api._fdm import FdmResult, fdm_projects
 from shellvox.api._inspect import Inspection, inspect_build, summary_rows
-from shellvox.api._shells import ShellsResult, offset_shells, write_shells
+from shellvox.api._shells import ShellsResult, write_shells
 from shellvox.api._thickness import ThicknessChoice, layer_thickness
 from shellvox.kernel_cache import announce_compiling
+from shellvox.offset import offset_shells
 
 announce_compiling()  # the first compilation on a machine says so, once
 

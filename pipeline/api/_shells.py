@@ -1,6 +1,7 @@
-"""Offset shells: in memory (:func:`offset_shells`) and as files with their report.
+"""Offset shells as files with their report: what ``shellvox shells`` does.
 
-What ``shellvox shells`` does: :func:`write_shells`.
+In memory, shells are :func:`shellvox.offset.offset_shells`; :func:`write_shells` writes
+them, reads them back and reports on them.
 """
 
 from __future__ import annotations
@@ -12,15 +13,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy.typing as npt
-
 from shellvox import __version__
 from shellvox.api._thickness import layer_thickness
 from shellvox.atomic import write_text_atomic
 from shellvox.config import LoadOptions, ShellConfig, as_json
 from shellvox.errors import InputError
 from shellvox.loading import load_model
-from shellvox.offset import MethodName, Shell, method_shells, ready_for_file, shell_report
+from shellvox.offset import Shell, method_shells, ready_for_file, shell_report
 from shellvox.output import (
     SHELL_OUTPUTS,
     OutputFolder,
@@ -29,56 +28,6 @@ from shellvox.output import (
     write_thickness_ply,
 )
 from shellvox.thickness import ThicknessRule, thickness_summary
-
-
-def offset_shells(
-    vertices: npt.ArrayLike,
-    faces: npt.ArrayLike,
-    thickness: npt.ArrayLike,
-    *,
-    method: MethodName = "field",
-    step_mm: float | None = None,
-) -> list[Shell]:
-    """Offset every face inward by its own cumulative depth: one closed shell per layer.
-
-    Parameters
-    ----------
-    vertices : (V, 3) array_like of float, mm
-    faces : (F, 3) array_like of int
-        Closed, consistently outward-oriented triangles.
-    thickness : (K, F) or (K,) array_like of float, mm
-        Thickness of each layer per face, outside in; a ``(K,)`` array applies to every
-        face. Layer ``k`` lies at the cumulative depth ``D_k(f) = t_1(f) + ... + t_k(f)``.
-    method : {"field", "robust", "paper"}
-        A method of :data:`shellvox.offset.METHODS` (:mod:`shellvox.offset.methods`).
-        ``"field"`` (default): the zero set of each layer's field (the exact distance to
-        the nearest face minus that face's depth), meshed and simplified under an error
-        bound: closed, 2-manifold, nested, free of crossings, seconds on 100 k faces.
-        ``"robust"`` (a reference): exact Booleans of per-face pieces (minutes on large
-        meshes). ``"paper"`` (a reference): Zhu and Chen's construction.
-    step_mm : float, mm, optional
-        Grid step of ``"field"`` (default: 0.1 mm, coarser on very large surfaces).
-
-    Returns
-    -------
-    list of Shell
-        ``K`` shells, outside in: ``vertices (n, 3) float64 mm``, ``faces (m, 3) int64``,
-        ``layer`` (1-based) and ``depth_mm (F,)``.
-
-    Raises
-    ------
-    ValueError
-        A mesh that is not closed and consistently oriented, a bad thickness or method.
-
-    Examples
-    --------
-    >>> import trimesh, shellvox
-    >>> box = trimesh.creation.box((10.0, 10.0, 10.0))
-    >>> shells = shellvox.offset_shells(box.vertices, box.faces, [0.5, 1.0])
-    >>> [round(float(s.vertices[:, 0].max()), 6) for s in shells]
-    [4.5, 3.5]
-    """
-    return method_shells(vertices, faces, thickness, method=method, step_mm=step_mm).shells
 
 
 @dataclass(frozen=True)

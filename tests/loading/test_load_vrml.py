@@ -13,11 +13,11 @@ import json
 import numpy as np
 import pytest
 from builders import TET_FACES, TET_VERTICES, locate, marker_image, png_bytes
-from meshlab_process import meshlab_read
 
 from shellvox.cli import main
 from shellvox.errors import InputError, ShellvoxWarning
 from shellvox.loading import load_model
+from shellvox.testing import meshlab_read
 
 pytest.importorskip("pymeshlab")  # the reference reader (in a process of its own)
 

@@ -10,13 +10,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
-from meshlab_process import meshlab_crossing_faces, needs_meshlab
+from meshlab_process import needs_meshlab
 
 from shellvox.offset import method_shells, offset_shells
 from shellvox.offset.crossing.intersections import intersecting_pairs
 from shellvox.offset.field.layer_field import field_surfaces
 from shellvox.offset.field.marching_tets import TABLE, TRIANGLES_PER_CASE
 from shellvox.offset.field.simplify import GuardLimits
+from shellvox.testing import meshlab_crossing_faces
 from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface, winding_numbers
 
 NO_SIMPLIFY = GuardLimits(tries=0)

@@ -12,13 +12,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
-from meshlab_process import HAVE_PYMESHLAB, meshlab_crossing_faces, needs_meshlab
+from meshlab_process import needs_meshlab
 from scipy.spatial import cKDTree
 
 from shellvox.offset.field import simplify_passes
 from shellvox.offset.field.layer_field import field_surfaces
 from shellvox.offset.field.simplify import GuardLimits, simplify_shells
 from shellvox.offset.field.simplify_passes import manifold_simplify
+from shellvox.testing import HAVE_PYMESHLAB, meshlab_checks, meshlab_crossing_faces
 from shellvox.voxel.geometry._nearest import SurfaceIndex
 
 #: One try at Manifold's first tolerance (the error bounds are tested elsewhere).
@@ -103,7 +104,6 @@ def test_field_shells_of_the_bunny_are_2_manifold_as_meshlab_reads_them(tmp_path
     # The bunny at 50 mm: Manifold's collapse pinched shell 2 at one vertex (split in two
     # at one place, a non-manifold vertex once welded); the guard locks the triangles there.
     from conftest import shared_path
-    from meshlab_process import meshlab_checks
 
     from shellvox.offset import method_shells
     from shellvox.output import save_shells

@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import pytest
 import trimesh
-from shell_file_checks import HAVE_PYMESHLAB, header, meshlab_checks, needs_meshlab, trimesh_checks
+from meshlab_process import needs_meshlab
 
 from shellvox.cli import main
 from shellvox.errors import ShellvoxWarning
@@ -25,6 +25,7 @@ from shellvox.offset.reference.jitter import JITTER_FRACTION
 from shellvox.offset.reference.robust import ShellDefectWarning
 from shellvox.offset.shells import Shell
 from shellvox.output import read_ply, save_shells, write_ply, write_shell
+from shellvox.testing import HAVE_PYMESHLAB, meshlab_checks, ply_header, trimesh_checks
 
 
 def _euler(faces):
@@ -39,7 +40,7 @@ def test_write_ply_keeps_every_float64_bit(tmp_path):
     faces = rng.integers(0, 50, size=(80, 3))
     write_ply(tmp_path / "m.ply", vertices, faces, comment="test")
     assert {"property double x", "property double y", "property double z"} <= set(
-        header(tmp_path / "m.ply")
+        ply_header(tmp_path / "m.ply")
     )
     mesh = trimesh.load(tmp_path / "m.ply", process=False, force="mesh")
     assert np.array_equal(np.asarray(mesh.vertices), vertices)
@@ -169,7 +170,7 @@ def test_icosphere_shell_files_are_valid_as_trimesh_reads_them(icosphere_out):
     report = json.loads((out / "report.json").read_text())
     for layer in (1, 2):
         path = out / f"shell_{layer}.ply"
-        assert "property double x" in header(path)
+        assert "property double x" in ply_header(path)
         seen = trimesh_checks(path)
         assert seen["vertex_dtype"] == "float64"
         assert seen["merged_vertices"] == 0
@@ -263,7 +264,7 @@ def test_real_mesh_shell_files_are_valid_outside_shellvox(real_mesh_shells, tmp_
     # a ShellvoxWarning (defective file) fails
     written = save_shells(tmp_path, [r.shell for r in ready], cleaning=cleaning)
     for w in written:
-        assert "property double x" in header(w.path)
+        assert "property double x" in ply_header(w.path)
         seen = trimesh_checks(w.path)
         assert seen["merged_vertices"] == 0
         assert seen["closed"] and seen["oriented"]
@@ -286,7 +287,7 @@ def test_write_shell_of_a_collapsed_layer_writes_an_empty_file(tmp_path):
     empty = Shell(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), 2, np.full(4, 1.0))
     written = write_shell(tmp_path / "s.ply", empty)
     assert written.shell.faces.shape == (0, 3)
-    assert "element face 0" in header(tmp_path / "s.ply")
+    assert "element face 0" in ply_header(tmp_path / "s.ply")
 
 
 def test_folded_faces_finds_faces_back_to_back():

@@ -12,12 +12,13 @@ from fractions import Fraction
 import numpy as np
 import pytest
 import trimesh
-from meshlab_process import meshlab_checks, meshlab_crossing_faces, needs_meshlab
+from meshlab_process import needs_meshlab
 from scipy.spatial.transform import Rotation
 
 from shellvox.offset.crossing.intersections import coplanar_pairs, count_self_intersections
 from shellvox.offset.reference.jitter import JITTER_FRACTION, jitter_vertices
 from shellvox.output import write_ply
+from shellvox.testing import meshlab_checks, meshlab_crossing_faces
 
 
 def _cross(a, b):

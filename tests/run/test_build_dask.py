@@ -10,10 +10,11 @@ from pathlib import Path
 import psutil
 import pytest
 from build_compare import differences, manifest_core, output_digests
-from fault_harness import Command, wait_for
+from fault_harness import wait_for
 from tray_models import tray_models
 
 from shellvox.cli import main
+from shellvox.testing import Command
 
 MODEL = Path(__file__).resolve().parents[2] / "data" / "colour_target" / "colour_target.obj"
 OPTIONS = ["--voxel-size", "0.2,0.2,0.15", "--thickness", "0.5,0.5", "--no-shell-meshes",

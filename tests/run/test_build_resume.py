@@ -13,10 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from build_compare import differences, manifest_core, output_digests
-from fault_harness import MODEL, Command, temporary_files, verified_files, wait_for
+from fault_harness import MODEL, wait_for
 
 from shellvox.cli import main
 from shellvox.run import RUN_FOLDER, RunFolder, decode_chunk, encode_chunk
+from shellvox.testing import Command, temporary_files, verified_files
 
 SMALL = ["--voxel-size", "0.2,0.2,0.15", "--thickness", "0.5,0.5", "--no-shell-meshes",
          "--slab-mb", "8", "--no-progress", "--checkpoint"]  # fmt: skip

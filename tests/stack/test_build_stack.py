@@ -6,15 +6,14 @@ import numpy as np
 import pytest
 import tifffile
 import trimesh
-from openvdb_process import read_vdb
 from skimage import measure
-from vdb_checks import describe_grids
 
 from shellvox.config import BuildConfig
 from shellvox.errors import SlabWorkerDied
 from shellvox.model import ColouredMesh
 from shellvox.offset import method_shells
 from shellvox.stack import build_stack
+from shellvox.testing import describe_grids, read_vdb
 
 
 def _ball(radius: float = 3.0) -> ColouredMesh:

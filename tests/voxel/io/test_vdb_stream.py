@@ -3,16 +3,15 @@
 The reference is OpenVDB's own ``copyFromArray`` (plus ``signedFloodFill`` for the level
 set) and ``openvdb.write``; both files are read back with OpenVDB's reader and compared
 voxel for voxel: values (active and inactive), active states and active counts. OpenVDB
-runs in Debian's python3, in its own process (:mod:`openvdb_process`).
+runs in Debian's python3, in its own process (:mod:`shellvox.testing`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from openvdb_process import read_grid_metadata, read_vdb, write_grids
-from vdb_checks import describe_grids
 
+from shellvox.testing import describe_grids, read_grid_metadata, read_vdb, write_grids
 from shellvox.voxel.colour import codes_to_linear
 from shellvox.voxel.grid import GridSpec
 from shellvox.voxel.io.vdb import GRID_NAMES, MATERIAL_GRID, VdbStackWriter

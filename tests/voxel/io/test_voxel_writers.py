@@ -4,10 +4,9 @@ import colour
 import numpy as np
 import pytest
 import tifffile
-from openvdb_process import read_vdb
-from vdb_checks import describe_grids
 
 from shellvox.atomic import atomic_path, write_text_atomic
+from shellvox.testing import describe_grids, read_vdb
 from shellvox.voxel.grid import GridSpec
 from shellvox.voxel.io import TiffStackWriter
 from shellvox.voxel.io.vdb import VdbStackWriter

@@ -2,10 +2,10 @@
 
 Debian and Ubuntu package OpenVDB's bindings (``python3-openvdb``, OpenVDB 10, module
 ``pyopenvdb``) for the system interpreter and its numpy 1.x; the project's environment
-runs current numpy, which that module crashes under. The tests and benchmarks therefore
-ask :mod:`openvdb_worker` (run by ``/usr/bin/python3``) to read, write or level-set, and
-get plain data back: :func:`read_vdb`, :func:`read_grid_metadata`, :func:`write_grids`,
-:func:`level_set_seconds`.
+runs current numpy, which that module crashes under. These functions therefore ask
+``_openvdb_worker.py`` (beside this module, run by ``/usr/bin/python3`` or
+``$SHELLVOX_OPENVDB_PYTHON`` in isolated mode) to read, write or level-set, and get plain
+data back.
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ import numpy as np
 
 #: Debian's interpreter, which sees ``/usr/lib/python3/dist-packages``.
 SYSTEM_PYTHON = os.environ.get("SHELLVOX_OPENVDB_PYTHON", "/usr/bin/python3")
-WORKER = Path(__file__).with_name("openvdb_worker.py")
+#: The script that interpreter runs; it imports ``pyopenvdb`` and numpy, never shellvox.
+WORKER = Path(__file__).parent / "_openvdb_worker.py"
 
 
 class OpenVDBUnavailableError(RuntimeError):
@@ -72,14 +73,14 @@ class GridRead:
 
 
 def _run(request: dict[str, Any]) -> Any:
+    """Send one request to the worker in Debian's python3; return its JSON answer."""
     try:
         done = subprocess.run(
-            [SYSTEM_PYTHON, str(WORKER)],
+            [SYSTEM_PYTHON, "-I", str(WORKER)],
             input=json.dumps(request),
             capture_output=True,
             text=True,
             check=False,
-            env={**os.environ, "PYTHONPATH": "", "PYTHONNOUSERSITE": "1"},
         )
     except OSError as error:
         raise OpenVDBUnavailableError(f"{SYSTEM_PYTHON} cannot run ({error})") from None
@@ -97,7 +98,18 @@ def read_vdb(
     dense_xyz: tuple[int, int, int] | None = None,
     points_ijk: list[tuple[int, int, int]] | tuple[()] = (),
 ) -> dict[str, GridRead]:
-    """Read every grid of `path` with OpenVDB; with `dense_xyz`, their values there."""
+    """Read every grid of `path` with OpenVDB; with `dense_xyz`, their values there.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.vdb`` file.
+    dense_xyz : (3,) int, optional
+        The box ``(0, 0, 0)`` .. ``dense_xyz - 1`` (index space) whose values and active
+        voxels to read into :attr:`GridRead.values` and :attr:`GridRead.active`.
+    points_ijk : list of (3,) int, optional
+        Index points whose world positions to read into :attr:`GridRead.index_to_world`.
+    """
     with tempfile.TemporaryDirectory() as folder:
         arrays = Path(folder) / "arrays.npz"
         answer = _run(
@@ -131,6 +143,23 @@ def read_vdb(
     return grids
 
 
+def describe_grids(grids: dict[str, GridRead]) -> dict[str, Any]:
+    """Return ``{name: {class, value_type, active_voxels, voxel_size_mm}}`` of grids.
+
+    `grids` are read by :func:`read_vdb`; the answer has the form of a manifest's ``vdb``
+    entry.
+    """
+    return {
+        name: {
+            "class": volume.grid_class,
+            "value_type": volume.value_type,
+            "active_voxels": volume.active_voxels,
+            "voxel_size_mm": [float(v) for v in volume.voxel_size],
+        }
+        for name, volume in grids.items()
+    }
+
+
 def read_grid_metadata(path: str | Path) -> dict[str, dict[str, Any]]:
     """Return each grid's metadata of `path` (statistics included), trees not loaded."""
     answer: dict[str, dict[str, Any]] = _run({"do": "metadata", "path": str(path)})
@@ -138,16 +167,17 @@ def read_grid_metadata(path: str | Path) -> dict[str, dict[str, Any]]:
 
 
 def write_grids(path: str | Path, grids: list[dict[str, Any]]) -> None:
-    """Write grids made by OpenVDB from arrays (see :mod:`openvdb_worker`, ``"write"``).
+    """Write grids made by OpenVDB from arrays (``copyFromArray``) to `path`.
 
     Each entry: ``name``, ``array`` ``(X, Y, Z[, 3])``, ``background``, and optionally
     ``level_set`` (flood-fill the sign) and ``class``.
     """
     with tempfile.TemporaryDirectory() as folder:
         arrays = Path(folder) / "arrays.npz"
-        np.savez(
-            arrays, **{f"g{i}": np.asarray(g["array"], np.float32) for i, g in enumerate(grids)}
-        )
+        named: dict[str, Any] = {
+            f"g{i}": np.asarray(g["array"], np.float32) for i, g in enumerate(grids)
+        }
+        np.savez(arrays, **named)
         specs = [
             {
                 "name": g["name"],
@@ -163,18 +193,33 @@ def write_grids(path: str | Path, grids: list[dict[str, Any]]) -> None:
 
 
 def level_set_seconds(
-    points: np.ndarray, triangles: np.ndarray, voxel_mm: float, half_width: float
+    points: np.ndarray,
+    triangles: np.ndarray,
+    voxel_mm: float | tuple[float, float, float],
+    half_width: float,
 ) -> dict[str, Any]:
-    """Time OpenVDB's ``createLevelSetFromPolygons`` on a mesh (in its own process)."""
+    """Time OpenVDB's mesh-to-level-set (``createLevelSetFromPolygons``) of a mesh.
+
+    Parameters
+    ----------
+    points : (V, 3) float, mm
+    triangles : (F, 3) int
+    voxel_mm : float or (3,) float
+        The voxel size (one value: cubic voxels).
+    half_width : float
+        The narrow band's half width, voxels.
+
+    Returns
+    -------
+    dict
+        ``seconds`` (the level set alone: not the load nor the transfer) and
+        ``active_voxels``.
+    """
     with tempfile.TemporaryDirectory() as folder:
         arrays = Path(folder) / "mesh.npz"
-        np.savez(arrays, points=points, triangles=triangles)
+        np.savez(arrays, points=np.asarray(points), triangles=np.asarray(triangles))
+        voxel = np.broadcast_to(np.asarray(voxel_mm, dtype=np.float64), (3,)).tolist()
         answer: dict[str, Any] = _run(
-            {
-                "do": "level_set",
-                "arrays": str(arrays),
-                "voxel_mm": voxel_mm,
-                "half_width": half_width,
-            }
+            {"do": "level_set", "arrays": str(arrays), "voxel_mm": voxel, "half_width": half_width}
         )
     return answer

@@ -1,9 +1,11 @@
 """Run by Debian's own python3 (OpenVDB 10's ``pyopenvdb``, built for Debian's numpy 1.x).
 
 The project's environment runs current numpy, which Debian's module cannot be loaded
-with; :mod:`openvdb_process` starts this script in a subprocess instead. It imports only
-``pyopenvdb`` and numpy (never shellvox) and takes one JSON request on stdin; arrays come
-and go in ``.npz`` files named in the request; the answer is one JSON object on stdout.
+with; :mod:`shellvox.testing._openvdb` starts this script, by its path, in a subprocess
+instead. It imports only ``pyopenvdb`` (inside the requests, so that importing this
+module elsewhere needs nothing) and numpy, never shellvox, and takes one JSON request on
+stdin; arrays come and go in ``.npz`` files named in the request; the answer is one JSON
+object on stdout.
 
 Requests (``"do"``):
 
@@ -16,8 +18,8 @@ Requests (``"do"``):
   ``{name, type: float|vec3, background, key, level_set, class}``; ``key`` names the
   ``(X, Y, Z[, 3])`` float32 array in ``arrays``.
 - ``"level_set"``: OpenVDB's mesh to level set (``createLevelSetFromPolygons``) of the
-  mesh in ``arrays`` (``points`` mm, ``triangles``) at ``voxel_mm`` with ``half_width``
-  voxels: its seconds and active voxels.
+  mesh in ``arrays`` (``points`` mm, ``triangles``) at ``voxel_mm`` (three sizes) with
+  ``half_width`` voxels: its seconds (the level set alone) and active voxels.
 """
 
 from __future__ import annotations
@@ -25,13 +27,13 @@ from __future__ import annotations
 import json
 import sys
 import time
+from typing import Any
 
 import numpy as np
-import pyopenvdb as vdb
 
 
-def _plain(value):
-    """A metadata value as JSON (vectors as lists)."""
+def _plain(value: Any) -> Any:
+    """Return a metadata value as JSON (vectors as lists)."""
     if isinstance(value, bool | int | float | str):
         return value
     try:
@@ -40,9 +42,12 @@ def _plain(value):
         return str(value)
 
 
-def _read(request):
+def _read(request: dict[str, Any]) -> dict[str, Any]:
+    import pyopenvdb as vdb
+
     grids, file_meta = vdb.readAll(request["path"])
-    answer, arrays = [], {}
+    answer: list[dict[str, Any]] = []
+    arrays: dict[str, Any] = {}
     dense = request.get("dense_xyz")
     for grid in grids:
         vec = grid.valueTypeName == "vec3s"
@@ -78,14 +83,18 @@ def _read(request):
     return {"grids": answer, "file_metadata": {k: _plain(v) for k, v in file_meta.items()}}
 
 
-def _metadata(request):
+def _metadata(request: dict[str, Any]) -> dict[str, Any]:
+    import pyopenvdb as vdb
+
     return {
         grid.name: {key: _plain(grid[key]) for key in grid.metadata}
         for grid in vdb.readAllGridMetadata(request["path"])
     }
 
 
-def _write(request):
+def _write(request: dict[str, Any]) -> dict[str, Any]:
+    import pyopenvdb as vdb
+
     arrays = np.load(request["arrays"])
     grids = []
     for spec in request["grids"]:
@@ -104,9 +113,12 @@ def _write(request):
     return {"written": len(grids)}
 
 
-def _level_set(request):
+def _level_set(request: dict[str, Any]) -> dict[str, Any]:
+    import pyopenvdb as vdb
+
     arrays = np.load(request["arrays"])
-    transform = vdb.createLinearTransform(voxelSize=float(request["voxel_mm"]))
+    transform = vdb.createLinearTransform()
+    transform.scale(tuple(request["voxel_mm"]))
     tick = time.perf_counter()
     grid = vdb.FloatGrid.createLevelSetFromPolygons(
         np.ascontiguousarray(arrays["points"], np.float32),
@@ -119,6 +131,7 @@ def _level_set(request):
 
 
 def main() -> None:
+    """Answer the one request on stdin."""
     request = json.load(sys.stdin)
     do = {"read": _read, "metadata": _metadata, "write": _write, "level_set": _level_set}
     json.dump(do[request["do"]](request), sys.stdout)
