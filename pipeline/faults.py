@@ -192,6 +192,7 @@ def _describe(error: BaseException) -> tuple[int, str]:
     """Return :func:`describe`'s status and line, without the exception's notes."""
     if isinstance(error, InputError):
         return EXIT_INPUT, str(error)
+    error = interruption(error) or error
     if isinstance(error, Interrupted):
         status = EXIT_SIGINT if error.signum == signal.SIGINT else EXIT_SIGTERM
         return status, f"interrupted ({error}); no partial output was kept"
@@ -219,6 +220,33 @@ def _describe(error: BaseException) -> tuple[int, str]:
         f"internal error ({summary}); no partial output was kept; rerun with --debug for "
         "the traceback and report it"
     )
+
+
+def interruption(error: BaseException) -> BaseException | None:
+    """Return the signal behind `error`: itself, or one whose unwinding raised it.
+
+    A library's cleanup can fail while a signal unwinds the stack (a zip archive refuses to
+    close while the interrupted member is open); the run was stopped all the same.
+
+    Examples
+    --------
+    >>> try:
+    ...     try:
+    ...         raise Interrupted(2)
+    ...     finally:
+    ...         raise ValueError("cannot close the archive")
+    ... except ValueError as error:
+    ...     interruption(error)
+    Interrupted('SIGINT')
+    """
+    seen: set[int] = set()
+    current: BaseException | None = error
+    while current is not None and id(current) not in seen:
+        if isinstance(current, Interrupted | KeyboardInterrupt):
+            return current
+        seen.add(id(current))
+        current = current.__cause__ or current.__context__
+    return None
 
 
 def os_error(error: BaseException) -> OSError | None:

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import io
 import os
 import signal
 import sys
 import time
+import zipfile
 
 import numpy as np
 import pytest
@@ -38,6 +40,23 @@ def _wrapped(error):
         return outer
 
 
+def _archive_closed_under_a_signal():
+    """What zipfile raises when a signal lands while a member is open: the archive's
+    ``with`` block closes it on the way out, and close() refuses (a real archive)."""
+    archive = zipfile.ZipFile(io.BytesIO(), "w")
+    member = archive.open("slab.npy", "w")
+    try:
+        try:
+            raise Interrupted(signal.SIGTERM)
+        finally:
+            archive.close()
+    except ValueError as error:
+        member.close()
+        archive.close()
+        return error
+    raise AssertionError("zipfile closed an archive with an open member")
+
+
 @pytest.mark.parametrize(
     ("error", "status", "needle"),
     [
@@ -52,6 +71,7 @@ def _wrapped(error):
         (Interrupted(signal.SIGINT), 130, "SIGINT"),
         (Interrupted(signal.SIGTERM), 143, "SIGTERM"),
         (KeyboardInterrupt(), 130, "SIGINT"),
+        (_archive_closed_under_a_signal(), 143, "SIGTERM"),  # the signal, not the cleanup
         (ValueError("bug\nsecond line"), 1, "--debug"),
     ],
     ids=lambda v: type(v).__name__ if isinstance(v, BaseException) else str(v),

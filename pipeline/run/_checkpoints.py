@@ -42,7 +42,7 @@ from shellvox import __version__
 from shellvox.atomic import write_text_atomic
 from shellvox.config import BuildConfig, as_json
 from shellvox.errors import ClusterError, InputError, SlabWorkerDied
-from shellvox.faults import Interrupted, os_error
+from shellvox.faults import interruption, os_error
 from shellvox.model import ColouredMesh
 from shellvox.output import sha256
 from shellvox.run._chunks import decode_chunk, encode_chunk, save_chunk
@@ -241,12 +241,13 @@ def checkpoints(
         shutil.rmtree(path, ignore_errors=True)  # a plain run starts afresh
         yield None
         return
-    if not (settings.resume and check_resumable(out_dir, key)):
-        shutil.rmtree(path, ignore_errors=True)
-        path.mkdir()
-        write_text_atomic(path / JOURNAL, json.dumps({"key": key}, indent=2))
+    fresh = not (settings.resume and check_resumable(out_dir, key))  # refused: untouched
     run = RunFolder(path)
-    try:
+    try:  # a signal while the folder is made removes it like any other
+        if fresh:
+            shutil.rmtree(path, ignore_errors=True)
+            path.mkdir()
+            write_text_atomic(path / JOURNAL, json.dumps({"key": key}, indent=2))
         yield run
     except BaseException as error:
         n_chunks = sum(1 for _ in path.glob("slab_*.npz"))
@@ -268,7 +269,7 @@ def _resumable_failure(error: BaseException) -> bool:
     lack of memory), a lost cluster or a full disk: running again can finish the build.
     A bad input or a bug would fail again the same way.
     """
-    if isinstance(error, Interrupted | KeyboardInterrupt | SlabWorkerDied | ClusterError):
+    if interruption(error) is not None or isinstance(error, SlabWorkerDied | ClusterError):
         return True
     cause = os_error(error)
     return cause is not None and cause.errno in (errno.ENOSPC, errno.EDQUOT)

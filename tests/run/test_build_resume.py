@@ -16,7 +16,16 @@ from build_compare import differences, manifest_core, output_digests
 from fault_harness import MODEL, wait_for
 
 from shellvox.cli import main
-from shellvox.run import RUN_FOLDER, RunFolder, decode_chunk, encode_chunk
+from shellvox.faults import Interrupted, describe
+from shellvox.run import (
+    RUN_FOLDER,
+    RunFolder,
+    RunSettings,
+    _checkpoints,
+    checkpoints,
+    decode_chunk,
+    encode_chunk,
+)
 from shellvox.testing import Command, temporary_files, verified_files
 
 SMALL = ["--voxel-size", "0.2,0.2,0.15", "--thickness", "0.5,0.5", "--no-shell-meshes",
@@ -161,3 +170,60 @@ def test_a_chunk_decodes_to_the_slab_it_encodes(tmp_path):
         np.testing.assert_array_equal(counts, done.slab.layer_counts)
     with pytest.raises(ValueError, match="not a slab chunk"):
         decode_chunk(data[: len(data) // 2])
+
+
+def _chunk_file(run_folder: Path) -> None:
+    (run_folder / "slab_0_4.npz").write_bytes(b"a finished slab")
+
+
+def test_a_signal_while_the_run_folder_is_made_leaves_no_folder(tmp_path, monkeypatch):
+    """The signal lands while the journal is written (before any slab): nothing is left."""
+
+    def interrupted(path, text):
+        path.write_text(text[:5])  # half a journal
+        raise Interrupted(signal.SIGINT)
+
+    monkeypatch.setattr(_checkpoints, "write_text_atomic", interrupted)
+    with (
+        pytest.raises(Interrupted),
+        checkpoints(tmp_path, {"k": "1"}, RunSettings(checkpoint=True)),
+    ):
+        pytest.fail("the block ran without a journal")
+    assert not (tmp_path / RUN_FOLDER).exists()
+
+
+def _failed_run(tmp_path: Path, body) -> BaseException:
+    """Run `body(run)` inside a checkpointing run folder; return what the block raised."""
+    try:
+        with checkpoints(tmp_path, {"k": "1"}, RunSettings(checkpoint=True)) as run:
+            _chunk_file(run.path)
+            body(run)
+    except BaseException as error:
+        return error
+    raise AssertionError("the block did not fail")
+
+
+def _cleanup_fails_under_a_signal(run: RunFolder) -> None:
+    try:
+        raise Interrupted(signal.SIGINT)
+    finally:
+        raise ValueError("Can't close the ZIP file while there is an open writing handle")
+
+
+def _bug(run: RunFolder) -> None:
+    raise ValueError("a bug: rerunning fails the same way")
+
+
+def test_a_cleanup_that_fails_under_a_signal_keeps_the_chunks(tmp_path):
+    """A library's cleanup raising while the signal unwinds (zipfile refusing to close an
+    archive whose member the signal left open) is still a stop worth resuming."""
+    status, line = describe(_failed_run(tmp_path, _cleanup_fails_under_a_signal))
+    assert status == 130, line
+    assert "1 finished slab(s) are kept" in line and "--resume" in line, line
+    assert len(_chunks(tmp_path)) == 1
+
+
+def test_a_bug_removes_the_chunks(tmp_path):
+    status, line = describe(_failed_run(tmp_path, _bug))
+    assert status == 1 and "finished slab" not in line, line
+    assert not (tmp_path / RUN_FOLDER).exists()
