@@ -239,22 +239,21 @@ def interruption(error: BaseException) -> BaseException | None:
     ...     interruption(error)
     Interrupted('SIGINT')
     """
-    seen: set[int] = set()
-    current: BaseException | None = error
-    while current is not None and id(current) not in seen:
-        if isinstance(current, Interrupted | KeyboardInterrupt):
-            return current
-        seen.add(id(current))
-        current = current.__cause__ or current.__context__
-    return None
+    return _behind(error, (Interrupted, KeyboardInterrupt))
 
 
 def os_error(error: BaseException) -> OSError | None:
     """Return the OSError behind `error` (itself, or a cause raised from a writer thread)."""
+    cause = _behind(error, (OSError,))
+    return cause if isinstance(cause, OSError) else None
+
+
+def _behind(error: BaseException, kinds: tuple[type[BaseException], ...]) -> BaseException | None:
+    """Return the first of `error` and its causes and contexts that is one of `kinds`."""
     seen: set[int] = set()
     current: BaseException | None = error
     while current is not None and id(current) not in seen:
-        if isinstance(current, OSError):
+        if isinstance(current, kinds):
             return current
         seen.add(id(current))
         current = current.__cause__ or current.__context__

@@ -41,7 +41,13 @@ def in_own_process(function: Callable[..., T], *args: Any) -> T:
     ------
     MeshLabCrashedError
         The process died twice.
+    ModuleNotFoundError
+        pymeshlab is not installed (``pip install pymeshlab``).
     """
+    if not HAVE_PYMESHLAB:
+        raise ModuleNotFoundError(
+            "shellvox.testing's MeshLab checks need pymeshlab: pip install pymeshlab"
+        )
     for _ in range(2):
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(1, mp_context=context) as pool:
