@@ -215,7 +215,11 @@ class BuildConfig:
         Separation and halftone of the voxels into the printer's materials (None: no
         materials, no ``materials.tif``, job or colour report).
     report_samples : int
-        Surface samples of the colour report (0: none).
+        Surface samples of the colour report and its soft proof, at least (0: neither).
+    proof_density : float, 1/mm^2
+        Surface samples per mm^2 of the soft proof (``proof.ply``), at most 250,000 in
+        all (:data:`shellvox.voxel.colour.PROOF_SAMPLES_PER_MM2`); 0: the report's
+        samples only.
     optical_depth_mm : float, mm
         Optical depth ``L`` of the colour report's model (:mod:`shellvox.voxel.colour._report`).
     """
@@ -237,6 +241,7 @@ class BuildConfig:
     formats: tuple[str, ...] = ("tiff", "vdb")
     material: MaterialSettings | None = field(default_factory=MaterialSettings)
     report_samples: int = 20_000
+    proof_density: float = 16.0
     optical_depth_mm: float = 0.25
 
     def __post_init__(self) -> None:
@@ -291,6 +296,10 @@ class BuildConfig:
             )
         if self.report_samples < 0:
             raise InputError("--report-samples", f"got {self.report_samples}", "give 0 or more")
+        if not (math.isfinite(self.proof_density) and self.proof_density >= 0):
+            raise InputError(
+                "--proof-density", f"got {self.proof_density}", "give samples per mm^2, 0 or more"
+            )
         if not self.optical_depth_mm > 0:
             raise InputError(
                 "optical_depth_mm", f"got {self.optical_depth_mm}", "give a positive length"

@@ -77,7 +77,9 @@ class BuildOptions:
         Separation and halftone into the printer's materials; None: no materials (no
         ``materials.tif``, job or colour report).
     report_samples : int
-        Surface samples of the colour report (0: none).
+        Surface samples of the colour report and the soft proof, at least (0: neither).
+    proof_density : float, 1/mm^2
+        Surface samples per mm^2 of the soft proof (``proof.ply``; 0: the report's only).
     slab_mb : float
         Working memory per slab and worker.
     compression_level : int, optional
@@ -99,6 +101,7 @@ class BuildOptions:
     alpha: bool = False
     materials: MaterialSettings | None = field(default_factory=MaterialSettings)
     report_samples: int = 20_000
+    proof_density: float = 16.0
     slab_mb: float = 1024.0
     compression_level: int | None = None
     workers: int = 0
@@ -130,6 +133,7 @@ class BuildOptions:
             formats=self.chosen_formats(profile),
             material=self.materials,
             report_samples=self.report_samples,
+            proof_density=self.proof_density,
             slab_mb=self.slab_mb,
             compression_level=self.compression_level,
             workers=self.workers,

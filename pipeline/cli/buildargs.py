@@ -108,7 +108,16 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
         type=int,
         default=20_000,
         metavar="N",
-        help="surface samples of the colour report (default 20000; 0: no report)",
+        help="surface samples of the colour report and the soft proof, at least "
+        "(default 20000; 0: no report, no proof)",
+    )
+    materials.add_argument(
+        "--proof-density",
+        type=float,
+        default=16.0,
+        metavar="N",
+        help="surface samples per mm^2 of the soft proof, proof.ply (default 16: 0.25 mm "
+        "apart; at most 250000 in all; 0: the report's samples only)",
     )
     parser.add_argument(
         "--thickness",
@@ -211,6 +220,7 @@ def options_from_args(args: argparse.Namespace) -> BuildOptions:
             core_role=args.core,
         ),
         report_samples=args.report_samples,
+        proof_density=args.proof_density,
         slab_mb=args.slab_mb,
         compression_level=args.compression_level,
         workers=args.workers,

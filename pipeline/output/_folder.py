@@ -22,8 +22,10 @@ from shellvox.model import ColouredMesh
 from shellvox.offset.shells import Shell
 from shellvox.output._outdir import OutputFolder
 from shellvox.output._ply import write_thickness_ply
+from shellvox.output._proof import PROOF_FILE, write_proof_ply
 from shellvox.output._shells import save_shells
 from shellvox.thickness import FaceThickness
+from shellvox.voxel.colour import SoftProof
 
 
 class BuildFolder:
@@ -74,6 +76,12 @@ class BuildFolder:
         """Write ``thickness.ply``: the model with its per-face thickness."""
         write_thickness_ply(self.path / "thickness.ply", mesh, faces)
         self.written.append(self.path / "thickness.ply")
+
+    def write_proof(self, proof: SoftProof) -> dict[str, Any]:
+        """Write ``proof.ply`` (the soft proof); return the manifest's record of it."""
+        write_proof_ply(self.path / PROOF_FILE, proof)
+        self.written.append(self.path / PROOF_FILE)
+        return {"file": PROOF_FILE, **proof.record()}
 
     def commit(self, manifest: dict[str, Any]) -> dict[str, Any]:
         """Add ``files`` to `manifest`, write ``manifest.json`` last and return it as written.

@@ -20,10 +20,17 @@ model of the printer's optics over each voxel column) and reports CIEDE2000 with
 and what the colour layer's per-face depth buys against one constant depth
 (:func:`shellvox.voxel.colour._depth_effect.depth_effect`). Everything is under the profile's
 optics, assumed or measured, as the report says.
+
+The same samples are the build's soft proof (:meth:`ColourCheck.proof`,
+:class:`shellvox.voxel.colour.SoftProof`): their count is the larger of
+``report_samples`` and ``proof_density`` times the surface's area (at most
+:data:`~shellvox.voxel.colour.PROOF_MAX_SAMPLES`), so that a 1 mm colour patch holds
+about 16 of them at the default density.
 """
 
 from __future__ import annotations
 
+import math
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, NamedTuple
 
@@ -36,9 +43,11 @@ from shellvox.model import ColouredMesh
 from shellvox.printer import PrinterProfile, layer_model
 from shellvox.stack._plan import BuildPlan
 from shellvox.voxel.colour import (
+    PROOF_MAX_SAMPLES,
     LayerModel,
     MaterialPlan,
     ModelReport,
+    SoftProof,
     SurfaceSamples,
     colour_regions,
     depth_effect,
@@ -111,6 +120,7 @@ class ColourCheck:
         self.profile, self.materials, self.delta_e = profile, materials, delta_e
         self._gathered: list[NDArray[np.uint8]] = []
         self._gathered_start = self._gathered_end = 0
+        self._proof: SoftProof | None = None
         # Made in a thread while the first slabs are computed; its errors are raised by
         # add_slab.
         pool = ThreadPoolExecutor(1, thread_name_prefix="colour-check")
@@ -119,9 +129,8 @@ class ColourCheck:
 
     def _make_report(self) -> _Columns:
         mesh, config = self.mesh, self.config
-        samples = sample_surface(
-            mesh.vertices, mesh.faces, mesh.colour_at, config.report_samples, seed=0
-        )
+        count = sample_count(mesh, config.report_samples, config.proof_density)
+        samples = sample_surface(mesh.vertices, mesh.faces, mesh.colour_at, count, seed=0)
         backing = [
             float(np.median(row))
             for k, row in enumerate(self.plan.thickness)
@@ -177,6 +186,20 @@ class ColourCheck:
         white = observer(self.profile.optics.wavelengths_nm).white_xy
         target = srgb_to_lab_d50(samples.target_rgba[:, :3] / 255.0, white)
         errors = report.errors(aim, target)
+        area = surface_area(self.mesh)
+        self._proof = SoftProof(
+            points_mm=samples.points,
+            normals=samples.normals,
+            target_lab=target,
+            aim_lab=aim,
+            predicted_lab=errors.predicted_lab,
+            total_de=errors.total,
+            gamut_de=errors.gamut,
+            reproduction_de=errors.reproduction,
+            spacing_mm=float(np.sqrt(area / max(len(samples.points), 1))),
+            white_xy=np.asarray(white, np.float64),
+            optics="assumed" if self.profile.optics.assumed else "measured",
+        )
         interior = uniform_surroundings(
             self.mesh, samples, reach + UNIFORM_MARGIN_MM, surface=surface
         )
@@ -201,6 +224,26 @@ class ColourCheck:
         )
         result["optics"] = "assumed" if self.profile.optics.assumed else "measured"
         return result
+
+    def proof(self) -> SoftProof:
+        """Return the soft proof at the samples (after :meth:`result`)."""
+        if self._proof is None:
+            raise RuntimeError("ColourCheck.proof() is known once result() has run")
+        return self._proof
+
+
+def sample_count(mesh: ColouredMesh, report_samples: int, proof_density: float) -> int:
+    """Return how many surface samples the report and the proof take (see the module)."""
+    area = surface_area(mesh)
+    wanted = min(math.ceil(proof_density * area), PROOF_MAX_SAMPLES)
+    return max(report_samples, wanted) if report_samples > 0 else 0
+
+
+def surface_area(mesh: ColouredMesh) -> float:
+    """Return the area of the model's surface, mm^2."""
+    corners = mesh.vertices[mesh.faces]
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    return 0.5 * float(np.linalg.norm(cross, axis=1).sum())
 
 
 def uniform_surroundings(

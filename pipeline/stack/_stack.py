@@ -233,10 +233,11 @@ class _Job:
                 agreement, agreement_s = self._agreement(model, sampler, shells)
                 agreement_seconds = {"agreement": agreement_s}
         self._warn_if_no_core(tally)
-        report, report_seconds = None, {}
+        report, report_seconds, proof = None, {}, None
         if check is not None:
             tick = time.perf_counter()
             report = check.result()
+            proof = folder.write_proof(check.proof())
             report_seconds = {"colour_report": time.perf_counter() - tick}
         seconds = {
             **self.setup_seconds,
@@ -247,7 +248,7 @@ class _Job:
             **agreement_seconds,
             **report_seconds,
         }
-        return stack_manifest(
+        manifest = stack_manifest(
             mesh,
             config,
             plan.grid,
@@ -270,6 +271,9 @@ class _Job:
             },
             tray=self._tray_entry(),
         )
+        if proof is not None:
+            manifest["proof"] = proof
+        return manifest
 
     def _tray_entry(self) -> dict[str, Any] | None:
         """Return the manifest's ``tray`` section (None: one model, no tray)."""

@@ -8,7 +8,9 @@
   solver in :mod:`~shellvox.voxel.colour._mixing`); :mod:`~shellvox.voxel.colour._blue_noise` the 3D
   threshold tile; :mod:`~shellvox.voxel.colour._materials` one material per voxel, with the compiled
   loops of :mod:`~shellvox.voxel.colour._material_kernels`;
-- :mod:`~shellvox.voxel.colour._report` predicted printed colour at surface samples.
+- :mod:`~shellvox.voxel.colour._report` predicted printed colour at surface samples;
+  :mod:`~shellvox.voxel.colour._proof` the soft proof: those predictions, kept and
+  interpolated between samples.
 """
 
 from __future__ import annotations
@@ -48,6 +50,12 @@ from shellvox.voxel.colour._optics import (
     assumed_optics,
     body_reflectance,
     display_reflectance,
+)
+from shellvox.voxel.colour._proof import (
+    IN_GAMUT_DE,
+    PROOF_MAX_SAMPLES,
+    PROOF_SAMPLES_PER_MM2,
+    SoftProof,
 )
 from shellvox.voxel.colour._report import (
     SurfaceSamples,
@@ -94,8 +102,11 @@ __all__ = [
     "FACE",
     "FILTER_CODES",
     "HALFTONES",
+    "IN_GAMUT_DE",
     "K1_DEFAULT",
     "K2_DEFAULT",
+    "PROOF_MAX_SAMPLES",
+    "PROOF_SAMPLES_PER_MM2",
     "REACH_LIMITS_MM",
     "TEXTURE",
     "VERTEX",
@@ -112,6 +123,7 @@ __all__ = [
     "Separation",
     "SeparationError",
     "Settling",
+    "SoftProof",
     "SurfaceColour",
     "SurfaceSamples",
     "assumed_optics",
@@ -130,6 +142,7 @@ __all__ = [
     "fit_optics",
     "icc_separation",
     "invert",
+    "lab_d50_to_srgb8",
     "lab_to_srgb8",
     "lateral_reach",
     "layer",

@@ -295,3 +295,30 @@ def srgb_to_lab_d50(rgb: ArrayLike, white_xy: ArrayLike | None = None) -> NDArra
         apply_cctf_decoding=True,
     )
     return np.asarray(colour.XYZ_to_Lab(xyz, white), np.float64)
+
+
+def lab_d50_to_srgb8(lab: ArrayLike, white_xy: ArrayLike | None = None) -> NDArray[np.uint8]:
+    """8-bit sRGB ``(..., 3) uint8`` of CIELAB (D50 white, or `white_xy`), clipped to sRGB.
+
+    The inverse of :func:`srgb_to_lab_d50`: CIELAB to XYZ, Bradford to D65, sRGB.
+
+    Examples
+    --------
+    >>> lab_d50_to_srgb8(srgb_to_lab_d50([0.2, 0.5, 0.8])).tolist()
+    [51, 128, 204]
+    """
+    white = np.asarray(
+        colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D50"]
+        if white_xy is None
+        else white_xy
+    )
+    xyz = colour.Lab_to_XYZ(np.asarray(lab, np.float64), white)
+    rgb = colour.XYZ_to_RGB(
+        xyz,
+        colour.RGB_COLOURSPACES["sRGB"],
+        illuminant=white,
+        chromatic_adaptation_transform="Bradford",
+        apply_cctf_encoding=True,
+    )
+    encoded: NDArray[np.uint8] = np.rint(np.clip(rgb, 0.0, 1.0) * 255.0).astype(np.uint8)
+    return encoded

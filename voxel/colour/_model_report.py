@@ -65,6 +65,9 @@ RIM_POINTS = 8
 #: has gone deeper than that).
 REACH_LIMITS_MM = (0.25, 1.0)
 
+#: Samples whose stacks :meth:`ModelReport.predicted_lab` evaluates at once.
+PREDICT_CHUNK = 512
+
 
 def lateral_reach(
     k: ArrayLike, s: ArrayLike, limits_mm: tuple[float, float] = REACH_LIMITS_MM
@@ -191,25 +194,45 @@ class ModelReport:
         count_slab(self._discs, int(z_start), np.ascontiguousarray(materials), self._counts)
 
     def predicted_lab(self) -> NDArray[np.float64]:
-        """CIELAB ``(N, 3)`` of every sample (NaN where no material voxel was seen)."""
-        counts = self._counts[..., 1:].astype(np.float64)
+        """CIELAB ``(N, 3)`` of every sample (NaN where no material voxel was seen).
+
+        Computed :data:`PREDICT_CHUNK` samples at a time: the stack's spectra are
+        ``(samples, bins, bands)`` arrays, a few MB per chunk instead of a GB at once.
+        """
+        seen = observer(self.optics.wavelengths_nm)
+        lab = np.full((self.n_samples, 3), np.nan)
+        for start in range(0, self.n_samples, PREDICT_CHUNK):
+            chunk = self._counts[start : start + PREDICT_CHUNK, :, 1:]
+            reflectance, has = self._stack_reflectance(chunk)
+            k1, k2 = self.optics.k1, self.optics.k2
+            lab[start : start + len(chunk)] = reflectance_to_lab(
+                saunderson(reflectance, k1, k2), seen
+            )
+            lab[start : start + len(chunk)][~has] = np.nan
+        return lab
+
+    def _stack_reflectance(
+        self, counts: NDArray[np.int64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """Return the stacks' reflectance ``(n, B)`` under their surface, and which saw any.
+
+        `counts` ``(n, bins, M)`` are the material voxels per depth bin (void left out).
+        """
+        counts = counts.astype(np.float64)
         total = counts.sum(-1, keepdims=True)
         shares = np.divide(counts, total, out=np.zeros_like(counts), where=total > 0)
-        k = shares @ self.optics.k_per_mm  # (N, bins, B)
+        k = shares @ self.optics.k_per_mm  # (n, bins, B)
         s = shares @ self.optics.s_per_mm
-        has = total[..., 0] > 0  # (N, bins)
+        has = total[..., 0] > 0  # (n, bins)
         deepest = np.where(has.any(1), self.n_bins - 1 - np.argmax(has[:, ::-1], axis=1), 0)
-        rows = np.arange(self.n_samples)
+        rows = np.arange(len(counts))
         reflectance = r_infinity(k[rows, deepest], s[rows, deepest])
         layers = layer(k, s, np.where(has, self.bin_mm, 0.0))
         for b in range(self.n_bins - 1, -1, -1):  # bottom up
             reflectance = over(
                 Layer(layers.reflectance[:, b], layers.transmittance[:, b]), reflectance
             )
-        seen = observer(self.optics.wavelengths_nm)
-        lab = reflectance_to_lab(saunderson(reflectance, self.optics.k1, self.optics.k2), seen)
-        lab[~has.any(1)] = np.nan
-        return lab
+        return reflectance, has.any(1)
 
     def errors(self, aimed_lab: ArrayLike, target_lab: ArrayLike) -> ColumnErrors:
         """Return each sample's CIEDE2000 errors, apart (the prediction made once).
@@ -229,7 +252,7 @@ class ModelReport:
         total[seen] = colour.delta_E(predicted[seen], target[seen], method="CIE 2000")
         reproduction[seen] = colour.delta_E(predicted[seen], aimed[seen], method="CIE 2000")
         gamut = np.asarray(colour.delta_E(aimed, target, method="CIE 2000"), np.float64)
-        return ColumnErrors(seen, total, gamut, reproduction)
+        return ColumnErrors(seen, total, gamut, reproduction, predicted)
 
 
 class ColumnErrors(NamedTuple):
@@ -245,12 +268,15 @@ class ColumnErrors(NamedTuple):
         The separation's aim against the target.
     reproduction : (N,) float64
         Prediction against the aim (NaN where not seen).
+    predicted_lab : (N, 3) float64
+        The prediction, CIELAB (NaN where not seen).
     """
 
     seen: NDArray[np.bool_]
     total: NDArray[np.float64]
     gamut: NDArray[np.float64]
     reproduction: NDArray[np.float64]
+    predicted_lab: NDArray[np.float64]
 
 
 def summary(
