@@ -8,9 +8,13 @@ disc; it goes inward along the quadric's normal there. The spacings follow the v
 one ray, so the disc's shares are counted, not sampled. The rays are made as they are
 walked, so none is stored.
 
-Each ray steps inward one smallest voxel size at a time, and each step counts the
-material of the voxel with the nearest centre (as ``np.rint`` of the grid coordinates
-gives it) in its sample's depth bin. A slab of rows ``z0 .. z1 - 1`` visits only the
+Each ray steps inward one smallest voxel size ``h`` at a time, the steps at depths
+``(j + 1/4) h``, and each step counts the material of the voxel with the nearest centre
+(as ``np.rint`` of the grid coordinates gives it) in its sample's depth bin. The quarter
+keeps the steps off the boundaries between voxels on faces that lie on a plane of voxel
+centres or of voxel faces (the axis-aligned faces of a model whose grid starts a whole
+number of voxels from them): steps at half-steps would fall on those boundaries, where
+rounding picks either voxel, reading some layers twice and others not at all. A slab of rows ``z0 .. z1 - 1`` visits only the
 steps that can fall in those rows (bounded from the ray's z), and a step counts only
 where its voxel's row is in the slab: every step is counted once, however the rows are
 cut into slabs.
@@ -140,10 +144,10 @@ def walk(
         first, last = 0, n_steps - 1
     else:
         d0, d1 = (low - sz) / dz, (high - sz) / dz
-        first = max(int(np.floor(min(d0, d1) / step - 0.5)) - 1, 0)
-        last = min(int(np.ceil(max(d0, d1) / step - 0.5)) + 1, n_steps - 1)
+        first = max(int(np.floor(min(d0, d1) / step - 0.25)) - 1, 0)
+        last = min(int(np.ceil(max(d0, d1) / step - 0.25)) + 1, n_steps - 1)
     for j in range(first, last + 1):
-        depth = (j + 0.5) * step
+        depth = (j + 0.25) * step
         iz = int(np.rint((sz + dz * depth - oz) / vz)) - z0
         if iz < 0 or iz >= n_z:
             continue
