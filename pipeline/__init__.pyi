@@ -31,6 +31,7 @@ from .printer import PrinterProfile, load_profile
 from .reading import Build, Samples, open_build
 from .run import RunSettings
 from .thickness import DEFAULT_RULE, ThicknessRule, load_rule
+from .voxel.colour import SoftProof
 from .voxel.grid import GridSpec
 
 __version__: str
@@ -57,6 +58,7 @@ __all__ = [
     "ShellConfig",
     "ShellsResult",
     "ShellvoxWarning",
+    "SoftProof",
     "ThicknessChoice",
     "ThicknessRule",
     "TrayRequest",

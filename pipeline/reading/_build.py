@@ -15,13 +15,16 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from shellvox.errors import InputError
 from shellvox.voxel.grid import GridSpec
+
+if TYPE_CHECKING:
+    from shellvox.voxel.colour import SoftProof
 
 STORE = "stack.ome.zarr"
 
@@ -184,6 +187,65 @@ class Build:
         if material is not None:
             material[~inside] = 0
         return Samples(inside, index, layer, colour, material)
+
+    def soft_proof(
+        self, points_mm: ArrayLike | None = None, normals: ArrayLike | None = None
+    ) -> SoftProof:
+        """Return the build's soft proof: predicted printed colour and errors, as arrays.
+
+        Parameters
+        ----------
+        points_mm : (M, 3) array_like of float, mm, optional
+            Surface points ``(x, y, z)`` in the build's frame; None: the samples the
+            build predicted (``proof.ply``).
+        normals : (M, 3) or (3,) array_like of float, optional
+            The points' outward normals (or one direction towards a viewer); needed
+            with `points_mm`. Only samples facing the same side are interpolated
+            (:meth:`shellvox.voxel.colour.SoftProof.at`).
+
+        Returns
+        -------
+        SoftProof
+            ``target_lab``, ``aim_lab``, ``predicted_lab`` (CIELAB of the optics' white,
+            D50), ``total_de``, ``gamut_de``, ``reproduction_de`` (CIEDE2000) per point;
+            NaN where no sample is near. ``srgb("predicted")`` gives displayable colours.
+
+        Raises
+        ------
+        InputError
+            The build has no soft proof (built without materials, or with
+            ``report_samples=0``).
+
+        Examples
+        --------
+        >>> import numpy as np, shellvox
+        >>> options = shellvox.BuildOptions(voxel_size_mm=(0.2, 0.2, 0.2), formats=("zarr",))
+        >>> build = shellvox.build(shellvox.data.colour_target(), "proofed", options).open()
+        >>> samples = build.soft_proof()
+        >>> len(samples) >= options.report_samples, samples.optics
+        (True, 'assumed')
+        >>> first = build.soft_proof(samples.points_mm[:1], samples.normals[:1])
+        >>> bool(np.allclose(first.predicted_lab, samples.predicted_lab[:1], atol=1e-3))
+        True
+        """
+        from shellvox.output import PROOF_FILE, read_proof_ply
+
+        path = self.folder / PROOF_FILE
+        if PROOF_FILE not in self.manifest.get("files", {}):
+            raise InputError(
+                self.folder,
+                "has no soft proof (proof.ply)",
+                "build with materials and report samples (the default printer settings)",
+            )
+        try:
+            proof = read_proof_ply(path)
+        except (OSError, ValueError) as error:
+            raise InputError(path, f"cannot be read ({error})", "rebuild it") from None
+        if points_mm is None:
+            return proof
+        if normals is None:
+            raise ValueError("give the points' normals (or a view direction) with points_mm")
+        return proof.at(points_mm, normals)
 
     @property
     def colour_planar(self) -> Any:

@@ -11,6 +11,13 @@
   sections against the configured depths.
 - ``halftone_z*.png``: with materials, the slice with the most colour voxels, target
   colour beside the halftoned materials.
+- ``soft_proof.png``: with the build's soft proof (``proof.ply``), the six outer views
+  as targeted, as predicted from the voxels as written, and the CIEDE2000 between them
+  (hatched where the target is out of gamut) and between the prediction and the
+  separation's aim (:func:`shellvox.voxel.io.soft_proof_image`). Each pixel is the proof
+  interpolated at the voxel it sees (:meth:`shellvox.voxel.colour.SoftProof.at`, the
+  samples facing the viewer); the legend states the optics (assumed or measured) and
+  the sampling.
 
 One pass reads the stacks page by page (memory: a page and the view images), then the
 chosen sections are read lazily (:class:`~shellvox.viewer._stacks.TiffStack`).
@@ -25,16 +32,24 @@ import numpy as np
 import tifffile
 from numpy.typing import NDArray
 from PIL import Image
+from PIL.PngImagePlugin import PngInfo
 
 from shellvox.atomic import atomic_path
+from shellvox.output import PROOF_FILE, read_proof_ply
 from shellvox.viewer import Axis, SectionCounts, TiffStack
+from shellvox.voxel.colour import IN_GAMUT_DE, SoftProof
 from shellvox.voxel.io import (
+    ProofView,
     boundary_depths,
     halftone_image,
     histogram_image,
     outer_views_image,
     section_pair_image,
+    soft_proof_image,
 )
+
+#: The soft proof's views are drawn this many pixels across the model's largest side.
+PROOF_PIXELS = 200
 
 
 def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
@@ -102,6 +117,10 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
     if "materials.tif" in manifest["files"] and manifest.get("materials"):
         z = int(np.argmax(stats.counts.colour_voxels))
         written.append(_halftone_preview(folder, manifest, z))
+    if manifest.get("proof") and PROOF_FILE in manifest["files"]:
+        proof = read_proof_ply(folder / PROOF_FILE)
+        image = _soft_proof(stats, manifest, proof)
+        written.append(_save(image, preview / "soft_proof.png"))
     return written
 
 
@@ -122,6 +141,13 @@ class _Scan:
         self.right = np.zeros((n_z, n_y, 3), np.uint8)  # from +x
         self.y_hit = np.zeros((n_z, n_x), bool)
         self.x_hit = np.zeros((n_z, n_y), bool)
+        # the voxel each view sees: z from +z and -z, y from -y and +y, x from -x and +x
+        self.top_z = np.zeros((n_y, n_x), np.int32)
+        self.bottom_z = np.zeros((n_y, n_x), np.int32)
+        self.front_y = np.zeros((n_z, n_x), np.int32)
+        self.back_y = np.zeros((n_z, n_x), np.int32)
+        self.left_x = np.zeros((n_z, n_y), np.int32)
+        self.right_x = np.zeros((n_z, n_y), np.int32)
         self.xy_mid = np.zeros((n_y, n_x), np.uint8)
         self.xz_mid = np.zeros((n_z, n_x), np.uint8)
         self.yz_mid = np.zeros((n_z, n_y), np.uint8)
@@ -155,19 +181,23 @@ def _scan(folder: Path, shape: tuple[int, int, int], colour_layers: tuple[int, .
             coloured = stats.counts.add_page(z, layers, rgb)
             # the outer colour layer: from +z the last seen wins, from -z the first
             stats.top[coloured] = rgb[coloured]
+            stats.top_z[coloured] = z
             stats.top_hit |= coloured
             first = coloured & ~stats.bottom_hit
             stats.bottom[first] = rgb[first]
+            stats.bottom_z[first] = z
             stats.bottom_hit |= coloured
             along_y = coloured.any(axis=0)
             stats.y_hit[z] = along_y
             low, high = np.argmax(coloured, axis=0), n_y - 1 - np.argmax(coloured[::-1], axis=0)
             stats.front[z] = rgb[low, columns]
             stats.back[z] = rgb[high, columns]
+            stats.front_y[z], stats.back_y[z] = low, high
             stats.x_hit[z] = coloured.any(axis=1)
             low, high = np.argmax(coloured, axis=1), n_x - 1 - np.argmax(coloured[:, ::-1], axis=1)
             stats.left[z] = rgb[rows, low]
             stats.right[z] = rgb[rows, high]
+            stats.left_x[z], stats.right_x[z] = low, high
             stats.xz_mid[z] = layers[n_y // 2]
             stats.yz_mid[z] = layers[:, n_x // 2]
             if z == n_z // 2:
@@ -198,9 +228,96 @@ def _outer_views(stats: _Scan, voxel_mm: tuple[float, float, float]) -> Image.Im
     return outer_views_image(views, pixels_per_mm=420 / largest_mm)
 
 
+def _soft_proof(stats: _Scan, manifest: dict[str, Any], proof: SoftProof) -> Image.Image:
+    """Draw the six views as targeted and as predicted, and their errors (see the module)."""
+    grid = manifest["grid"]
+    vx, vy, vz = grid["voxel_size_mm"]
+    origin = np.asarray(grid["origin_mm"], np.float64)
+    n_z, n_y, n_x = grid["shape_zyx"]
+    z_rows, y_rows = np.arange(n_z)[:, None], np.arange(n_y)[:, None]
+    y_cols, x_cols = np.arange(n_y)[None, :], np.arange(n_x)[None, :]
+    up, turned = np.s_[::-1], np.s_[::-1, ::-1]
+    # label, seen colour, hit, (x, y, z) voxel index, pixel (w, h) mm, towards the viewer
+    views: list[tuple[Any, ...]] = [
+        ("top (from +z; x right, y up)", stats.top, stats.top_hit,
+         (x_cols, y_rows, stats.top_z), (vx, vy), (0, 0, 1), up),
+        ("front (from -y; x right, z up)", stats.front, stats.y_hit,
+         (x_cols, stats.front_y, z_rows), (vx, vz), (0, -1, 0), up),
+        ("right (from +x; y right, z up)", stats.right, stats.x_hit,
+         (stats.right_x, y_cols, z_rows), (vy, vz), (1, 0, 0), up),
+        ("bottom (from -z; x left, y up)", stats.bottom, stats.bottom_hit,
+         (x_cols, y_rows, stats.bottom_z), (vx, vy), (0, 0, -1), turned),
+        ("back (from +y; x left, z up)", stats.back, stats.y_hit,
+         (x_cols, stats.back_y, z_rows), (vx, vz), (0, 1, 0), turned),
+        ("left (from -x; y left, z up)", stats.left, stats.x_hit,
+         (stats.left_x, y_cols, z_rows), (vy, vz), (-1, 0, 0), turned),
+    ]  # fmt: skip
+    largest_mm = max(n_x * vx, n_y * vy, n_z * vz)
+    pixels_per_mm = PROOF_PIXELS / largest_mm
+    drawn = []
+    for label, rgb, hit, index, pixel_mm, towards, flip in views:
+        height, width = hit.shape
+        size = (max(1, round(width * pixel_mm[0] * pixels_per_mm)),
+                max(1, round(height * pixel_mm[1] * pixels_per_mm)))  # fmt: skip
+        rows = ((np.arange(size[1]) + 0.5) * height / size[1]).astype(np.intp)[:, None]
+        cols = ((np.arange(size[0]) + 0.5) * width / size[0]).astype(np.intp)[None, :]
+        xyz = [np.broadcast_to(i, hit.shape)[flip][rows, cols] for i in index]
+        seen = hit[flip][rows, cols]
+        points = origin + np.stack(xyz, axis=-1)[seen] * (vx, vy, vz)
+        at = proof.at(points, np.asarray(towards, np.float64), same_side=0.0)
+        predicted = np.zeros((*seen.shape, 3), np.uint8)
+        predicted[seen] = at.srgb("predicted")
+        total = np.full(seen.shape, np.nan)
+        total[seen] = at.total_de
+        reproduction = np.full(seen.shape, np.nan)
+        reproduction[seen] = at.reproduction_de
+        outside = np.zeros(seen.shape, bool)
+        outside[seen] = at.gamut_de > IN_GAMUT_DE
+        target = rgb[flip][rows, cols]
+        drawn.append(ProofView(label, seen, target, predicted, total, reproduction, outside))
+    return soft_proof_image(drawn, _proof_legend(manifest, proof))
+
+
+def _proof_legend(manifest: dict[str, Any], proof: SoftProof) -> list[str]:
+    """Return the soft proof's legend: the model, its optics, the sampling, the errors."""
+    if proof.optics == "assumed":
+        optics = (
+            "ASSUMED optics (the profile's default absorption and scattering, not measured): "
+            "print `shellvox chart`, measure it and run `shellvox calibrate` to replace them"
+        )
+    else:
+        optics = f"the measured optics of printer profile {manifest.get('printer', '?')}"
+    seen = proof.predicted
+    inside = seen & proof.in_gamut
+    spacing = proof.spacing_mm
+
+    def median(values: NDArray[np.float64]) -> str:
+        return f"{float(np.median(values)):.2f}" if len(values) else "-"
+
+    return [
+        "Predicted print: the two-flux (Kubelka-Munk) model over the material voxels as "
+        "written, under " + optics + ".",
+        f"Sampling: {len(proof):,} surface samples, mean spacing {spacing:.2f} mm (about "
+        f"{1.0 / spacing**2:.0f} in a 1 mm patch); each pixel: the samples within "
+        f"{3 * spacing:.2f} mm that face the viewer, weighted by 1 / distance^2.",
+        "CIEDE2000 vs target is hatched where the target lies outside the gamut (its "
+        f"separation's aim is more than {IN_GAMUT_DE:g} away): no printing reaches it there; "
+        "vs aim is the halftone's, voxels' and depth's part.",
+        f"Over the samples: vs target median {median(proof.total_de[seen])}; in gamut "
+        f"({int(inside.sum()):,}) median {median(proof.total_de[inside])}; vs aim median "
+        f"{median(proof.reproduction_de[seen])}; gamut error median "
+        f"{median(proof.gamut_de)}.",
+    ]
+
+
 def _save(image: Image.Image, path: Path) -> Path:
+    """Write `image` as PNG, with its ``shellvox:*`` info as text chunks."""
+    text = PngInfo()
+    for key, value in image.info.items():
+        if isinstance(key, str) and key.startswith("shellvox:"):
+            text.add_text(key, str(value))
     with atomic_path(path) as temporary:
-        image.save(temporary, format="PNG")
+        image.save(temporary, format="PNG", pnginfo=text)
     return path
 
 

@@ -19,8 +19,9 @@ point (0.25 to 1 mm) already averages the prediction over at least that scale.
 
 Between samples, :meth:`SoftProof.at` interpolates: the :data:`NEIGHBOURS` nearest samples
 within :data:`REACH_SPACINGS` mean spacings whose normals face the query's side (their dot
-product above :data:`SAME_SIDE`, so a thin wall's two faces stay apart), weighted by a
-Gaussian of one mean spacing.
+product above :data:`SAME_SIDE`, so a thin wall's two faces stay apart), weighted by the
+inverse square of their distance (Shepard's interpolation: a sample's own value at the
+sample, a blend of the nearest between them).
 """
 
 from __future__ import annotations
@@ -45,6 +46,8 @@ IN_GAMUT_DE = 1.0
 NEIGHBOURS = 8
 #: Samples farther than this many mean spacings from a query do not count.
 REACH_SPACINGS = 3.0
+#: Distances below this count as this (mm): a query at a sample takes its value.
+SAME_POINT_MM = 1e-6
 #: A sample counts for a query when their unit normals' dot product is above this.
 SAME_SIDE = 0.3
 
@@ -127,7 +130,9 @@ class SoftProof:
             out[known] = lab_d50_to_srgb8(lab[known], self.white_xy)
         return out
 
-    def at(self, points_mm: ArrayLike, normals: ArrayLike) -> SoftProof:
+    def at(
+        self, points_mm: ArrayLike, normals: ArrayLike, *, same_side: float = SAME_SIDE
+    ) -> SoftProof:
         """Return the proof interpolated at other surface points (see the module).
 
         Parameters
@@ -137,6 +142,9 @@ class SoftProof:
         normals : (M, 3) or (3,) array_like of float
             Their outward normals, or one direction for all (a view's: towards the
             viewer); only samples facing the same side count.
+        same_side : float
+            A sample counts when its normal's dot product with the query's is above this
+            (:data:`SAME_SIDE`; 0 for a view's direction: every sample facing the viewer).
 
         Returns
         -------
@@ -148,9 +156,9 @@ class SoftProof:
         --------
         >>> import numpy as np
         >>> proof = _demo_proof()
-        >>> near = proof.at([[0.0, 0.0, 0.01]], [0.0, 0.0, 1.0])  # L* 51, a* 20 x
+        >>> near = proof.at([[0.0, 0.0, 0.01]], [0.0, 0.0, 1.0])  # L* 51, a* 20 x: near 0
         >>> near.predicted_lab[0].round(1).tolist(), float(near.total_de[0])
-        ([51.0, 0.1, 0.0], 1.0)
+        ([51.0, 0.0, 0.0], 1.0)
         >>> bool(np.isnan(proof.at([[9.0, 9.0, 9.0]], [0.0, 0.0, 1.0]).total_de[0]))
         True
         """
@@ -172,8 +180,9 @@ class SoftProof:
             distance, index = distance.reshape(-1, k), index.reshape(-1, k)
             near = index < len(self)
             index = np.where(near, index, 0)
-            same = np.einsum("mkc,mc->mk", self.normals[index], facing[chunk]) > SAME_SIDE
-            weight = np.where(near & same, np.exp(-((distance / self.spacing_mm) ** 2)), 0.0)
+            same = np.einsum("mkc,mc->mk", self.normals[index], facing[chunk]) > same_side
+            inverse = 1.0 / np.maximum(distance, SAME_POINT_MM) ** 2
+            weight = np.where(near & same, inverse, 0.0)
             for name, value in values.items():
                 gathered = value[index]  # (m, k) or (m, k, 3)
                 w = weight if gathered.ndim == 2 else weight[..., None]
@@ -211,7 +220,7 @@ class SoftProof:
                 "neighbours": NEIGHBOURS,
                 "reach_spacings": REACH_SPACINGS,
                 "same_side_dot": SAME_SIDE,
-                "weight": "exp(-(distance / mean_spacing_mm)^2)",
+                "weight": "1 / distance^2 (Shepard)",
             },
         }
 

@@ -15,7 +15,8 @@ other.
   :mod:`~shellvox.voxel.io._ome_metadata`, its levels :mod:`~shellvox.voxel.io._pyramid` and its
   level-0 shards encoded where a slab is computed :mod:`~shellvox.voxel.io._zarr_shards`;
 - :mod:`shellvox.voxel.io.vdb` ``volume.vdb`` without OpenVDB; :mod:`~shellvox.voxel.io._preview`
-  section pictures and the depth histogram.
+  section pictures and the depth histogram; :mod:`~shellvox.voxel.io._proof_picture` the soft
+  proof's picture.
 """
 
 from __future__ import annotations
@@ -38,6 +39,16 @@ from shellvox.voxel.io._preview import (
     outer_views_image,
     section_pair_image,
 )
+from shellvox.voxel.io._proof_picture import (
+    DE_RGB,
+    DE_STEPS,
+    HATCH_RGB,
+    NO_PREDICTION_RGB,
+    PANELS,
+    ProofView,
+    de_colours,
+    soft_proof_image,
+)
 from shellvox.voxel.io._pyramid import downsample_colour, downsample_labels, level_factors
 from shellvox.voxel.io._tiff_pages import PageEncoder
 from shellvox.voxel.io._tiff_writer import TiffStackWriter
@@ -47,8 +58,13 @@ from shellvox.voxel.io._zarr_writer import OmeZarrWriter
 __all__ = [
     "BAND_RGB",
     "CORE_RGB",
+    "DE_RGB",
+    "DE_STEPS",
     "FADE",
+    "HATCH_RGB",
+    "NO_PREDICTION_RGB",
     "OUTSIDE_RGB",
+    "PANELS",
     "RGBA",
     "SHARD_ROWS",
     "SIDECAR_NAME",
@@ -60,12 +76,14 @@ __all__ = [
     "OmeZarrWriter",
     "PageEncoder",
     "PngSliceWriter",
+    "ProofView",
     "ShardEncoder",
     "TiffStackWriter",
     "boundary_depths",
     "check_level",
     "compress",
     "compressobj",
+    "de_colours",
     "downsample_colour",
     "downsample_labels",
     "encode_png",
@@ -78,5 +96,6 @@ __all__ = [
     "outer_views_image",
     "pixel_bytes",
     "section_pair_image",
+    "soft_proof_image",
     "zlib_compress",
 ]
