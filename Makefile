@@ -17,7 +17,7 @@ demo: setup
 	$(BIN)/shellvox info $(MODEL)
 	$(BIN)/shellvox build $(MODEL) -o $(OUT) --printer j750
 	$(BIN)/shellvox inspect $(OUT)
-	@echo "shellvox demo: outputs in $(OUT)/ (job.gcvf, materials.tif, layers.tif, colour.tif, stack.ome.zarr/, volume.vdb, thickness.ply, manifest.json; preview/: section_xy/xz/yz.png, outer_views.png, layer_depth_histogram.png, halftone_z*.png); see every slice with: $(BIN)/shellvox view $(OUT)"
+	@echo "shellvox demo: outputs in $(OUT)/ (job.gcvf, materials.tif, layers.tif, colour.tif, stack.ome.zarr/, volume.vdb, thickness.ply, proof.ply, manifest.json; preview/: section_xy/xz/yz.png, outer_views.png, layer_depth_histogram.png, halftone_z*.png, soft_proof.png); see every slice with: $(BIN)/shellvox view $(OUT)"
 
 test: setup
 	$(BIN)/ruff check .

@@ -241,7 +241,7 @@ class BuildConfig:
     formats: tuple[str, ...] = ("tiff", "vdb")
     material: MaterialSettings | None = field(default_factory=MaterialSettings)
     report_samples: int = 20_000
-    proof_density: float = 16.0
+    proof_density: float = 12.0
     optical_depth_mm: float = 0.25
 
     def __post_init__(self) -> None:

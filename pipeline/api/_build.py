@@ -101,7 +101,7 @@ class BuildOptions:
     alpha: bool = False
     materials: MaterialSettings | None = field(default_factory=MaterialSettings)
     report_samples: int = 20_000
-    proof_density: float = 16.0
+    proof_density: float = 12.0
     slab_mb: float = 1024.0
     compression_level: int | None = None
     workers: int = 0

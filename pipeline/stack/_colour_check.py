@@ -25,7 +25,7 @@ The same samples are the build's soft proof (:meth:`ColourCheck.proof`,
 :class:`shellvox.voxel.colour.SoftProof`): their count is the larger of
 ``report_samples`` and ``proof_density`` times the surface's area (at most
 :data:`~shellvox.voxel.colour.PROOF_MAX_SAMPLES`), so that a 1 mm colour patch holds
-about 16 of them at the default density.
+about 12 of them at the default density.
 """
 
 from __future__ import annotations

@@ -34,9 +34,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from shellvox.voxel.colour._kubelka_munk import lab_d50_to_srgb8
 
-#: Surface samples per mm^2 of the soft proof: a mean spacing of 0.25 mm, about 16
+#: Surface samples per mm^2 of the soft proof: a mean spacing of 0.29 mm, about 12
 #: samples in a 1 mm colour patch.
-PROOF_SAMPLES_PER_MM2 = 16.0
+PROOF_SAMPLES_PER_MM2 = 12.0
 #: At most this many proof samples (their voxel counts take about 1 kB each while the
 #: slabs stream); beyond it the spacing grows, as the manifest states.
 PROOF_MAX_SAMPLES = 250_000
