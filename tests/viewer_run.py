@@ -92,3 +92,92 @@ def uniform_texture_colour(mesh, points, radius_mm):
             around = _texture_colour(mesh, near, near_faces)
             same &= np.abs(around - centre).max(axis=1) <= 2
     return centre, same
+
+
+def proof_reference(proof_ply, points, normals, interpolation):
+    """The soft proof at surface points, brute force from ``proof.ply`` as trimesh reads it.
+
+    Follows the rule the manifest's ``proof["interpolation"]`` record states
+    (`interpolation`: ``neighbours``, ``reach_spacings``, ``same_side_dot``, ``weight``):
+    of the ``neighbours`` samples nearest a point (all distances computed), those within
+    ``reach_spacings`` mean spacings (the header's ``spacing_mm``) whose normals face the
+    point's side, weighted as ``weight`` says (``exp(-(distance / mean_spacing_mm)^2)``,
+    or ``1 / distance^2`` with distances below 1e-6 mm as 1e-6); NaN where none.
+    ``points`` and ``normals`` ``(M, 3)``; returns a dict of ``predicted_lab`` ``(M, 3)``,
+    ``total_de`` and ``gamut_de`` ``(M,)`` float64, and the header's ``white_xy`` and
+    ``optics``.
+    """
+    import numpy as np
+    import trimesh
+
+    cloud = trimesh.load(proof_ply)
+    raw = cloud.metadata["_ply_raw"]["vertex"]["data"]
+    header = Path(proof_ply).read_bytes().split(b"end_header\n")[0].decode("ascii")
+    comments = dict(
+        line.split(" ", 2)[1:] for line in header.splitlines() if line.startswith("comment ")
+    )
+    spacing = float(comments["spacing_mm"])
+    samples = np.asarray(cloud.vertices, float)
+    sample_normals = np.column_stack([raw[n] for n in ("nx", "ny", "nz")]).astype(float)
+    values = {
+        "predicted_lab": np.column_stack([raw[f"predicted_{c}"] for c in "Lab"]).astype(float),
+        "total_de": np.asarray(raw["total_de"], float),
+        "gamut_de": np.asarray(raw["gamut_de"], float),
+    }
+    points = np.asarray(points, float)
+    normals = np.asarray(normals, float)
+    normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    k = int(interpolation["neighbours"])
+    rule = interpolation["weight"]
+    if rule.startswith("exp(-(distance / mean_spacing_mm)^2)"):
+
+        def weigh(d):
+            return np.exp(-((d / spacing) ** 2))
+
+    elif rule.startswith("1 / distance^2"):
+
+        def weigh(d):
+            return 1.0 / np.maximum(d, 1e-6) ** 2
+
+    else:
+        raise ValueError(f"the manifest's proof weight {rule!r} is not one this reference knows")
+    out = {name: np.full((len(points), *v.shape[1:]), np.nan) for name, v in values.items()}
+    for start in range(0, len(points), 256):
+        chunk = slice(start, start + 256)
+        distance = np.linalg.norm(points[chunk, None] - samples[None], axis=-1)  # (m, N)
+        nearest = np.argsort(distance, axis=1)[:, :k]
+        d = np.take_along_axis(distance, nearest, axis=1)
+        facing = np.einsum("mkc,mc->mk", sample_normals[nearest], normals[chunk])
+        use = (d <= interpolation["reach_spacings"] * spacing) & (
+            facing > interpolation["same_side_dot"]
+        )
+        weight = np.where(use, weigh(d), 0.0)
+        for name, value in values.items():
+            v = value[nearest]  # (m, k) or (m, k, 3)
+            w = weight if v.ndim == 2 else weight[..., None]
+            w = np.where(np.isfinite(v), w, 0.0)
+            total = w.sum(axis=1)
+            mean = (w * np.nan_to_num(v)).sum(axis=1) / np.where(total > 0, total, 1.0)
+            out[name][chunk] = np.where(total > 0, mean, np.nan)
+    white = np.array([float(v) for v in comments["white_xy"].split(",")])
+    return {**out, "white_xy": white, "optics": comments["optics"]}
+
+
+def lab_to_srgb8(lab, white_xy):
+    """8-bit sRGB of CIELAB relative to `white_xy` (colour-science: Bradford to D65, sRGB).
+
+    ``(M, 3)`` in, ``(M, 3)`` int out; grey 160 where the CIELAB is NaN.
+    """
+    import colour
+    import numpy as np
+
+    lab = np.asarray(lab, float)
+    known = np.all(np.isfinite(lab), axis=1)
+    out = np.full(lab.shape, 160, int)
+    xyz = colour.Lab_to_XYZ(lab[known], white_xy)
+    rgb = colour.XYZ_to_RGB(
+        xyz, "sRGB", illuminant=white_xy, chromatic_adaptation_transform="Bradford",
+        apply_cctf_encoding=True,
+    )  # fmt: skip
+    out[known] = np.rint(np.clip(rgb, 0, 1) * 255).astype(int)
+    return out

@@ -245,7 +245,7 @@ def build(
     >>> options = shellvox.BuildOptions(voxel_size_mm=(0.2, 0.2, 0.2), formats=("tiff", "zarr"))
     >>> result = shellvox.build(shellvox.data.colour_target(), "out", options)
     >>> sorted({p.relative_to(result.folder).parts[0] for p in result.files})
-    ['colour.tif', 'layers.tif', 'manifest.json', 'materials.tif',
+    ['colour.tif', 'layers.tif', 'manifest.json', 'materials.tif', 'proof.ply',
      'stack.ome.zarr', 'thickness.ply']
     >>> result.manifest["grid"]["voxel_size_mm"]
     [0.2, 0.2, 0.2]

@@ -6,6 +6,7 @@ See :mod:`shellvox.viewer._server`.
 from __future__ import annotations
 
 from shellvox.viewer._folder import BuildFolder
+from shellvox.viewer._proof import FaceProof, de_scale, face_proof
 from shellvox.viewer._sections import (
     MIDDLE,
     VIVID_SPAN,
@@ -24,6 +25,7 @@ __all__ = [
     "VIVID_SPAN",
     "Axis",
     "BuildFolder",
+    "FaceProof",
     "Overview",
     "SectionCounts",
     "StackError",
@@ -32,5 +34,7 @@ __all__ = [
     "TiffStack",
     "ViewerServer",
     "choose_section",
+    "de_scale",
+    "face_proof",
     "probe",
 ]

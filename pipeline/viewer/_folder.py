@@ -9,8 +9,10 @@ from the OME-Zarr store when the build has one
 open (:class:`~shellvox.viewer._stacks.TiffStack`). Every failure is one
 :class:`~shellvox.errors.InputError` line.
 
-Only the files named here can ever be read: the stacks, ``thickness.ply`` and
-``manifest.json``, each by its resolved path, fixed at opening.
+Only the files named here can ever be read: the stacks, ``thickness.ply``, ``proof.ply``
+(the soft proof, read by the pass over the pages:
+:class:`~shellvox.viewer._surface.Overview`) and ``manifest.json``, each by its resolved
+path, fixed at opening.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ ZARR_STORE = "stack.ome.zarr"
 Source = Literal["auto", "tiff", "zarr"]
 
 #: Files the viewer hands out as they are (``/files/NAME``), when the build has them.
-SERVED_FILES = ("manifest.json", "thickness.ply")
+SERVED_FILES = ("manifest.json", "thickness.ply", "proof.ply")
 
 
 @dataclass(frozen=True)
@@ -228,6 +230,7 @@ class BuildFolder:
             "stacks": sorted(self.stacks),
             "colour_samples": self.stacks["colour"].samples,
             "depth": self.surface is not None,
+            "proof": self.surface is not None and "proof.ply" in self.files,
             "depth_range_mm": self._range("depth_per_face_mm", colour_only=False),
             "thickness_range_mm": self._range("thickness_per_face_mm", colour_only=True),
             "files": sorted(self.files),

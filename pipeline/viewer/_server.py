@@ -4,7 +4,8 @@ Routes (GET and HEAD only; anything else is 404 or 405):
 
 - ``/`` and ``/static/NAME``: the page (HTML, JavaScript, CSS shipped in
   ``pipeline/viewer/static``, read once at start; nothing is fetched from elsewhere).
-- ``/api/build``: the grid, layers, materials and stacks (JSON).
+- ``/api/build``: the grid, layers, materials and stacks, and the ΔE mode's scale under
+  ``de_scale`` (:func:`~shellvox.viewer._proof.de_scale`) (JSON).
 - ``/api/slice?kind=K&axis=A&index=I&r0=&r1=&rs=&c0=&c1=&cs=``: a slice region
   (:mod:`shellvox.viewer._slices`) as raw bytes, row-major, with its shape in the
   ``X-Shape`` header (``H,W,S``) and its dtype in ``X-Dtype`` (``uint8`` or
@@ -16,7 +17,13 @@ Routes (GET and HEAD only; anything else is 404 or 405):
 - ``/api/surface``: the surface for the 3D view, once the pass is done
   (:meth:`~shellvox.viewer._surface.SurfaceMesh.to_bytes`; ``X-Faces``,
   ``X-Source-Faces`` and ``X-Depth-Range`` headers); 404 without ``thickness.ply``.
-- ``/files/NAME``: ``manifest.json`` and ``thickness.ply`` as they are.
+- ``/api/proof``: the soft proof at the same faces, in their order, once it is
+  interpolated (:meth:`~shellvox.viewer._proof.FaceProof.to_bytes`: each face's
+  CIEDE2000 error and gamut error, float32, then its predicted sRGB; ``X-Faces``,
+  ``X-Optics`` (``assumed`` or ``measured``) and ``X-In-Gamut-DE`` headers); 404 without
+  ``thickness.ply`` or ``proof.ply`` (a build without materials or a colour report),
+  503 when ``proof.ply`` cannot be read.
+- ``/files/NAME``: ``manifest.json``, ``thickness.ply`` and ``proof.ply`` as they are.
 
 A request path is never joined to a folder: every name is looked up in a table made
 when the server starts (the static files, and the build's files by the paths fixed when
@@ -39,6 +46,7 @@ from urllib.parse import parse_qs, unquote, urlsplit
 import numpy as np
 
 from shellvox.viewer._folder import BuildFolder
+from shellvox.viewer._proof import de_scale
 from shellvox.viewer._slices import (
     KINDS,
     RequestError,
@@ -94,7 +102,8 @@ class ViewerServer(ThreadingHTTPServer):
     ) -> None:
         self.folder = folder
         self.static = static_files()
-        self.build_json = json.dumps(folder.describe()).encode("utf-8")
+        build = {**folder.describe(), "de_scale": de_scale()}
+        self.build_json = json.dumps(build).encode("utf-8")
         self.overview = Overview(folder)
         super().__init__(("127.0.0.1", port), _Handler)
         if overview:
@@ -176,6 +185,8 @@ class _Handler(BaseHTTPRequestHandler):
                 self._opening(query, head=head)
             elif path == "/api/surface":
                 self._surface(head=head)
+            elif path == "/api/proof":
+                self._proof(head=head)
             elif path.startswith("/files/") and path[7:] in self.server.folder.files:
                 file = self.server.folder.files[path[7:]]
                 kind = _FILE_TYPES.get(file.suffix, "application/octet-stream")
@@ -242,6 +253,27 @@ class _Handler(BaseHTTPRequestHandler):
         body = surface.to_bytes()
         self._send(
             HTTPStatus.OK, body, "application/octet-stream", head=head, headers=surface.headers()
+        )
+
+    def _proof(self, *, head: bool) -> None:
+        overview = self.server.overview
+        folder = self.server.folder
+        if folder.surface is None or "proof.ply" not in folder.files:
+            message = (
+                b"this build has no soft proof (proof.ply: made by builds with materials and a"
+                b" colour report) or no surface (thickness.ply): no predicted colour\n"
+            )
+            self._send(HTTPStatus.NOT_FOUND, message, "text/plain", head=head)
+            return
+        if not overview.proof_done.wait(SURFACE_WAIT_S) or overview.proof is None:
+            reason = overview.proof_error or overview.error or "still reading"
+            why = f"the soft proof is not ready ({reason})\n"
+            self._send(HTTPStatus.SERVICE_UNAVAILABLE, why.encode(), "text/plain", head=head)
+            return
+        proof = overview.proof
+        body = proof.to_bytes()
+        self._send(
+            HTTPStatus.OK, body, "application/octet-stream", head=head, headers=proof.headers()
         )
 
     def _send(

@@ -22,6 +22,11 @@ voxels for the opening slices (:class:`~shellvox.viewer._sections.SectionCounts`
 way. The pass reads every page (the default model on the J750 grid, 261 pages: about a
 second; spot at 100 mm, 5.8 G voxels: about 40 s from the TIFFs, 70 s from the store,
 while the page shows the mid slices).
+
+After the pass (the opening slices and the surface are ready by then), the same thread
+reads the build's soft proof, ``proof.ply``, when it has one, and interpolates it at the
+surface's faces (:func:`~shellvox.viewer._proof.face_proof`; 400,000 faces: about two
+seconds): the predicted printed colour and its CIEDE2000 error per face.
 """
 
 from __future__ import annotations
@@ -35,8 +40,10 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
+from shellvox.output import read_proof_ply
 from shellvox.viewer._depth import Surface
 from shellvox.viewer._folder import BuildFolder
+from shellvox.viewer._proof import FaceProof, face_proof
 from shellvox.viewer._sections import SectionCounts
 
 #: Faces sent to the browser at most (about 44 bytes each: 18 MB).
@@ -229,12 +236,23 @@ def _strip_rows(block_zyx: tuple[int, int, int], voxel_bytes: int, row_block: in
 class Overview:
     """One pass over the z pages, in a thread: the opening slices and the surface.
 
+    Then, in the same thread, the soft proof at the surface's faces (see the module).
+
     Parameters
     ----------
     folder : BuildFolder
         The open build (its stacks are read concurrently with the server's requests).
     max_faces : int
         Decimate the surface above this many faces.
+
+    Attributes
+    ----------
+    opening, vivid, surface, error
+        Set by the pass, before :attr:`done`.
+    proof : FaceProof or None
+        The soft proof at the faces of :attr:`surface`, set before :attr:`proof_done`;
+        None without a surface, without ``proof.ply``, or when it cannot be read
+        (:attr:`proof_error` says why).
     """
 
     def __init__(self, folder: BuildFolder, max_faces: int = MAX_FACES) -> None:
@@ -244,7 +262,10 @@ class Overview:
         self.vivid: dict[str, int] | None = None
         self.surface: SurfaceMesh | None = None
         self.error: str | None = None
+        self.proof: FaceProof | None = None
+        self.proof_error: str | None = None
         self.done = threading.Event()
+        self.proof_done = threading.Event()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="overview", daemon=True)
 
@@ -260,11 +281,25 @@ class Overview:
 
     def _run(self) -> None:
         try:
-            self._scan()
-        except (OSError, ValueError) as error:
-            self.error = str(error)
+            try:
+                self._scan()
+            except (OSError, ValueError) as error:
+                self.error = str(error)
+            finally:
+                self.done.set()
+            self._proof()
         finally:
-            self.done.set()
+            self.proof_done.set()
+
+    def _proof(self) -> None:
+        """Interpolate ``proof.ply`` at the surface's faces (see the module)."""
+        path = self.folder.files.get("proof.ply")
+        if path is None or self.surface is None or self._stop.is_set():
+            return
+        try:
+            self.proof = face_proof(read_proof_ply(path), self.surface.triangles_mm)
+        except (OSError, ValueError) as error:
+            self.proof_error = f"{path.name} cannot be read: {error}"
 
     def _scan(self) -> None:
         folder = self.folder

@@ -2,7 +2,10 @@
 
 Loads the page on a small build, moves the slider, switches every axis and mode, checks
 the drawn pixels against the stacks (tifffile) and the manifest, clicks a voxel and
-checks the read-out against the stacks, the manifest, colour-science and trimesh.
+checks the read-out against the stacks, the manifest, colour-science and trimesh. The 3D
+view's modes are checked against the model's texture, thickness.ply and proof.ply (the
+soft proof, interpolated by brute force from trimesh's reading of it); its ΔE mode against
+the soft-proof picture's steps (``DE_STEPS``, ``DE_RGB`` of :mod:`shellvox.voxel.io`).
 A screenshot of every mode is saved (path printed; ``SHELLVOX_TEST_ARTIFACTS=DIR`` keeps
 them in DIR). Without ``/usr/bin/chromium`` (``apt-get install chromium``, which
 scripts/bootstrap.sh does) the test skips, except under CI (``CI`` set), where it fails.
@@ -14,6 +17,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import shutil
 from pathlib import Path
 
 import colour
@@ -22,9 +26,24 @@ import pytest
 import tifffile
 import trimesh
 from PIL import Image
-from viewer_run import MODEL, expected_opening, serving, uniform_texture_colour
+from viewer_run import (
+    MODEL,
+    expected_opening,
+    lab_to_srgb8,
+    proof_reference,
+    serving,
+    uniform_texture_colour,
+)
 
-from shellvox.voxel.io import BAND_RGB, CORE_RGB, OUTSIDE_RGB
+from shellvox.voxel.io import (
+    BAND_RGB,
+    CORE_RGB,
+    DE_RGB,
+    DE_STEPS,
+    HATCH_RGB,
+    NO_PREDICTION_RGB,
+    OUTSIDE_RGB,
+)
 
 CHROMIUM = Path("/usr/bin/chromium")
 ARGS = [
@@ -301,5 +320,240 @@ def test_opening_slice_and_3d_surface_in_chromium(page, served, small_colour_bui
     pixels = np.asarray(Image.open(io.BytesIO(page.locator("#view3d").screenshot())).convert("RGB"))
     cut = np.all(np.abs(pixels.astype(int) - [237, 0, 92]) <= 3, axis=-1)
     assert cut.sum() > 200
+    for path in shots:
+        print(f"screenshot: {path}")
+
+
+def _de_step(de):
+    """The soft-proof picture's step of each error ``(n,)``: how many upper bounds it reaches.
+
+    ``DE_STEPS`` are the steps' lower bounds (the last step open), so a step's upper bound
+    is the next one's lower bound; NaN reaches none (step 0, drawn as no prediction).
+    """
+    de = np.asarray(de, float)
+    return np.sum(de[:, None] >= np.asarray(DE_STEPS)[None, 1:], axis=1)
+
+
+def _near_a_bound(de, margin=0.02):
+    """Whether each error ``(n,)`` lies within `margin` of a bound between two steps.
+
+    There the page's float32 interpolation and this brute force in float64 can fall on
+    either side.
+    """
+    distance = np.abs(np.asarray(de, float)[:, None] - np.asarray(DE_STEPS)[None, 1:])
+    return np.min(distance, axis=1) < margin
+
+
+def _mix(pixels, colour, other, tolerance=4):
+    """Whether each pixel is a mix of `colour` and `other`, and the share of `other` in it.
+
+    ``pixels`` ``(..., 3)``; `colour` broadcast to it, `other` ``(3,)``; sRGB codes.
+    """
+    direction = other - colour
+    share = np.sum((pixels - colour) * direction, axis=-1) / np.maximum(
+        np.sum(direction**2, axis=-1), 1e-9
+    )
+    share = np.clip(share, 0, 1)
+    residual = np.abs(pixels - (colour + share[..., None] * direction)).max(axis=-1)
+    return residual <= tolerance, share
+
+
+def _window(pixels, centres_px, rows=1, columns=4):
+    """The pixels ``(n, 2 rows + 1, 2 columns + 1, 3)`` around each centre ``(n, 2)``."""
+    y = np.round(centres_px[:, 1]).astype(int)[:, None] + np.arange(-rows, rows + 1)
+    x = np.round(centres_px[:, 0]).astype(int)[:, None] + np.arange(-columns, columns + 1)
+    return pixels[y[:, :, None], x[:, None, :]]
+
+
+def _clearance_px(corners):
+    """Distance (px) from each screen triangle's centroid ``(n, 3, 2)`` to its nearest side."""
+    u, v = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    area = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]) / 2
+    longest = np.max(
+        [np.linalg.norm(corners[:, k] - corners[:, (k + 1) % 3], axis=1) for k in range(3)], axis=0
+    )
+    return 2 * area / (3 * np.maximum(longest, 1e-9))
+
+
+def test_predicted_and_delta_e_on_the_3d_surface_in_chromium(
+    page, served, small_colour_build, artifacts, tmp_path
+):
+    folder = small_colour_build
+    manifest = json.loads((folder / "manifest.json").read_text())
+    record = manifest["proof"]
+    page.goto(served.url)
+    page.wait_for_function("document.body.dataset.proof === 'ready'", timeout=60_000)
+    for mode in ("predicted", "de"):
+        assert page.locator(f'button.surface-mode[data-mode="{mode}"]').is_enabled()
+    page.locator("#show-plane").uncheck()  # the faces alone, no section drawn over them
+    # the page's scale is the picture's, as the server sent it
+    scale = page.evaluate("shellvoxSurface.view.scale")
+    assert [step["low"] for step in scale["steps"]] == list(DE_STEPS)
+    assert [step["srgb"] for step in scale["steps"]] == DE_RGB.tolist()
+    assert scale["no_prediction_srgb"] == list(NO_PREDICTION_RGB)
+    assert scale["hatch_srgb"] == list(HATCH_RGB)
+    period = scale["hatch_period_px"]
+    hatch = np.array(HATCH_RGB)
+
+    surface = served.overview.surface
+    triangles = surface.triangles_mm.astype(np.float64)
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    centres = triangles.mean(axis=1)
+    canvas = page.locator("#view3d")
+    shots = []
+    checked = {"predicted": 0, "in": 0, "out": 0, "shaded": 0, "steps": set()}
+    for view in ("top", "front", "default"):  # default: turned, most faces shaded
+        if view == "default":
+            canvas.dblclick()
+        else:
+            page.locator(f'button.surface-view[data-view="{view}"]').click()
+        box = canvas.bounding_box()
+        page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        page.mouse.wheel(0, -1100)  # 5 times closer: faces hold a window of pixels
+        # faces turned to the camera (unshaded) and turned partly away (shaded): lit by a
+        # light at the camera, each colour times 0.35 + 0.65 |cos| of the face's angle to it
+        azimuth, elevation = np.radians(
+            page.evaluate("[shellvoxSurface.view.azimuth, shellvoxSurface.view.elevation]")
+        )
+        towards = [
+            np.cos(elevation) * np.cos(azimuth),
+            np.cos(elevation) * np.sin(azimuth),
+            np.sin(elevation),
+        ]
+        facing = normals @ towards
+        faces = np.flatnonzero(facing > 0.5)
+        shade = 0.35 + 0.65 * np.abs(facing[faces])
+        for mode in ("predicted", "de"):
+            page.locator(f'button.surface-mode[data-mode="{mode}"]').click()
+            page.wait_for_function(
+                "([key]) => (document.body.dataset.surface || '').startsWith(key)",
+                arg=[f"{mode}:{view}:"],
+            )
+            page.evaluate(
+                "new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))"
+            )
+            path = artifacts / f"surface_{view}_{mode}.png"
+            page.screenshot(path=str(path))
+            shots.append(path)
+            legend = page.locator("#surface-legend").inner_text()
+            optics = page.locator("#surface-optics")
+            assert optics.get_attribute("data-optics") == record["optics"]
+            assert f"{record['optics']} optics" in optics.inner_text()
+            pixels = np.asarray(Image.open(io.BytesIO(canvas.screenshot())).convert("RGB"))
+            pixels = pixels.astype(int)
+            points = np.concatenate([centres[faces], triangles[faces].reshape(-1, 3)])
+            screen = page.evaluate(
+                "(ps) => ps.map((p) => shellvoxSurface.project(p))", points.tolist()
+            )
+            screen = np.array([[p["x"] - box["x"], p["y"] - box["y"]] for p in screen])
+            centre_px, corner_px = screen[: len(faces)], screen[len(faces) :].reshape(-1, 3, 2)
+            # whole windows of pixels inside the face, the canvas, and clear of the overlays
+            keep = _clearance_px(corner_px) >= 6
+            keep &= np.all(
+                (centre_px >= 8) & (centre_px < [box["width"] - 8, box["height"] - 8]), 1
+            )
+            for overlay in ("#stage3d .toolbar", "#surface-legend"):
+                o = page.locator(overlay).bounding_box()
+                low = np.array([o["x"] - box["x"] - 8, o["y"] - box["y"] - 8])
+                high = low + np.array([o["width"], o["height"]]) + 16
+                keep &= ~np.all((centre_px >= low) & (centre_px <= high), axis=1)
+            truth = proof_reference(
+                folder / "proof.ply",
+                centres[faces[keep]],
+                normals[faces[keep]],
+                record["interpolation"],
+            )
+            lit = shade[keep][:, None]
+            window = _window(pixels, centre_px[keep])  # (n, 3, 9, 3)
+            if mode == "predicted":
+                assert "predicted from the voxels" in legend
+                srgb = lab_to_srgb8(truth["predicted_lab"], truth["white_xy"])
+                expected = srgb * lit
+                error = np.abs(window - expected[:, None, None]).max(axis=(1, 2, 3))
+                assert np.mean(error <= 4) >= 0.95, (view, np.sort(error)[-10:])
+                # the predicted colour is not the model's: the mode shows something else
+                differs = np.abs(srgb - surface.srgb[faces[keep]]).max(axis=1) > 12
+                assert differs.mean() > 0.3, (view, differs.mean())
+                checked["predicted"] += int(keep.sum())
+                continue
+            assert "out of gamut" in legend and "CIEDE2000" in legend
+            de = truth["total_de"]
+            out = truth["gamut_de"] > record["in_gamut_de"]
+            step = _de_step(np.nan_to_num(de))
+            unlit = np.where(np.isnan(de)[:, None], NO_PREDICTION_RGB, DE_RGB[step])
+            expected = unlit * lit
+            # each pixel a mix of the step's colour (lit) and the hatching's (unlit; a line
+            # can fall across pixels of the screenshot): its share of the hatching's colour
+            mixed, share = _mix(window, expected[:, None, None], hatch)  # (n, 3, 9)
+            hatched = share.mean(axis=(1, 2))
+            # in gamut: the step's colour throughout; out: hatched as the picture, one pixel
+            # of every `period` along each row
+            good = np.all(mixed, axis=(1, 2)) & np.where(
+                out, np.abs(hatched - 1 / period) <= 0.08, hatched <= 0.02
+            )
+            good |= _near_a_bound(de)
+            for kind in (out, ~out):  # the counts of each are checked below
+                assert np.all(good[kind]) or np.mean(good[kind]) >= 0.95, (view, hatched[kind])
+            # and back: the pixels clear of the hatching, read on the picture's steps (lit
+            # as the face), give the stored ΔE's step
+            clear = share < 0.02
+            colours = DE_RGB[None].astype(float) * lit[:, :, None]  # (n, 6, 3)
+            known = ~np.isnan(de) & clear.any(axis=(1, 2))
+            first = np.argmax(clear.reshape(len(de), -1), axis=1)
+            pixel = window.reshape(len(de), -1, 3)[np.arange(len(de)), first]
+            read = np.argmin(np.abs(pixel[:, None] - colours).sum(axis=-1), axis=1)
+            right = (read == step) | (_near_a_bound(de) & (np.abs(read - step) <= 1))
+            assert np.all(right[known]) or np.mean(right[known]) >= 0.95, (
+                view,
+                np.column_stack([de, read, step])[known & ~right][:10],
+            )
+            print(f"{view}: {(~out).sum()} faces in gamut, {out.sum()} out")
+            checked["in"] += int((~out).sum())
+            checked["out"] += int(out.sum())
+            checked["shaded"] += int(np.sum(shade[keep] < 0.95))
+            checked["steps"].update(step[known & right].tolist())
+
+    # the legend: the picture's six steps, with its labels and colours, no prediction's
+    # grey and the hatching's swatch drawn by the picture's rule
+    labels = page.locator("#de-scale .step").all_inner_texts()
+    assert [label.strip() for label in labels] == ["0-1", "1-2", "2-3", "3-5", "5-10", ">= 10"]
+    swatches = page.evaluate(
+        "[...document.querySelectorAll('#de-scale .step .swatch, #de-none .swatch')]"
+        ".map((e) => getComputedStyle(e).backgroundColor)"
+    )
+    rgb = [*DE_RGB.tolist(), list(NO_PREDICTION_RGB)]
+    assert swatches == [f"rgb({r}, {g}, {b})" for r, g, b in rgb]
+    hatch_swatch = np.array(
+        page.evaluate(
+            "(() => { const c = document.querySelector('#de-hatched canvas');"
+            " return [...c.getContext('2d').getImageData(0, 0, c.width, c.height).data]; })()"
+        )
+    ).reshape(12, 12, 4)[..., :3]
+    rows, columns = np.indices((12, 12))
+    lines = (rows + columns) % period == 0
+    assert (hatch_swatch[lines] == HATCH_RGB).all() and (hatch_swatch[~lines] == DE_RGB[0]).all()
+    assert "out of gamut" in page.locator("#de-hatched").inner_text()
+    assert checked["predicted"] >= 60 and checked["in"] >= 20 and checked["out"] >= 20, checked
+    assert checked["shaded"] >= 20 and len(checked["steps"]) >= 3, checked
+
+    # a build without a soft proof: the two modes stay off, and say why
+    without = tmp_path / "without"
+    shutil.copytree(folder, without)
+    manifest = json.loads((without / "manifest.json").read_text())
+    del manifest["files"]["proof.ply"], manifest["proof"]
+    (without / "manifest.json").write_text(json.dumps(manifest))
+    (without / "proof.ply").unlink()
+    with serving(without) as other:
+        page.goto(other.url)
+        page.wait_for_function("document.body.dataset.proof === 'none'", timeout=60_000)
+        for mode in ("predicted", "de"):
+            button = page.locator(f'button.surface-mode[data-mode="{mode}"]')
+            assert button.is_disabled()
+            assert "proof.ply" in button.get_attribute("title")
+        assert "no soft proof" in page.locator("#surface-status").inner_text()
+        path = artifacts / "surface_no_proof.png"
+        page.screenshot(path=str(path))
+        shots.append(path)
     for path in shots:
         print(f"screenshot: {path}")

@@ -14,10 +14,11 @@ Each ray steps inward one smallest voxel size ``h`` at a time, the steps at dept
 keeps the steps off the boundaries between voxels on faces that lie on a plane of voxel
 centres or of voxel faces (the axis-aligned faces of a model whose grid starts a whole
 number of voxels from them): steps at half-steps would fall on those boundaries, where
-rounding picks either voxel, reading some layers twice and others not at all. A slab of rows ``z0 .. z1 - 1`` visits only the
-steps that can fall in those rows (bounded from the ray's z), and a step counts only
-where its voxel's row is in the slab: every step is counted once, however the rows are
-cut into slabs.
+rounding picks either voxel, reading some layers twice and others not at all.
+
+A slab of rows ``z0 .. z1 - 1`` visits only the steps that can fall in those rows
+(bounded from the ray's z), and a step counts only where its voxel's row is in the slab:
+every step is counted once, however the rows are cut into slabs.
 
 Caller: :class:`shellvox.voxel.colour._model_report.ModelReport`. Nothing here checks its input.
 """

@@ -42,6 +42,7 @@ from shellvox.voxel.io._preview import (
 from shellvox.voxel.io._proof_picture import (
     DE_RGB,
     DE_STEPS,
+    HATCH_PERIOD,
     HATCH_RGB,
     NO_PREDICTION_RGB,
     PANELS,
@@ -61,6 +62,7 @@ __all__ = [
     "DE_RGB",
     "DE_STEPS",
     "FADE",
+    "HATCH_PERIOD",
     "HATCH_RGB",
     "NO_PREDICTION_RGB",
     "OUTSIDE_RGB",

@@ -1,9 +1,16 @@
 // shellvox view: the model's surface in 3D (WebGL 2, no libraries), beside the slices.
 //
 // The server sends the surface once (/api/surface): each face's corners (mm), colour
-// (sRGB, from colour.tif under the face) and colour-layer depth (mm). Faces are drawn
-// flat, lit by a light at the camera (a face turned to the camera shows its colour
-// exactly), coloured by the model's colour or by the depth on the slices' colour ramp.
+// (sRGB, from colour.tif under the face) and colour-layer depth (mm); then, when the build
+// has a soft proof (proof.ply), each face's predicted printed colour (sRGB), CIEDE2000
+// error against the model's colour and gamut error (/api/proof, in the same face order).
+// Faces are drawn flat, lit by a light at the camera (a face turned to the camera shows
+// its colour exactly), coloured by one of four modes: "colour" (the model's), "depth"
+// (on the slices' colour ramp), "predicted" (the soft proof) and "de" (the error in the
+// steps of the soft-proof picture, preview/soft_proof.png, hatched as it is over faces
+// whose target is out of gamut). The error's scale is not written here: /api/build sends
+// it (its "de_scale", from shellvox.voxel.io's DE_STEPS, DE_RGB, NO_PREDICTION_RGB,
+// HATCH_RGB and HATCH_PERIOD).
 // The current section (from viewer.js, event "shellvox:section") is drawn as a
 // translucent plane over the grid, and where it cuts the surface as a line.
 "use strict";
@@ -18,6 +25,10 @@
   const FOV = (30 * Math.PI) / 180;
   const CUT_RGB = [0.93, 0.0, 0.36];
   const PLANE_RGBA = [0.17, 0.36, 0.61, 0.22];
+  const MODES = { colour: 0, depth: 1, predicted: 2, de: 3 };
+  const PROOF_MODES = ["predicted", "de"];
+  // the predicted colour where the proof has none (the server's grey, lit as the others)
+  const NONE_RGB = [160, 160, 160];
   // views along the axes: azimuth and elevation (degrees) of the camera around the model
   const VIEWS = {
     top: [-90, 90], bottom: [-90, -90], front: [-90, 0], back: [90, 0],
@@ -25,7 +36,7 @@
   };
 
   const view = {
-    gl: null, surface: null, section: null, mode: "colour", name: "default",
+    gl: null, surface: null, proof: null, scale: null, section: null, mode: "colour", name: "default",
     azimuth: VIEWS.default[0], elevation: VIEWS.default[1], distance: 1, fit: 1,
     centre: [0, 0, 0], showPlane: true, pending: false, matrix: null,
   };
@@ -90,15 +101,26 @@
   }
 
   // ---- shaders ----
+  // aDe and aGamut are -1 where the proof has no value
   const SURFACE_VS = `#version 300 es
-    in vec3 aPos; in vec3 aColour; in float aDepth;
+    in vec3 aPos; in vec3 aColour; in float aDepth; in vec3 aPredicted; in float aDe; in float aGamut;
     uniform mat4 uMatrix;
     out vec3 vPos; flat out vec3 vColour; flat out float vDepth;
-    void main() { vPos = aPos; vColour = aColour; vDepth = aDepth; gl_Position = uMatrix * vec4(aPos, 1.0); }`;
-  const SURFACE_FS = `#version 300 es
+    flat out vec3 vPredicted; flat out float vDe; flat out float vGamut;
+    void main() {
+      vPos = aPos; vColour = aColour; vDepth = aDepth;
+      vPredicted = aPredicted; vDe = aDe; vGamut = aGamut;
+      gl_Position = uMatrix * vec4(aPos, 1.0);
+    }`;
+  // `steps`: the number of the error's steps (the scale's uDeLow and uDeRgb)
+  const surfaceFs = (steps) => `#version 300 es
     precision highp float;
     in vec3 vPos; flat in vec3 vColour; flat in float vDepth;
+    flat in vec3 vPredicted; flat in float vDe; flat in float vGamut;
     uniform int uMode; uniform float uDepthMax; uniform vec3 uRamp[5]; uniform vec3 uToCamera;
+    uniform float uDeLow[${steps}]; uniform vec3 uDeRgb[${steps}];
+    uniform float uInGamut; uniform vec3 uHatch; uniform vec3 uNoPrediction;
+    uniform float uHatchPeriod; uniform float uHeight;
     uniform int uAxis; uniform float uPlane; uniform int uCut; uniform vec3 uCutColour;
     out vec4 outColour;
     vec3 ramp(float t) {
@@ -106,10 +128,27 @@
       int i = min(3, int(floor(x)));
       return mix(uRamp[i], uRamp[i + 1], x - float(i));
     }
+    // the last step whose lower bound is at most de (the first below its own)
+    vec3 deColour(float de) {
+      if (de < 0.0) return uNoPrediction;
+      vec3 c = uDeRgb[0];
+      for (int i = 1; i < ${steps}; i++) {
+        if (de >= uDeLow[i]) c = uDeRgb[i];
+      }
+      return c;
+    }
     void main() {
       vec3 n = normalize(cross(dFdx(vPos), dFdy(vPos)));
       float shade = 0.35 + 0.65 * abs(dot(n, uToCamera));
-      vec3 c = (uMode == 0 ? vColour : ramp(vDepth / uDepthMax)) * shade;
+      vec3 base = uMode == 0 ? vColour
+        : uMode == 1 ? ramp(vDepth / uDepthMax)
+        : uMode == 2 ? vPredicted
+        : deColour(vDe);
+      vec3 c = base * shade;
+      // the picture's hatching: screen row + column (rows from the top) a multiple of the period
+      float row = uHeight - 1.0 - floor(gl_FragCoord.y);
+      bool line = mod(floor(gl_FragCoord.x) + row, uHatchPeriod) < 0.5;
+      if (uMode == 3 && vGamut > uInGamut && line) c = uHatch;
       float p = vPos[uAxis];
       if (uCut == 1 && abs(p - uPlane) < 1.25 * max(fwidth(p), 1e-6)) c = uCutColour;
       outColour = vec4(c, 1.0);
@@ -137,8 +176,11 @@
       const name = gl.getActiveUniform(p, i).name.replace(/\[0\]$/, "");
       uniforms[name] = gl.getUniformLocation(p, name);
     }
-    return { p, uniforms, aPos: gl.getAttribLocation(p, "aPos"),
-      aColour: gl.getAttribLocation(p, "aColour"), aDepth: gl.getAttribLocation(p, "aDepth") };
+    const attributes = {};
+    for (const name of ["aPos", "aColour", "aDepth", "aPredicted", "aDe", "aGamut"]) {
+      attributes[name] = gl.getAttribLocation(p, name);
+    }
+    return { p, uniforms, ...attributes };
   }
 
   function buffer(gl, data, location, size, type, normalized) {
@@ -152,6 +194,8 @@
 
   // ---- loading the surface ----
   async function load() {
+    view.build = await (await fetch("/api/build")).json();
+    view.scale = view.build.de_scale;
     const response = await fetch("/api/surface");
     if (response.status === 404) {
       status.textContent = await response.text();
@@ -187,7 +231,7 @@
       }
     }
     const gl = view.gl;
-    view.surfaceProgram = program(gl, SURFACE_VS, SURFACE_FS);
+    view.surfaceProgram = program(gl, SURFACE_VS, surfaceFs(view.scale.steps.length));
     view.planeProgram = program(gl, PLANE_VS, PLANE_FS);
     const sp = view.surfaceProgram;
     view.surfaceVao = gl.createVertexArray();
@@ -205,6 +249,62 @@
     if (faces < source) shown += ` (thickness.ply's ${source} decimated)`;
     if (faces > source) shown += ` (thickness.ply's ${source} split to show the colour)`;
     status.textContent = shown;
+    view.surfaceShown = shown;
+    showLegend();
+    requestRender();
+  }
+
+  function proofButtons() {
+    return PROOF_MODES.map((mode) => document.querySelector(`button.surface-mode[data-mode="${mode}"]`));
+  }
+
+  // the soft proof at the faces, once the surface is there; without it the modes stay off
+  async function loadProof() {
+    const response = view.build.proof ? await fetch("/api/proof") : null;
+    if (!response || !response.ok) {
+      const none = !response || response.status === 404;
+      const why = none
+        ? "this build has no soft proof (proof.ply, made by builds with materials and a colour report)"
+        : (await response.text()).trim();
+      for (const b of proofButtons()) b.title = why;
+      status.textContent = `${view.surfaceShown}; ${none
+        ? "no soft proof (proof.ply) in this build: no predicted or ΔE view"
+        : `soft proof: ${why}`}`;
+      body.dataset.proof = none ? "none" : "error";
+      return;
+    }
+    const faces = Number(response.headers.get("X-Faces"));
+    if (faces !== view.surface.faces) throw new Error(`soft proof of ${faces} faces, surface of ${view.surface.faces}`);
+    const optics = response.headers.get("X-Optics");
+    const inGamut = Number(response.headers.get("X-In-Gamut-DE"));
+    const data = await response.arrayBuffer();
+    const de = new Float32Array(data, 0, faces);
+    const gamut = new Float32Array(data, faces * 4, faces);
+    const predicted = new Uint8Array(data, faces * 8, faces * 3);
+    const vertexPredicted = new Uint8Array(faces * 9);
+    const vertexDe = new Float32Array(faces * 3);
+    const vertexGamut = new Float32Array(faces * 3);
+    for (let f = 0; f < faces; f++) {
+      for (let k = 0; k < 3; k++) {
+        vertexDe[3 * f + k] = Number.isNaN(de[f]) ? -1 : de[f];
+        vertexGamut[3 * f + k] = Number.isNaN(gamut[f]) ? -1 : gamut[f];
+        for (let c = 0; c < 3; c++) vertexPredicted[9 * f + 3 * k + c] = predicted[3 * f + c];
+      }
+    }
+    const gl = view.gl;
+    const sp = view.surfaceProgram;
+    gl.bindVertexArray(view.surfaceVao);
+    buffer(gl, vertexPredicted, sp.aPredicted, 3, gl.UNSIGNED_BYTE, true);
+    buffer(gl, vertexDe, sp.aDe, 1, gl.FLOAT, false);
+    buffer(gl, vertexGamut, sp.aGamut, 1, gl.FLOAT, false);
+    gl.bindVertexArray(null);
+    view.proof = { optics, inGamut };
+    const note = optics === "measured" ? "measured optics" : "assumed optics";
+    for (const b of proofButtons()) {
+      b.disabled = false;
+      b.title = `${b.dataset.title} (soft proof, ${note})`;
+    }
+    body.dataset.proof = "ready";
     showLegend();
     requestRender();
   }
@@ -259,10 +359,19 @@
     gl.depthMask(true);
     gl.useProgram(sp.p);
     gl.uniformMatrix4fv(sp.uniforms.uMatrix, false, matrix);
-    gl.uniform1i(sp.uniforms.uMode, view.mode === "colour" ? 0 : 1);
+    gl.uniform1i(sp.uniforms.uMode, MODES[view.mode]);
     gl.uniform1f(sp.uniforms.uDepthMax, view.surface.depthMax);
     gl.uniform3fv(sp.uniforms.uRamp, new Float32Array(window.shellvoxView.RAMP.flat().map((c) => c / 255)));
     gl.uniform3fv(sp.uniforms.uToCamera, new Float32Array(toCamera));
+    const scale = view.scale;
+    const unitRgb = (rgb) => rgb.map((c) => c / 255);
+    gl.uniform1fv(sp.uniforms.uDeLow, new Float32Array(scale.steps.map((step) => step.low)));
+    gl.uniform3fv(sp.uniforms.uDeRgb, new Float32Array(scale.steps.flatMap((step) => unitRgb(step.srgb))));
+    gl.uniform1f(sp.uniforms.uInGamut, view.proof ? view.proof.inGamut : 1);
+    gl.uniform3fv(sp.uniforms.uHatch, new Float32Array(unitRgb(scale.hatch_srgb)));
+    gl.uniform3fv(sp.uniforms.uNoPrediction, new Float32Array(unitRgb(scale.no_prediction_srgb)));
+    gl.uniform1f(sp.uniforms.uHatchPeriod, scale.hatch_period_px);
+    gl.uniform1f(sp.uniforms.uHeight, h);
     gl.uniform1i(sp.uniforms.uAxis, plane ? plane.axis : 0);
     gl.uniform1f(sp.uniforms.uPlane, plane ? plane.at : 0);
     gl.uniform1i(sp.uniforms.uCut, plane && view.showPlane ? 1 : 0);
@@ -290,29 +399,96 @@
     body.dataset.surface = `${view.mode}:${view.name}:${s ? `${s.axis}:${s.index}` : "-"}`;
   }
 
-  function showLegend() {
-    const legend = document.getElementById("surface-legend");
-    legend.replaceChildren();
-    if (view.mode !== "depth" || !view.surface) return;
+  // a colour bar: `stops` (sRGB) evenly along it, linearly between them
+  function colourBar(stops) {
     const bar = document.createElement("canvas");
     bar.width = 200;
     bar.height = 1;
     const g = bar.getContext("2d");
-    const ramp = window.shellvoxView.RAMP;
     for (let i = 0; i < 200; i++) {
-      const x = (i / 199) * (ramp.length - 1);
-      const k = Math.min(ramp.length - 2, Math.floor(x));
-      const rgb = ramp[k].map((c, j) => Math.round(c + (ramp[k + 1][j] - c) * (x - k)));
+      const x = (i / 199) * (stops.length - 1);
+      const k = Math.min(stops.length - 2, Math.floor(x));
+      const rgb = stops[k].map((c, j) => Math.round(c + (stops[k + 1][j] - c) * (x - k)));
       g.fillStyle = `rgb(${rgb.join(",")})`;
       g.fillRect(i, 0, 1, 1);
     }
-    const scale = document.createElement("div");
-    scale.className = "scale";
-    scale.innerHTML = `<span>0 mm</span><span>${view.surface.depthMax.toFixed(2)} mm</span>`;
-    legend.append(document.createTextNode("colour-layer depth of each face"), bar, scale);
+    return bar;
+  }
+
+  function legendRow(swatchStyle, text) {
+    const row = document.createElement("div");
+    const swatch = document.createElement("span");
+    swatch.className = "swatch";
+    swatch.style.background = swatchStyle;
+    row.append(swatch, document.createTextNode(text));
+    return row;
+  }
+
+  // the hatching's swatch, as the picture's legend draws it: the first step's colour with
+  // the hatching's lines over it, pixel for pixel
+  function hatchSwatch() {
+    const scale = view.scale;
+    const swatch = document.createElement("canvas");
+    swatch.className = "swatch";
+    swatch.width = 12;
+    swatch.height = 12;
+    const g = swatch.getContext("2d");
+    g.fillStyle = `rgb(${scale.steps[0].srgb.join(",")})`;
+    g.fillRect(0, 0, 12, 12);
+    g.fillStyle = `rgb(${scale.hatch_srgb.join(",")})`;
+    for (let r = 0; r < 12; r++) {
+      for (let c = 0; c < 12; c++) if ((r + c) % scale.hatch_period_px === 0) g.fillRect(c, r, 1, 1);
+    }
+    return swatch;
+  }
+
+  function opticsNote() {
+    const note = document.createElement("div");
+    note.id = "surface-optics";
+    note.dataset.optics = view.proof.optics;
+    note.className = "note";
+    note.textContent = view.proof.optics === "measured"
+      ? "Predicted with measured optics (a calibrated profile)."
+      : "Predicted with assumed optics (the profile's defaults) until a measured colour chart calibrates them.";
+    return note;
+  }
+
+  function showLegend() {
+    const legend = document.getElementById("surface-legend");
+    legend.replaceChildren();
+    if (!view.surface) return;
+    const rgb = (c) => `rgb(${c.join(",")})`;
+    if (view.mode === "depth") {
+      const scale = document.createElement("div");
+      scale.className = "scale";
+      scale.innerHTML = `<span>0 mm</span><span>${view.surface.depthMax.toFixed(2)} mm</span>`;
+      legend.append(document.createTextNode("colour-layer depth of each face"),
+        colourBar(window.shellvoxView.RAMP), scale);
+    } else if (view.mode === "predicted" && view.proof) {
+      legend.append(document.createTextNode("printed colour predicted from the voxels (soft proof)"),
+        legendRow(rgb(NONE_RGB), "no prediction"), opticsNote());
+    } else if (view.mode === "de" && view.proof) {
+      const steps = document.createElement("div");
+      steps.id = "de-scale";
+      for (const step of view.scale.steps) {
+        const row = legendRow(rgb(step.srgb), step.label);
+        row.className = "step";
+        steps.append(row);
+      }
+      const hatched = document.createElement("div");
+      hatched.id = "de-hatched";
+      hatched.append(hatchSwatch(),
+        document.createTextNode(`hatched: target out of gamut (gamut ΔE > ${view.proof.inGamut})`));
+      const none = legendRow(rgb(view.scale.no_prediction_srgb), "no prediction");
+      none.id = "de-none";
+      legend.append(
+        document.createTextNode("ΔE (CIEDE2000), predicted against the model's colour"),
+        steps, hatched, none, opticsNote());
+    }
   }
 
   function setMode(mode) {
+    if (!(mode in MODES) || (PROOF_MODES.includes(mode) && !view.proof)) return;
     view.mode = mode;
     for (const b of document.querySelectorAll("button.surface-mode")) b.classList.toggle("active", b.dataset.mode === mode);
     showLegend();
@@ -357,7 +533,7 @@
 
   // for scripts and tests: the view, and the client position of a point (mm)
   window.shellvoxSurface = {
-    view, setView, setMode,
+    view, setView, setMode, NONE_RGB,
     project(point) {
       const p = sub(point, view.centre);
       const m = view.matrix;
@@ -376,12 +552,28 @@
   if (!view.gl) {
     status.textContent = "this browser has no WebGL 2: no 3D view";
     body.dataset.surface = "none";
+    body.dataset.proof = "none";
     return;
   }
   body.dataset.surface = "loading";
-  load().catch((error) => {
-    status.textContent = `surface: ${error.message || error}`;
-    status.classList.add("error");
-    body.dataset.surface = "error";
-  });
+  body.dataset.proof = "loading";
+  load().then(
+    () => {
+      if (!view.surface) {
+        body.dataset.proof = "none";
+        return undefined;
+      }
+      return loadProof().catch((error) => {
+        status.textContent = `${view.surfaceShown}; soft proof: ${error.message || error}`;
+        status.classList.add("error");
+        body.dataset.proof = "error";
+      });
+    },
+    (error) => {
+      status.textContent = `surface: ${error.message || error}`;
+      status.classList.add("error");
+      body.dataset.surface = "error";
+      body.dataset.proof = "none";
+    },
+  );
 })();
