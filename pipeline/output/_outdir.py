@@ -48,6 +48,7 @@ BUILD_OUTPUTS = (
     "volume.vdb",
     "job.gcvf",
     "thickness.ply",
+    "proof.ply",
     "thickness.png",
     "report.json",
     "shells/shell_*.ply",

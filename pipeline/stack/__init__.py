@@ -14,6 +14,7 @@ from shellvox.stack._estimate import (
     BuildEstimate,
     check_resources,
     estimate_build,
+    report_sample_count,
     resource_shortfall,
     store_buffer_rows,
 )
@@ -31,6 +32,7 @@ __all__ = [
     "estimate_build",
     "grid_for",
     "report_line",
+    "report_sample_count",
     "resource_shortfall",
     "run_job",
     "settle_running",

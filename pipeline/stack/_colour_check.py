@@ -30,7 +30,6 @@ about 12 of them at the default density.
 
 from __future__ import annotations
 
-import math
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, NamedTuple
 
@@ -39,11 +38,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import BuildConfig
-from shellvox.model import ColouredMesh
+from shellvox.model import ColouredMesh, face_areas
 from shellvox.printer import PrinterProfile, layer_model
+from shellvox.stack._estimate import REPORT_GATHER_BYTES, report_sample_count
 from shellvox.stack._plan import BuildPlan
 from shellvox.voxel.colour import (
-    PROOF_MAX_SAMPLES,
     LayerModel,
     MaterialPlan,
     ModelReport,
@@ -65,7 +64,7 @@ from shellvox.voxel.geometry import SurfaceIndex, nearest_on_surface
 #: CIEDE2000 from the gamut within which a target counts as in gamut.
 IN_GAMUT_DE = 1.0
 #: Material voxels gathered before the report counts them (bytes, one per voxel).
-GATHER_BYTES = 128 << 20
+GATHER_BYTES = REPORT_GATHER_BYTES
 
 #: A sample lies inside a colour region when the mean CIELAB of the surface colour at
 #: :data:`RING_POINTS` points around it, its lateral reach (the report's disc) and this
@@ -129,7 +128,8 @@ class ColourCheck:
 
     def _make_report(self) -> _Columns:
         mesh, config = self.mesh, self.config
-        count = sample_count(mesh, config.report_samples, config.proof_density)
+        area = float(face_areas(mesh.vertices, mesh.faces).sum())
+        count = report_sample_count(area, config.report_samples, config.proof_density)
         samples = sample_surface(mesh.vertices, mesh.faces, mesh.colour_at, count, seed=0)
         backing = [
             float(np.median(row))
@@ -186,7 +186,7 @@ class ColourCheck:
         white = observer(self.profile.optics.wavelengths_nm).white_xy
         target = srgb_to_lab_d50(samples.target_rgba[:, :3] / 255.0, white)
         errors = report.errors(aim, target)
-        area = surface_area(self.mesh)
+        area = float(face_areas(self.mesh.vertices, self.mesh.faces).sum())
         self._proof = SoftProof(
             points_mm=samples.points,
             normals=samples.normals,
@@ -230,20 +230,6 @@ class ColourCheck:
         if self._proof is None:
             raise RuntimeError("ColourCheck.proof() is known once result() has run")
         return self._proof
-
-
-def sample_count(mesh: ColouredMesh, report_samples: int, proof_density: float) -> int:
-    """Return how many surface samples the report and the proof take (see the module)."""
-    area = surface_area(mesh)
-    wanted = min(math.ceil(proof_density * area), PROOF_MAX_SAMPLES)
-    return max(report_samples, wanted) if report_samples > 0 else 0
-
-
-def surface_area(mesh: ColouredMesh) -> float:
-    """Return the area of the model's surface, mm^2."""
-    corners = mesh.vertices[mesh.faces]
-    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    return 0.5 * float(np.linalg.norm(cross, axis=1).sum())
 
 
 def uniform_surroundings(

@@ -21,6 +21,7 @@ from pathlib import Path
 from shellvox.errors import ResourceError
 from shellvox.offset import METHODS
 from shellvox.run import EXTRA_SLOTS
+from shellvox.voxel.colour import PROOF_MAX_SAMPLES
 from shellvox.voxel.io import SHARD_ROWS, encoded_by_slabs
 
 #: Working bytes per voxel of a slab in its worker: the inside test and its crossings (3),
@@ -44,6 +45,11 @@ GRID_RANGE_FIX = "use a larger --voxel-size or a smaller --scale"
 
 #: Model bytes per face held by every process (vertices, faces, AABB tree, colours).
 BYTES_PER_FACE = 600
+#: Bytes per surface sample of the colour report while the slabs stream: its voxel
+#: counts (20 depth bins of 8 int64 per material index) and its disc, point and colours.
+REPORT_BYTES_PER_SAMPLE = 1_500
+#: Material slabs the colour report gathers before it counts them (bytes, one per voxel).
+REPORT_GATHER_BYTES = 128 << 20
 
 #: Time per voxel of the grid (inside test, layer pass, encoders) and per voxel of the
 #: surface band (nearest-face scan, colour), seconds on one core; fitted to the compiled
@@ -124,6 +130,7 @@ def estimate_build(
     shell_face_layers: int = 0,
     shell_method: str = "field",
     store_rows: int = 0,
+    report_samples: int = 0,
 ) -> BuildEstimate:
     """Estimate a build's cost from its grid and its models' surfaces.
 
@@ -150,6 +157,9 @@ def estimate_build(
     store_rows : int
         Rows of level 0 the OME-Zarr writer fills its shards with (0: none, or the slabs
         hold whole shards; :func:`store_buffer_rows`).
+    report_samples : int
+        Surface samples of the colour report and the soft proof (0: no report): their
+        voxel counts, and the material slabs gathered for them.
     """
     z, y, x = (int(n) for n in shape_zyx)
     voxels = z * y * x
@@ -161,6 +171,8 @@ def estimate_build(
         BYTES_PER_VOXEL * (workers + 1) + SLOT_BYTES_PER_VOXEL * slots
     ) + n_faces * BYTES_PER_FACE * (workers + 2)
     memory += min(store_rows, z) * y * x * STORE_BYTES_PER_VOXEL
+    if report_samples > 0:
+        memory += report_samples * REPORT_BYTES_PER_SAMPLE + REPORT_GATHER_BYTES
     disk = int(voxels * DISK_PER_VOXEL + band * DISK_PER_BAND_VOXEL)
     seconds = (voxels * SECONDS_PER_VOXEL + band * SECONDS_PER_BAND_VOXEL) / max(1, workers)
     shell_seconds = shell_face_layers * METHODS[shell_method].seconds_per_face_layer
@@ -282,3 +294,20 @@ def _duration(seconds: float) -> str:
     if seconds < 7200:
         return f"{seconds / 60:.0f} min"
     return f"{seconds / 3600:.1f} h"
+
+
+def report_sample_count(area_mm2: float, report_samples: int, proof_density: float) -> int:
+    """Return the surface samples of the colour report and the soft proof.
+
+    The larger of `report_samples` and `proof_density` (per mm^2) times the surface's
+    `area_mm2`, at most :data:`~shellvox.voxel.colour.PROOF_MAX_SAMPLES`; 0 when
+    `report_samples` is 0 (no report).
+
+    Examples
+    --------
+    >>> report_sample_count(1000.0, 20_000, 12.0), report_sample_count(1e6, 20_000, 12.0)
+    (20000, 250000)
+    """
+    if report_samples <= 0:
+        return 0
+    return max(report_samples, min(math.ceil(proof_density * area_mm2), PROOF_MAX_SAMPLES))

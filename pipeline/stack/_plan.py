@@ -24,6 +24,7 @@ from shellvox.stack._estimate import (
     BuildEstimate,
     check_resources,
     estimate_build,
+    report_sample_count,
     store_buffer_rows,
 )
 from shellvox.voxel.grid import GridRangeError, GridSpec
@@ -105,12 +106,13 @@ def plan_build(
     check_depth(mesh, depth, force=force, source=config.thickness_source)
     workers = resolve_workers(config.workers)
     rows = slab_rows_for(grid, config.slab_mb)
+    area = float(face_areas(mesh.vertices, mesh.faces).sum())
     estimate = estimate_build(
         grid.shape_zyx,
         grid.voxel_mm,
         bands=[
             (
-                float(face_areas(mesh.vertices, mesh.faces).sum()),
+                area,
                 max(float(depth.max()), config.sdf_half_width_mm),
             )
         ],
@@ -122,6 +124,11 @@ def plan_build(
         ),
         shell_method=config.shell_method,
         store_rows=store_buffer_rows(config.formats, rows),
+        report_samples=(
+            report_sample_count(area, config.report_samples, config.proof_density)
+            if config.material is not None
+            else 0
+        ),
     )
     check_resources(estimate, out_dir, force=force)
     return BuildPlan(grid, thickness, depth, rows, workers, estimate)

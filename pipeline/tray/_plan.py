@@ -30,6 +30,7 @@ from shellvox.stack import (
     BuildEstimate,
     check_resources,
     estimate_build,
+    report_sample_count,
     slab_rows_for,
     store_buffer_rows,
 )
@@ -246,6 +247,15 @@ def plan_tray(
         slab_rows=rows,
         workers=min(workers, -(-grid.shape_zyx[0] // rows)),
         store_rows=store_buffer_rows(config.formats, rows),
+        report_samples=(
+            report_sample_count(
+                sum(parts[i].area_mm2 for i in part_of),
+                config.report_samples,
+                config.proof_density,
+            )
+            if config.material is not None
+            else 0
+        ),
     )
     try:
         check_resources(estimate, out_dir, force=force)
