@@ -75,6 +75,8 @@ def inspect_build(folder: str | Path, *, previews: bool = True) -> Inspection:
 
         try:
             written = write_previews(root, manifest)
+        except InputError:
+            raise
         except (ValueError, OSError, KeyError, IndexError) as error:
             if isinstance(error, OSError) and not isinstance(error, FileNotFoundError):
                 raise

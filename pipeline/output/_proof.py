@@ -41,8 +41,9 @@ def write_proof_ply(path: str | Path, proof: SoftProof) -> None:
     for axis, name in enumerate("xyz"):
         rows[name] = proof.points_mm[:, axis]
         rows[f"n{name}"] = proof.normals[:, axis]
+    shown = proof.srgb("predicted")
     for channel, name in enumerate(("red", "green", "blue")):
-        rows[name] = proof.srgb("predicted")[:, channel]
+        rows[name] = shown[:, channel]
     for which in _LAB:
         lab = getattr(proof, f"{which}_lab")
         for channel, c in enumerate("Lab"):
@@ -86,13 +87,23 @@ def read_proof_ply(path: str | Path) -> SoftProof:
     )
     properties = [line.split()[-1] for line in lines if line.startswith("property ")]
     counts = [line.split()[-1] for line in lines if line.startswith("element vertex ")]
-    if properties != list(_NAMES) or len(counts) != 1 or "spacing_mm" not in comments:
-        raise ValueError("is not a shellvox proof.ply (its header differs)")
+    if properties != list(_NAMES) or len(counts) != 1:
+        raise ValueError("is not a shellvox proof.ply (its properties differ)")
+    missing = [key for key in ("spacing_mm", "white_xy", "optics") if key not in comments]
+    if missing:
+        raise ValueError(f"has no {', '.join(missing)} comment in its header")
     count = int(counts[0])
     body = data[end + len(b"end_header\n") :]
     if len(body) != count * _ROW.itemsize:
         raise ValueError(f"holds {len(body)} bytes of samples, {count * _ROW.itemsize} expected")
     rows = np.frombuffer(body, _ROW, count)
+    try:
+        spacing = float(comments["spacing_mm"])
+        white = np.array([float(v) for v in comments["white_xy"].split(",")])
+    except ValueError:
+        raise ValueError("has a malformed spacing_mm or white_xy comment") from None
+    if not (spacing > 0 and white.shape == (2,)):
+        raise ValueError("has a malformed spacing_mm or white_xy comment")
 
     def columns(*names: str) -> np.ndarray:
         return np.stack([rows[n].astype(np.float64) for n in names], axis=1)
@@ -106,7 +117,7 @@ def read_proof_ply(path: str | Path) -> SoftProof:
         total_de=rows["total_de"].astype(np.float64),
         gamut_de=rows["gamut_de"].astype(np.float64),
         reproduction_de=rows["reproduction_de"].astype(np.float64),
-        spacing_mm=float(comments["spacing_mm"]),
-        white_xy=np.array([float(v) for v in comments["white_xy"].split(",")]),
-        optics=comments.get("optics", "assumed"),
+        spacing_mm=spacing,
+        white_xy=white,
+        optics=comments["optics"],
     )

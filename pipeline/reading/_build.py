@@ -213,8 +213,9 @@ class Build:
         Raises
         ------
         InputError
-            The build has no soft proof (built without materials, or with
-            ``report_samples=0``).
+            The build has no soft proof (built without materials, with
+            ``report_samples=0``, or before shellvox wrote one), its ``proof.ply``
+            cannot be read, or the points or normals are not finite ``(M, 3)`` arrays.
 
         Examples
         --------
@@ -235,7 +236,7 @@ class Build:
             raise InputError(
                 self.folder,
                 "has no soft proof (proof.ply)",
-                "build with materials and report samples (the default printer settings)",
+                "rebuild it with materials and report samples (the defaults with --printer)",
             )
         try:
             proof = read_proof_ply(path)
@@ -243,9 +244,21 @@ class Build:
             raise InputError(path, f"cannot be read ({error})", "rebuild it") from None
         if points_mm is None:
             return proof
+        points = _finite_rows(points_mm, "points_mm", "(M, 3) points (x, y, z) in mm")
         if normals is None:
-            raise ValueError("give the points' normals (or a view direction) with points_mm")
-        return proof.at(points_mm, normals)
+            raise InputError(
+                "normals", "is missing", "give the points' normals, or one view direction"
+            )
+        directions = _finite_rows(normals, "normals", "(M, 3) normals or one (3,) direction")
+        if len(directions) not in (1, len(points)):
+            raise InputError(
+                "normals",
+                f"holds {len(directions)} rows for {len(points)} points",
+                "give one normal per point, or one direction",
+            )
+        if not (np.linalg.norm(directions, axis=1) > 0).all():
+            raise InputError("normals", "holds a zero vector", "give non-zero directions")
+        return proof.at(points, directions)
 
     @property
     def colour_planar(self) -> Any:
@@ -254,6 +267,21 @@ class Build:
         if planar is None:
             raise AttributeError("a build read from its TIFF stacks has no planar colour")
         return planar
+
+
+def _finite_rows(values: ArrayLike, name: str, fix: str) -> NDArray[np.float64]:
+    """Return `values` as finite ``(M, 3)`` float64 rows, or say in one line why not."""
+    try:
+        rows = np.asarray(values, np.float64)
+    except (TypeError, ValueError):
+        raise InputError(name, "is not an array of numbers", f"give {fix}") from None
+    if rows.ndim == 1:
+        rows = rows[None, :]
+    if rows.ndim != 2 or rows.shape[1] != 3:
+        raise InputError(name, f"has shape {np.shape(values)}", f"give {fix}")
+    if not np.isfinite(rows).all():
+        raise InputError(name, "holds NaN or infinite values", f"give {fix}")
+    return rows
 
 
 def _points(array: Any, index: tuple[NDArray[np.int64], ...]) -> NDArray[Any]:

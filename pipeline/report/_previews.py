@@ -12,6 +12,7 @@
 - ``halftone_z*.png``: with materials, the slice with the most colour voxels, target
   colour beside the halftoned materials.
 - ``soft_proof.png``: with the build's soft proof (``proof.ply``), the six outer views
+  (at :data:`PROOF_PIXELS_PER_MM` pixels per mm or more, within :data:`PROOF_MAX_PIXELS`)
   as targeted, as predicted from the voxels as written, and the CIEDE2000 between them
   (hatched where the target is out of gamut) and between the prediction and the
   separation's aim (:func:`shellvox.voxel.io.soft_proof_image`). Each pixel is the proof
@@ -35,6 +36,7 @@ from PIL import Image
 from PIL.PngImagePlugin import PngInfo
 
 from shellvox.atomic import atomic_path
+from shellvox.errors import InputError
 from shellvox.output import PROOF_FILE, read_proof_ply
 from shellvox.viewer import Axis, SectionCounts, TiffStack
 from shellvox.voxel.colour import IN_GAMUT_DE, SoftProof
@@ -48,8 +50,12 @@ from shellvox.voxel.io import (
     soft_proof_image,
 )
 
-#: The soft proof's views are drawn this many pixels across the model's largest side.
+#: The soft proof's views are drawn at least this many pixels across the model's largest
+#: side, at least :data:`PROOF_PIXELS_PER_MM` (a 1 mm patch is 4 pixels across), at most
+#: :data:`PROOF_MAX_PIXELS` (a view of a tray is then drawn coarser; the legend says so).
 PROOF_PIXELS = 200
+PROOF_PIXELS_PER_MM = 4.0
+PROOF_MAX_PIXELS = 1200
 
 
 def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
@@ -118,7 +124,12 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
         z = int(np.argmax(stats.counts.colour_voxels))
         written.append(_halftone_preview(folder, manifest, z))
     if manifest.get("proof") and PROOF_FILE in manifest["files"]:
-        proof = read_proof_ply(folder / PROOF_FILE)
+        try:
+            proof = read_proof_ply(folder / PROOF_FILE)
+        except ValueError as error:
+            raise InputError(
+                folder / PROOF_FILE, f"cannot be read ({error})", "rebuild with shellvox build"
+            ) from None
         image = _soft_proof(stats, manifest, proof)
         written.append(_save(image, preview / "soft_proof.png"))
     return written
@@ -253,7 +264,9 @@ def _soft_proof(stats: _Scan, manifest: dict[str, Any], proof: SoftProof) -> Ima
          (stats.left_x, y_cols, z_rows), (vy, vz), (-1, 0, 0), turned),
     ]  # fmt: skip
     largest_mm = max(n_x * vx, n_y * vy, n_z * vz)
-    pixels_per_mm = PROOF_PIXELS / largest_mm
+    pixels_per_mm = min(
+        max(PROOF_PIXELS / largest_mm, PROOF_PIXELS_PER_MM), PROOF_MAX_PIXELS / largest_mm
+    )
     drawn = []
     for label, rgb, hit, index, pixel_mm, towards, flip in views:
         height, width = hit.shape
@@ -275,10 +288,10 @@ def _soft_proof(stats: _Scan, manifest: dict[str, Any], proof: SoftProof) -> Ima
         outside[seen] = at.gamut_de > IN_GAMUT_DE
         target = rgb[flip][rows, cols]
         drawn.append(ProofView(label, seen, target, predicted, total, reproduction, outside))
-    return soft_proof_image(drawn, _proof_legend(manifest, proof))
+    return soft_proof_image(drawn, _proof_legend(manifest, proof, pixels_per_mm))
 
 
-def _proof_legend(manifest: dict[str, Any], proof: SoftProof) -> list[str]:
+def _proof_legend(manifest: dict[str, Any], proof: SoftProof, pixels_per_mm: float) -> list[str]:
     """Return the soft proof's legend: the model, its optics, the sampling, the errors."""
     if proof.optics == "assumed":
         optics = (
@@ -299,7 +312,8 @@ def _proof_legend(manifest: dict[str, Any], proof: SoftProof) -> list[str]:
         "written, under " + optics + ".",
         f"Sampling: {len(proof):,} surface samples, mean spacing {spacing:.2f} mm (about "
         f"{1.0 / spacing**2:.0f} in a 1 mm patch); each pixel: the samples within "
-        f"{3 * spacing:.2f} mm that face the viewer, weighted by 1 / distance^2.",
+        f"{3 * spacing:.2f} mm that face the viewer, weighted by 1 / distance^2; views "
+        f"drawn at {pixels_per_mm:.1f} pixels per mm.",
         "CIEDE2000 vs target is hatched where the target lies outside the gamut (its "
         f"separation's aim is more than {IN_GAMUT_DE:g} away): no printing reaches it there; "
         "vs aim is the halftone's, voxels' and depth's part.",

@@ -43,6 +43,7 @@ from shellvox.printer import PrinterProfile, layer_model
 from shellvox.stack._estimate import REPORT_GATHER_BYTES, report_sample_count
 from shellvox.stack._plan import BuildPlan
 from shellvox.voxel.colour import (
+    IN_GAMUT_DE,
     LayerModel,
     MaterialPlan,
     ModelReport,
@@ -61,8 +62,6 @@ from shellvox.voxel.colour import (
 )
 from shellvox.voxel.geometry import SurfaceIndex, nearest_on_surface
 
-#: CIEDE2000 from the gamut within which a target counts as in gamut.
-IN_GAMUT_DE = 1.0
 #: Material voxels gathered before the report counts them (bytes, one per voxel).
 GATHER_BYTES = REPORT_GATHER_BYTES
 

@@ -46,8 +46,9 @@ GRID_RANGE_FIX = "use a larger --voxel-size or a smaller --scale"
 #: Model bytes per face held by every process (vertices, faces, AABB tree, colours).
 BYTES_PER_FACE = 600
 #: Bytes per surface sample of the colour report while the slabs stream: its voxel
-#: counts (20 depth bins of 8 int64 per material index) and its disc, point and colours.
-REPORT_BYTES_PER_SAMPLE = 1_500
+#: counts (20 depth bins of 8 int32, one per material index, 640 B), its disc (160 B),
+#: its point, normal and colours and their predictions (about 200 B).
+REPORT_BYTES_PER_SAMPLE = 1_000
 #: Material slabs the colour report gathers before it counts them (bytes, one per voxel).
 REPORT_GATHER_BYTES = 128 << 20
 

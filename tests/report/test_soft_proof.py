@@ -17,6 +17,8 @@ inspected. The checks are independent of shellvox's own model code:
 from __future__ import annotations
 
 import json
+import shutil
+from dataclasses import replace
 
 import colour
 import numpy as np
@@ -26,7 +28,9 @@ import trimesh
 from PIL import Image
 
 import shellvox
-from shellvox.voxel.io import HATCH_RGB
+from shellvox.report._previews import _proof_legend
+from shellvox.voxel.colour import IN_GAMUT_DE
+from shellvox.voxel.io import HATCH_RGB, de_colours
 
 VOXEL_MM = 0.05
 HALF = 5.005  # half side, mm: the + faces lie between voxel centres, the - faces on them
@@ -44,13 +48,22 @@ PATCH_MM = 1.5
 DEPTH_MM = 2.0
 
 
+#: A dark 1 mm square on every side, centred MARKER_MM along both of the side's other axes.
+MARKER_RGB = (25, 25, 25)
+MARKER_MM = 3.0
+
+
 @pytest.fixture(scope="module")
 def box_build(tmp_path_factory):
     folder = tmp_path_factory.mktemp("soft_proof")
-    box = trimesh.creation.box(extents=(2 * HALF,) * 3)
+    box = trimesh.creation.box(extents=(2 * HALF,) * 3).subdivide_to_size(0.25)
     rgba = np.full((len(box.faces), 4), 255, np.uint8)
     for normal, srgb in SIDES.items():
         rgba[np.all(np.isclose(box.face_normals, normal), axis=1), :3] = srgb
+    across = np.abs(box.face_normals) < 0.5  # each face's two in-plane axes
+    centres = box.triangles_center
+    marker = np.all(np.where(across, np.abs(centres - MARKER_MM) <= 0.5, True), axis=1)
+    rgba[marker, :3] = MARKER_RGB
     box.visual.face_colors = rgba
     box.export(folder / "box.ply")
     options = shellvox.BuildOptions(
@@ -163,35 +176,98 @@ def test_out_of_gamut_side_shows_gamut_error_in_gamut_side_its_reproduction(box_
         boxes = json.loads(image.text["shellvox:panels"])
         from_plus_x = _panel(image, boxes, "right (from +x; y right, z up)", "total_de")
         from_minus_x = _panel(image, boxes, "left (from -x; y left, z up)", "total_de")
-        reproduction = _panel(image, boxes, "left (from -x; y left, z up)", "reproduction_de")
     hatched = np.all(from_plus_x == HATCH_RGB, axis=-1)
     drawn = np.any(from_plus_x != 255, axis=-1)
     assert hatched.sum() > 0.1 * drawn.sum()  # lines one pixel in six
-    assert not np.all(from_minus_x == HATCH_RGB, axis=-1).any()
-    assert np.array_equal(from_minus_x.shape, reproduction.shape)
+    height, width = from_minus_x.shape[:2]  # the side's middle (its corner has the marker)
+    middle = from_minus_x[height // 3 : 2 * height // 3, width // 3 : 2 * width // 3]
+    assert not np.all(middle == HATCH_RGB, axis=-1).any()
 
 
-def test_predicted_panel_shows_the_stored_prediction(box_build):
+#: Each view: the side it sees, and its panels' axes as its label states them (the axis
+#: that runs along the columns, whether it grows to the right; the axis that grows up).
+VIEWS = {
+    "top (from +z; x right, y up)": ((0, 0, 1), (0, True), 1),
+    "front (from -y; x right, z up)": ((0, -1, 0), (0, True), 2),
+    "right (from +x; y right, z up)": ((1, 0, 0), (1, True), 2),
+    "bottom (from -z; x left, y up)": ((0, 0, -1), (0, False), 1),
+    "back (from +y; x left, z up)": ((0, 1, 0), (0, False), 2),
+    "left (from -x; y left, z up)": ((-1, 0, 0), (1, False), 2),
+}
+
+
+def _pixel(manifest, box, point, columns, up):
+    """Row and column of a panel where the grid point ``(x, y, z)`` is drawn (its label)."""
+    grid = manifest["grid"]
+    counts = grid["shape_zyx"][::-1]
+
+    def fraction(axis):  # where the point lies across the grid's voxels, 0..1
+        origin, size = grid["origin_mm"][axis], grid["voxel_size_mm"][axis]
+        return ((point[axis] - origin) / size + 0.5) / counts[axis]
+
+    left, top, width, height = box
+    axis, grows_right = columns
+    column = int(fraction(axis) * width)
+    row = height - 1 - int(fraction(up) * height)
+    return top + row, left + (column if grows_right else width - 1 - column)
+
+
+def test_every_view_shows_its_side_where_its_label_says_with_its_1_mm_patch(box_build):
     folder, inspection = box_build
-    cloud = trimesh.load(folder / "proof.ply")  # its points' colours: the prediction
-    rows = cloud.metadata["_ply_raw"]["vertex"]["data"]
-    normals = np.stack([rows["nx"], rows["ny"], rows["nz"]], axis=1)
+    manifest = inspection.manifest
+    build = shellvox.open_build(folder)
     picture = next(p for p in inspection.previews if p.name == "soft_proof.png")
     with Image.open(picture) as image:
         boxes = json.loads(image.text["shellvox:panels"])
-        views = {
-            (-1, 0, 0): "left (from -x; y left, z up)",
-            (0, 0, 1): "top (from +z; x right, y up)",
-            (0, 1, 0): "back (from +y; x left, z up)",
-        }
-        for normal, view in views.items():
-            panel = _panel(image, boxes, view, "predicted")
-            height, width = panel.shape[:2]
-            middle = panel[height // 3 : 2 * height // 3, width // 3 : 2 * width // 3]
-            drawn = np.median(middle.reshape(-1, 3), axis=0)
-            chosen = _middle(np.asarray(cloud.vertices), normals, normal)
-            stored = np.median(np.asarray(cloud.colors)[chosen, :3], axis=0)
-            assert np.abs(drawn - stored).max() <= 3, (view, drawn, stored)
+        pixels = np.asarray(image.convert("RGB")).astype(int)
+    assert set(boxes) == set(VIEWS)
+    for view, (normal, columns, up) in VIEWS.items():
+        side = int(np.flatnonzero(normal)[0])
+        marker = np.full(3, MARKER_MM)
+        marker[side] = normal[side] * HALF
+        mirrored = marker.copy()
+        mirrored[columns[0]] = -MARKER_MM  # the same place mirrored across the columns
+        target_box, predicted_box = boxes[view]["target"], boxes[view]["predicted"]
+        at_marker = pixels[_pixel(manifest, target_box, marker, columns, up)]
+        at_mirror = pixels[_pixel(manifest, target_box, mirrored, columns, up)]
+        assert tuple(at_marker) == MARKER_RGB, view
+        assert tuple(at_mirror) == SIDES[normal], view
+        # the predicted print shows the dark 1 mm patch, as the stored proof has it there
+        shown = pixels[_pixel(manifest, predicted_box, marker, columns, up)]
+        beside = pixels[_pixel(manifest, predicted_box, mirrored, columns, up)]
+        expected = build.soft_proof([marker], normal).srgb("predicted")[0]
+        assert shown.mean() < beside.mean() - 25, (view, shown, beside)
+        assert np.abs(shown - expected).max() <= 12, (view, shown, expected)
+
+
+def test_the_error_panels_show_the_stored_errors(box_build):
+    folder, inspection = box_build
+    build = shellvox.open_build(folder)
+    picture = next(p for p in inspection.previews if p.name == "soft_proof.png")
+    with Image.open(picture) as image:
+        boxes = json.loads(image.text["shellvox:panels"])
+        pixels = np.asarray(image.convert("RGB"))
+    for view, (normal, columns, up) in VIEWS.items():
+        side = int(np.flatnonzero(normal)[0])
+        grid = np.linspace(-1.0, 1.0, 5)  # points around the side's middle, mm
+        points = np.zeros((25, 3))
+        others = [axis for axis in range(3) if axis != side]
+        points[:, others[0]], points[:, others[1]] = np.repeat(grid, 5), np.tile(grid, 5)
+        points[:, side] = normal[side] * HALF
+        stored = build.soft_proof(points, normal)
+        errors = {"total_de": stored.total_de, "reproduction_de": stored.reproduction_de}
+        for panel, values in errors.items():
+            expected = de_colours(values)
+            box = boxes[view][panel]
+            drawn = np.array(
+                [pixels[_pixel(inspection.manifest, box, p, columns, up)] for p in points]
+            )
+            if panel == "total_de":  # hatched pixels where the target is out of gamut
+                lines = np.all(drawn == HATCH_RGB, axis=1)
+                assert not lines.any() or (stored.gamut_de > IN_GAMUT_DE).all(), view
+                drawn, expected = drawn[~lines], expected[~lines]
+            same = np.all(drawn == expected, axis=1)
+            assert same.mean() >= 0.8, (view, panel, drawn, expected)
 
 
 def test_a_build_without_materials_has_no_proof(tmp_path):
@@ -202,3 +278,36 @@ def test_a_build_without_materials_has_no_proof(tmp_path):
     assert "proof" not in build.manifest
     with pytest.raises(shellvox.InputError, match="no soft proof"):
         build.soft_proof()
+
+
+def test_bad_points_or_a_damaged_proof_are_refused_in_one_line(box_build, tmp_path):
+    folder, _ = box_build
+    build = shellvox.open_build(folder)
+    centre = [[0.0, 0.0, HALF]]
+    for points, normals, said in (
+        ([[0.0, 0.0]], [0.0, 0.0, 1.0], "points_mm: has shape"),
+        ([[np.nan, 0.0, HALF]], [0.0, 0.0, 1.0], "points_mm: holds NaN"),
+        (centre, None, "normals: is missing"),
+        (centre, [[0.0, 0.0, 1.0]] * 2, "normals: holds 2 rows for 1 points"),
+        (centre, [0.0, 0.0, 0.0], "normals: holds a zero vector"),
+    ):
+        with pytest.raises(shellvox.InputError, match=said) as caught:
+            build.soft_proof(points, normals)
+        assert "\n" not in str(caught.value)
+    damaged = tmp_path / "build"
+    shutil.copytree(folder, damaged)
+    text = (damaged / "proof.ply").read_bytes().replace(b"comment white_xy", b"comment other")
+    (damaged / "proof.ply").write_bytes(text)
+    with pytest.raises(shellvox.InputError, match=r"proof\.ply: cannot be read .*white_xy"):
+        shellvox.open_build(damaged).soft_proof()
+
+
+def test_the_legend_names_measured_optics_and_the_drawing_scale(box_build):
+    folder, inspection = box_build
+    proof = shellvox.open_build(folder).soft_proof()
+    assumed = _proof_legend(inspection.manifest, proof, 5.0)
+    measured = _proof_legend(inspection.manifest, replace(proof, optics="measured"), 5.0)
+    assert "ASSUMED optics" in assumed[0] and "shellvox calibrate" in assumed[0]
+    assert "measured optics of printer profile j750" in measured[0]
+    assert "ASSUMED" not in " ".join(measured)
+    assert "5.0 pixels per mm" in assumed[1]

@@ -464,7 +464,9 @@ def test_predicted_and_delta_e_on_the_3d_surface_in_chromium(
                 normals[faces[keep]],
                 record["interpolation"],
             )
-            lit = shade[keep][:, None]
+            # the error's steps are lit lightly: 0.8 + 0.2 |cos|
+            lit = shade if mode == "predicted" else 0.8 + 0.2 * np.abs(facing[faces])
+            lit = lit[keep][:, None]
             window = _window(pixels, centre_px[keep])  # (n, 3, 9, 3)
             if mode == "predicted":
                 assert "predicted from the voxels" in legend

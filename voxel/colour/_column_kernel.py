@@ -14,7 +14,9 @@ Each ray steps inward one smallest voxel size ``h`` at a time, the steps at dept
 keeps the steps off the boundaries between voxels on faces that lie on a plane of voxel
 centres or of voxel faces (the axis-aligned faces of a model whose grid starts a whole
 number of voxels from them): steps at half-steps would fall on those boundaries, where
-rounding picks either voxel, reading some layers twice and others not at all.
+rounding picks either voxel, reading some layers twice and others not at all. (A face a
+quarter voxel off such a plane is the steps' worst case now; it needs a coordinate that
+no grid placement or model scale makes common.)
 
 A slab of rows ``z0 .. z1 - 1`` visits only the steps that can fall in those rows
 (bounded from the ray's z), and a step counts only where its voxel's row is in the slab:
@@ -128,7 +130,7 @@ def walk(
     b: float,
     z0: int,
     materials: NDArray[np.uint8],
-    counts: NDArray[np.int64],
+    counts: NDArray[np.int32],
 ) -> None:
     """Count the steps in rows ``z0 ..`` of disc `i`'s ray at ``(a, b)``."""
     n_z, n_y, n_x = materials.shape
@@ -164,7 +166,7 @@ def walk(
 
 @kernel
 def count_slab(
-    discs: Discs, z0: int, materials: NDArray[np.uint8], counts: NDArray[np.int64]
+    discs: Discs, z0: int, materials: NDArray[np.uint8], counts: NDArray[np.int32]
 ) -> None:
     """Add each ray step's material in rows ``z0 ..`` to ``counts[sample, bin, material]``."""
     z_low = discs.grid[2] + (z0 - 0.5) * discs.grid[5]

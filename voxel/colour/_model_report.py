@@ -182,11 +182,14 @@ class ModelReport:
         walk = np.array([self.step_mm, self.n_steps, self.bin_mm], np.float64)
         spacing = lattice_spacing(frame[:, 1:3], radius, np.asarray(grid.voxel_mm))
         self._discs = Discs(frame, radius, spacing, quadric, grid_values, walk)
-        self._counts = np.zeros((len(p), self.n_bins, self.n_materials), np.int64)
+        self._counts = np.zeros((len(p), self.n_bins, self.n_materials), np.int32)
 
     @property
-    def counts(self) -> NDArray[np.int64]:
-        """Voxels counted ``(N, bins, M + 1)`` per sample, depth bin and material index."""
+    def counts(self) -> NDArray[np.int32]:
+        """Voxels counted ``(N, bins, M + 1)`` per sample, depth bin and material index.
+
+        int32: a bin of a disc reads at most ``MAX_RAYS`` rays times a few steps.
+        """
         return self._counts
 
     def add_slab(self, z_start: int, materials: NDArray[np.uint8]) -> None:
@@ -212,7 +215,7 @@ class ModelReport:
         return lab
 
     def _stack_reflectance(
-        self, counts: NDArray[np.int64]
+        self, counts: NDArray[np.int32]
     ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """Return the stacks' reflectance ``(n, B)`` under their surface, and which saw any.
 

@@ -37,8 +37,8 @@ from shellvox.voxel.colour._kubelka_munk import lab_d50_to_srgb8
 #: Surface samples per mm^2 of the soft proof: a mean spacing of 0.29 mm, about 12
 #: samples in a 1 mm colour patch.
 PROOF_SAMPLES_PER_MM2 = 12.0
-#: At most this many proof samples (their voxel counts take about 1 kB each while the
-#: slabs stream); beyond it the spacing grows, as the manifest states.
+#: At most this many proof samples (about 1 kB each while the slabs stream, counted in
+#: the build's memory estimate); beyond it the spacing grows, as the manifest states.
 PROOF_MAX_SAMPLES = 250_000
 #: CIEDE2000 from the gamut within which a target counts as in gamut.
 IN_GAMUT_DE = 1.0
@@ -150,7 +150,8 @@ class SoftProof:
         -------
         SoftProof
             Values at the `M` points; NaN where no sample is near enough (farther than
-            ``REACH_SPACINGS * spacing_mm``, or none on the same side).
+            ``REACH_SPACINGS * spacing_mm``, or none on the same side). Its ``normals``
+            are the queries' (unit length; a view's direction repeated).
 
         Examples
         --------

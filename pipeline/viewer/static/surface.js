@@ -5,7 +5,7 @@
 // has a soft proof (proof.ply), each face's predicted printed colour (sRGB), CIEDE2000
 // error against the model's colour and gamut error (/api/proof, in the same face order).
 // Faces are drawn flat, lit by a light at the camera (a face turned to the camera shows
-// its colour exactly), coloured by one of four modes: "colour" (the model's), "depth"
+// its colour exactly; the error's steps only lightly, 0.8 to 1, to stay readable), coloured by one of four modes: "colour" (the model's), "depth"
 // (on the slices' colour ramp), "predicted" (the soft proof) and "de" (the error in the
 // steps of the soft-proof picture, preview/soft_proof.png, hatched as it is over faces
 // whose target is out of gamut). The error's scale is not written here: /api/build sends
@@ -139,7 +139,9 @@
     }
     void main() {
       vec3 n = normalize(cross(dFdx(vPos), dFdy(vPos)));
-      float shade = 0.35 + 0.65 * abs(dot(n, uToCamera));
+      // the error's steps are lit lightly (0.8 to 1), so a face still reads as its step
+      float lit = abs(dot(n, uToCamera));
+      float shade = uMode == 3 ? 0.8 + 0.2 * lit : 0.35 + 0.65 * lit;
       vec3 base = uMode == 0 ? vColour
         : uMode == 1 ? ramp(vDepth / uDepthMax)
         : uMode == 2 ? vPredicted
