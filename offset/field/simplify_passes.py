@@ -26,6 +26,10 @@ LOG = logging.getLogger(__name__)
 #: Tolerance of the tidy pass over a simplification, as a share of the first one's.
 TIDY = 0.25
 
+#: Rounds of putting back the jittered vertices of crossing triangles before the jitter is
+#: dropped (each round is one crossing check of all the shells).
+JITTER_REVERTS = 4
+
 
 class Locks(NamedTuple):
     """The unsimplified triangles locked per shell ((T,) bool) and the rounds that did it."""
@@ -77,22 +81,27 @@ def _jittered(plain: list[Mesh]) -> tuple[list[Mesh], IntArray, IntArray]:
     """Return the shells jittered where the jitter makes no crossing, and their crossings.
 
     The vertices of triangles that cross after the jitter go back to their places and the
-    shells are checked again; if they still cross, the unjittered shells are checked
-    (a fold of the simplification crosses either way).
+    shells are checked again, up to ``JITTER_REVERTS`` times (a vertex put back can make a
+    crossing with a neighbour still moved: the faceted spot at 100 mm needs two); if they
+    still cross, the unjittered shells are checked (a fold of the simplification crosses
+    either way). Dropping the whole jitter for a few crossings would leave every flat part
+    exactly coplanar, which MeshLab's triangle test reads as crossings at random (261
+    faces of spot's outer shell at 100 mm).
     """
     moved = [_jitter(v, f) for v, f in plain]
     pairs, owner = crossings(moved)
-    if len(pairs) == 0:
-        return moved, pairs, owner
     start = np.cumsum([0] + [len(f) for _, f in plain])
-    faces = np.unique(pairs)
-    for k in np.unique(owner[faces]):
-        local = faces[owner[faces] == k] - start[k]
-        back = np.unique(plain[k][1][local])
-        v = moved[k][0].copy()
-        v[back] = plain[k][0][back]
-        moved[k] = (v, plain[k][1])
-    pairs, owner = crossings(moved)
+    for _ in range(JITTER_REVERTS):
+        if len(pairs) == 0:
+            return moved, pairs, owner
+        faces = np.unique(pairs)
+        for k in np.unique(owner[faces]):
+            local = faces[owner[faces] == k] - start[k]
+            back = np.unique(plain[k][1][local])
+            v = moved[k][0].copy()
+            v[back] = plain[k][0][back]
+            moved[k] = (v, plain[k][1])
+        pairs, owner = crossings(moved)
     if len(pairs) == 0:
         return moved, pairs, owner
     pairs, owner = crossings(plain)

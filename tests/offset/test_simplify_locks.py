@@ -122,3 +122,61 @@ def test_field_shells_of_the_bunny_are_2_manifold_as_meshlab_reads_them(tmp_path
             assert checks["two_manifold"] and checks["non_manifold_vertices"] == 0
             # (crossings: the exact test above; MeshLab's, without a coplanar tolerance,
             # selects a few faces of shell 1 where that finds none, as before this guard)
+
+
+def test_the_jitter_is_put_back_around_crossings_until_none_is_left(monkeypatch):
+    # A crossing test that sees faces 0 and 1 cross while all is jittered, then faces 1
+    # and 2 once the vertices of 0 and 1 are back (a put-back vertex against a moved
+    # neighbour, as on the faceted spot at 100 mm), then none: the shells keep the jitter
+    # everywhere else instead of falling back to the unjittered shells (exactly coplanar
+    # flat parts, which MeshLab reads as crossings).
+    box = trimesh.creation.box((10.0, 10.0, 10.0))
+    plain = [(np.asarray(box.vertices, dtype=np.float64), np.asarray(box.faces, dtype=np.int64))]
+    v0, f0 = plain[0]
+
+    def fake_crossings(meshes):
+        back = np.all(meshes[0][0] == v0, axis=1)
+        owner = np.zeros(len(f0), dtype=np.int64)
+        if not back[f0[:2]].all():
+            return np.array([[0, 1]]), owner
+        if not back[f0[2]].all():
+            return np.array([[1, 2]]), owner
+        return np.zeros((0, 2), dtype=np.int64), owner
+
+    monkeypatch.setattr(simplify_passes, "crossings", fake_crossings)
+    (shell,), pairs, _ = simplify_passes._jittered(plain)
+    assert len(pairs) == 0
+    back = np.all(shell[0] == v0, axis=1)
+    np.testing.assert_array_equal(np.flatnonzero(back), np.unique(f0[:3]))
+    assert np.abs(shell[0] - v0).max() <= simplify_passes.JITTER_FRACTION * 10.0
+
+
+@pytest.mark.slow
+@needs_meshlab
+def test_field_shell_files_of_spot_at_100_mm_are_clean_as_meshlab_reads_them(tmp_path):
+    # The faceted spot at 100 mm, default method, both shells as written: MeshLab's
+    # self-intersection selection selects nothing (261 and 274 faces while a few crossings
+    # made by the jitter dropped it everywhere, leaving the flat parts exactly coplanar).
+    from conftest import shared_path
+
+    from shellvox.offset import method_shells
+    from shellvox.output import save_shells
+
+    raw = trimesh.load(shared_path("spot/spot_triangulated.obj"), force="mesh")
+    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
+    mesh.merge_vertices(merge_tex=True, merge_norm=True)
+    mesh.apply_scale(100.0 / mesh.extents.max())
+    made = method_shells(mesh.vertices, mesh.faces, [0.5, 1.0])
+    assert made.crossing_free
+    for written in save_shells(tmp_path, made.shells, crossing_free=made.crossing_free):
+        assert written.checks["closed"] and written.checks["self_intersections"] == 0
+        checks = meshlab_checks(written.path)
+        assert checks["self_intersecting_faces"] == 0
+        assert checks["two_manifold"]
+        shell = trimesh.load(written.path, process=False, force="mesh")
+        tri = np.asarray(shell.triangles)
+        a, b = tri[:, [1, 2, 0]] - tri, tri[:, [2, 0, 1]] - tri
+        sine = np.linalg.norm(np.cross(a, b), axis=2)  # arctan2: exact for tiny angles
+        smallest = float(np.degrees(np.arctan2(sine, np.einsum("tij,tij->ti", a, b)).min()))
+        print(f"{written.path.name}: smallest triangle angle {smallest:.3g} degrees")
+        assert smallest > 0.0
