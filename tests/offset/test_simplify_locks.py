@@ -128,8 +128,8 @@ def test_the_jitter_is_put_back_around_crossings_until_none_is_left(monkeypatch)
     # A crossing test that sees faces 0 and 1 cross while all is jittered, then faces 1
     # and 2 once the vertices of 0 and 1 are back (a put-back vertex against a moved
     # neighbour, as on the faceted spot at 100 mm), then none: the shells keep the jitter
-    # everywhere else instead of falling back to the unjittered shells (exactly coplanar
-    # flat parts, which MeshLab reads as crossings).
+    # everywhere else instead of falling back to the unjittered shells (whose exactly
+    # coplanar flat parts MeshLab reads as crossings).
     box = trimesh.creation.box((10.0, 10.0, 10.0))
     plain = [(np.asarray(box.vertices, dtype=np.float64), np.asarray(box.faces, dtype=np.int64))]
     v0, f0 = plain[0]
@@ -155,8 +155,7 @@ def test_the_jitter_is_put_back_around_crossings_until_none_is_left(monkeypatch)
 @needs_meshlab
 def test_field_shell_files_of_spot_at_100_mm_are_clean_as_meshlab_reads_them(tmp_path):
     # The faceted spot at 100 mm, default method, both shells as written: MeshLab's
-    # self-intersection selection selects nothing (261 and 274 faces while a few crossings
-    # made by the jitter dropped it everywhere, leaving the flat parts exactly coplanar).
+    # self-intersection selection selects nothing, and no triangle is degenerate.
     from conftest import shared_path
 
     from shellvox.offset import method_shells
