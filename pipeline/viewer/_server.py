@@ -245,15 +245,8 @@ class _Handler(BaseHTTPRequestHandler):
             message = b"this build has no thickness.ply (built with --thickness): no surface\n"
             self._send(HTTPStatus.NOT_FOUND, message, "text/plain", head=head)
             return
-        if not overview.done.wait(SURFACE_WAIT_S) or overview.surface is None:
-            why = f"the surface is not ready ({overview.error or 'still reading'})\n"
-            self._send(HTTPStatus.SERVICE_UNAVAILABLE, why.encode(), "text/plain", head=head)
-            return
-        surface = overview.surface
-        body = surface.to_bytes()
-        self._send(
-            HTTPStatus.OK, body, "application/octet-stream", head=head, headers=surface.headers()
-        )
+        ready = overview.done.wait(SURFACE_WAIT_S)
+        self._send_made("the surface", overview.surface if ready else None, overview.error, head)
 
     def _proof(self, *, head: bool) -> None:
         overview = self.server.overview
@@ -265,15 +258,19 @@ class _Handler(BaseHTTPRequestHandler):
             )
             self._send(HTTPStatus.NOT_FOUND, message, "text/plain", head=head)
             return
-        if not overview.proof_done.wait(SURFACE_WAIT_S) or overview.proof is None:
-            reason = overview.proof_error or overview.error or "still reading"
-            why = f"the soft proof is not ready ({reason})\n"
+        ready = overview.proof_done.wait(SURFACE_WAIT_S)
+        error = overview.proof_error or overview.error
+        self._send_made("the soft proof", overview.proof if ready else None, error, head)
+
+    def _send_made(self, what: str, made: Any, error: str | None, head: bool) -> None:
+        """Send what the overview's pass made (its bytes), or why it is not ready (503)."""
+        if made is None:
+            why = f"{what} is not ready ({error or 'still reading'})\n"
             self._send(HTTPStatus.SERVICE_UNAVAILABLE, why.encode(), "text/plain", head=head)
             return
-        proof = overview.proof
-        body = proof.to_bytes()
+        body = made.to_bytes()
         self._send(
-            HTTPStatus.OK, body, "application/octet-stream", head=head, headers=proof.headers()
+            HTTPStatus.OK, body, "application/octet-stream", head=head, headers=made.headers()
         )
 
     def _send(

@@ -99,20 +99,26 @@ def test_a_vertex_split_in_two_at_one_place_is_a_pinch():
     assert len(simplify_passes.pinched_faces([(a, tet.faces), (b, tet.faces)])) == 0
 
 
+def _field_shells(relative, size_mm):
+    """The default method's shells (0.5 and 1.0 mm) of a shared mesh, largest side `size_mm`."""
+    from conftest import shared_path
+
+    from shellvox.offset import method_shells
+
+    raw = trimesh.load(shared_path(relative), force="mesh")
+    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
+    mesh.merge_vertices(merge_tex=True, merge_norm=True)
+    mesh.apply_scale(size_mm / mesh.extents.max())
+    return method_shells(mesh.vertices, mesh.faces, [0.5, 1.0])
+
+
 @pytest.mark.slow
 def test_field_shells_of_the_bunny_are_2_manifold_as_meshlab_reads_them(tmp_path):
     # The bunny at 50 mm: Manifold's collapse pinched shell 2 at one vertex (split in two
     # at one place, a non-manifold vertex once welded); the guard locks the triangles there.
-    from conftest import shared_path
-
-    from shellvox.offset import method_shells
     from shellvox.output import save_shells
 
-    raw = trimesh.load(shared_path("bunny/bunny.obj"), force="mesh")
-    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
-    mesh.merge_vertices(merge_tex=True, merge_norm=True)
-    mesh.apply_scale(50.0 / mesh.extents.max())
-    made = method_shells(mesh.vertices, mesh.faces, [0.5, 1.0])
+    made = _field_shells("bunny/bunny.obj", 50.0)
     assert made.crossing_free and made.record["simplify"]["tolerance_mm"] > 0
     for written in save_shells(tmp_path, made.shells, crossing_free=made.crossing_free):
         assert written.checks["coincident_vertices"] == 0
@@ -156,16 +162,9 @@ def test_the_jitter_is_put_back_around_crossings_until_none_is_left(monkeypatch)
 def test_field_shell_files_of_spot_at_100_mm_are_clean_as_meshlab_reads_them(tmp_path):
     # The faceted spot at 100 mm, default method, both shells as written: MeshLab's
     # self-intersection selection selects nothing, and no triangle is degenerate.
-    from conftest import shared_path
-
-    from shellvox.offset import method_shells
     from shellvox.output import save_shells
 
-    raw = trimesh.load(shared_path("spot/spot_triangulated.obj"), force="mesh")
-    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
-    mesh.merge_vertices(merge_tex=True, merge_norm=True)
-    mesh.apply_scale(100.0 / mesh.extents.max())
-    made = method_shells(mesh.vertices, mesh.faces, [0.5, 1.0])
+    made = _field_shells("spot/spot_triangulated.obj", 100.0)
     assert made.crossing_free
     for written in save_shells(tmp_path, made.shells, crossing_free=made.crossing_free):
         assert written.checks["closed"] and written.checks["self_intersections"] == 0
