@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import http.client
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -11,6 +12,16 @@ from shellvox.viewer import BuildFolder, ViewerServer
 
 #: The default model (a textured OBJ).
 MODEL = Path(__file__).resolve().parents[1] / "data" / "colour_target" / "colour_target.obj"
+
+
+def http_get(server: ViewerServer, path: str) -> tuple[int, dict[str, str], bytes]:
+    """GET `path` from a serving viewer: status, headers and body."""
+    connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=60)
+    connection.request("GET", path)
+    response = connection.getresponse()
+    body = response.read()
+    connection.close()
+    return response.status, dict(response.getheaders()), body
 
 
 @contextmanager

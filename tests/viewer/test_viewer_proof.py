@@ -13,7 +13,6 @@
 
 from __future__ import annotations
 
-import http.client
 import json
 import re
 import shutil
@@ -22,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from viewer_run import lab_to_srgb8, proof_reference, serving
+from viewer_run import http_get, lab_to_srgb8, proof_reference, serving
 
 from shellvox.output import PROOF_FILE, read_proof_ply
 from shellvox.viewer import STATIC, BuildFolder, de_scale, face_proof
@@ -31,23 +30,14 @@ from shellvox.voxel.io import DE_RGB, DE_STEPS, HATCH_RGB, NO_PREDICTION_RGB, de
 STATIC_DIR = Path(__file__).resolve().parents[2] / "pipeline" / "viewer" / "static"
 
 
-def _get(server, path):
-    connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=60)
-    connection.request("GET", path)
-    response = connection.getresponse()
-    body = response.read()
-    connection.close()
-    return response.status, dict(response.getheaders()), body
-
-
 def _faces(server):
     """The surface and the proof the server sends, decoded as the module docstrings say."""
-    status, headers, body = _get(server, "/api/surface")
+    status, headers, body = http_get(server, "/api/surface")
     assert status == 200
     n = int(headers["X-Faces"])
     triangles = np.frombuffer(body, "<f4", 9 * n).reshape(n, 3, 3).astype(np.float64)
     target = np.frombuffer(body, np.uint8, 3 * n, offset=40 * n).reshape(n, 3)
-    status, proof_headers, proof_body = _get(server, "/api/proof")
+    status, proof_headers, proof_body = http_get(server, "/api/proof")
     assert status == 200, proof_body
     assert int(proof_headers["X-Faces"]) == n
     assert len(proof_body) == 11 * n
@@ -114,9 +104,9 @@ def test_a_build_without_a_readable_proof(small_colour_build, tmp_path):
     data[:4] = b"xyz\n"
     (broken / PROOF_FILE).write_bytes(bytes(data))
     with serving(broken) as server:
-        assert json.loads(_get(server, "/api/build")[2])["proof"] is True
-        assert _get(server, "/api/surface")[0] == 200
-        status, _, body = _get(server, "/api/proof")
+        assert json.loads(http_get(server, "/api/build")[2])["proof"] is True
+        assert http_get(server, "/api/surface")[0] == 200
+        status, _, body = http_get(server, "/api/proof")
         assert status == 503
         assert b"proof.ply cannot be read: is not a PLY file" in body
     # no proof.ply (a build without materials or a colour report): nothing to send
@@ -127,12 +117,12 @@ def test_a_build_without_a_readable_proof(small_colour_build, tmp_path):
     (without / "manifest.json").write_text(json.dumps(manifest))
     (without / PROOF_FILE).unlink()
     with serving(without) as server:
-        assert json.loads(_get(server, "/api/build")[2])["proof"] is False
-        assert _get(server, "/api/surface")[0] == 200
-        status, _, body = _get(server, "/api/proof")
+        assert json.loads(http_get(server, "/api/build")[2])["proof"] is False
+        assert http_get(server, "/api/surface")[0] == 200
+        status, _, body = http_get(server, "/api/proof")
         assert status == 404
         assert b"no soft proof (proof.ply" in body
-        assert _get(server, f"/files/{PROOF_FILE}")[0] == 404
+        assert http_get(server, f"/files/{PROOF_FILE}")[0] == 404
         assert server.overview.proof_done.wait(30)
         assert server.overview.proof is None and server.overview.proof_error is None
 
@@ -159,7 +149,7 @@ def test_face_proof_refuses_other_shapes_and_leaves_unfaced_faces_grey(small_col
 
 def test_the_delta_e_scale_sent_is_the_soft_proof_pictures(small_colour_build):
     with serving(small_colour_build) as server:
-        status, _, body = _get(server, "/api/build")
+        status, _, body = http_get(server, "/api/build")
     assert status == 200
     scale = json.loads(body)["de_scale"]
     assert scale == de_scale()

@@ -11,14 +11,13 @@
 
 from __future__ import annotations
 
-import http.client
 import json
 import shutil
 
 import numpy as np
 import pytest
 import trimesh
-from viewer_run import MODEL, expected_opening, serving, uniform_texture_colour
+from viewer_run import MODEL, expected_opening, http_get, serving, uniform_texture_colour
 
 from shellvox.viewer import MIDDLE, BuildFolder, Overview, choose_section
 from shellvox.viewer._surface import browser_faces
@@ -110,22 +109,13 @@ def test_a_large_surface_is_decimated_and_a_coarse_one_split():
     assert np.array_equal(np.unique(source), np.arange(len(faces)))
 
 
-def _get(server, path):
-    connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=60)
-    connection.request("GET", path)
-    response = connection.getresponse()
-    body = response.read()
-    connection.close()
-    return response.status, dict(response.getheaders()), body
-
-
 def test_opening_and_surface_over_http(small_colour_build, tmp_path):
     with serving(small_colour_build) as server:
-        status, _, body = _get(server, "/api/opening?wait=30")
+        status, _, body = http_get(server, "/api/opening?wait=30")
         answer = json.loads(body)
         assert status == 200 and answer["ready"]
         assert answer["slices"] == expected_opening(small_colour_build)
-        status, headers, body = _get(server, "/api/surface")
+        status, headers, body = http_get(server, "/api/surface")
         assert status == 200
         n = int(headers["X-Faces"])
         assert len(body) == 43 * n
@@ -136,7 +126,7 @@ def test_opening_and_surface_over_http(small_colour_build, tmp_path):
         assert np.all(corners.min(axis=(0, 1)) >= mesh.bounds[0] - 1e-4)
         assert np.all(corners.max(axis=(0, 1)) <= mesh.bounds[1] + 1e-4)
         for query in ("wait=31", "wait=x", "wait=1&wait=2"):
-            assert _get(server, f"/api/opening?{query}")[0] == 400
+            assert http_get(server, f"/api/opening?{query}")[0] == 400
     # a build without thickness.ply (made with --thickness) has no surface to show
     folder = tmp_path / "build"
     shutil.copytree(small_colour_build, folder)
@@ -145,7 +135,7 @@ def test_opening_and_surface_over_http(small_colour_build, tmp_path):
     (folder / "manifest.json").write_text(json.dumps(manifest))
     (folder / "thickness.ply").unlink()
     with serving(folder) as server:
-        status, _, body = _get(server, "/api/surface")
+        status, _, body = http_get(server, "/api/surface")
         assert status == 404 and b"thickness.ply" in body
-        status, _, body = _get(server, "/api/opening?wait=30")
+        status, _, body = http_get(server, "/api/opening?wait=30")
         assert json.loads(body)["slices"] == expected_opening(folder)
