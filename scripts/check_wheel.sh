@@ -60,6 +60,11 @@ if [ -f "$meshes/spot/spot_triangulated.obj" ]; then
     "$sv" build "${spot[@]}" -o spot30 >/dev/null
     t2=$(date +%s%N)
     /usr/bin/python3 -c "import sys; cold, warm = (int(sys.argv[2]) - int(sys.argv[1])) / 1e9, (int(sys.argv[3]) - int(sys.argv[2])) / 1e9; print(f'check_wheel: spot at 30 mm: the first build {cold:.1f} s, warm {warm:.1f} s ({cold / warm:.2f}x)')" "$t0" "$t1" "$t2"
+    # Shells of a scanned mesh, whose simplification checks its error bound at exact nearest
+    # points (no optional dependency of trimesh may be needed).
+    "$sv" shells "$meshes/bunny/bunny.obj" --scale 5.0468 --thickness 0.5,1.0 \
+        -o bunny_shells >/dev/null
+    echo "check_wheel: shells of the bunny at 50 mm written"
 fi
 SECONDS=0
 "$sv" build "$model" -o default --printer j750 --no-progress

@@ -46,13 +46,12 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
-import trimesh
 from scipy.spatial import cKDTree
 
 from shellvox.offset._validate import FloatArray, IntArray
 from shellvox.offset.field.heap import heap_blocks
 from shellvox.offset.field.simplify_passes import LOG, TIDY, Mesh, crossing_free
-from shellvox.voxel.geometry._nearest import SurfaceIndex, nearest_faces
+from shellvox.voxel.geometry._nearest import SurfaceIndex, nearest_faces, nearest_on_surface
 
 #: Triangles per chunk of a pass over an unsimplified shell.
 CHUNK = 1 << 20
@@ -241,9 +240,12 @@ def _raw_error_at_nearest(
     hit = _faces_near(original, points, moved + _longest_edge(original))
     if not hit.any():
         return np.full(len(points), np.inf)
-    local = trimesh.Trimesh(v, f[hit], process=False)
-    nearest, gap, _ = trimesh.proximity.closest_point(local, points)  # type: ignore[no-untyped-call]
-    face, distance = nearest_faces(surface, np.asarray(nearest, dtype=np.float64))
+    local = SurfaceIndex.build(v, f[hit])
+    found = nearest_on_surface(local, points)
+    corners = v[local.faces[found.face_ids]]
+    nearest = np.einsum("pk,pkc->pc", found.barycentric, corners)
+    gap = found.distance_mm
+    face, distance = nearest_faces(surface, nearest)
     bound = np.abs(distance - depth[face]) + gap
     return np.asarray(np.where(gap <= moved, bound, np.inf), dtype=np.float64)
 

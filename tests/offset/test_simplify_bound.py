@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import trimesh
 
@@ -9,7 +11,7 @@ from shellvox.offset.field.simplify import _raw_error_at_nearest
 from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface
 
 
-def test_a_point_off_an_exact_inset_may_err_by_its_distance_to_it():
+def test_a_point_off_an_exact_inset_may_err_by_its_distance_to_it(monkeypatch):
     # The unsimplified shell is the exact 0.5 mm inset of a 10 mm cube (no error of its
     # own, subdivided so it has many triangles); points above its faces, moved outward by
     # delta, lie 0.5 - delta deep: their error is delta, and the bound is exactly that.
@@ -24,6 +26,9 @@ def test_a_point_off_an_exact_inset_may_err_by_its_distance_to_it():
     true_error = np.abs(distance_to_surface(surface, points) - 0.5)
     np.testing.assert_allclose(true_error, delta, atol=1e-12)
     original = (np.asarray(inset.vertices), np.asarray(inset.faces, np.int64))
+    # rtree, which trimesh's proximity queries need, is no dependency of shellvox: the bound
+    # must not import it.
+    monkeypatch.setitem(sys.modules, "rtree", None)
     bound = _raw_error_at_nearest(surface, depth, original, points, moved=0.003)
     np.testing.assert_allclose(bound[:4], true_error[:4], atol=1e-12)
     assert np.isinf(bound[4])  # moved further than the tolerance: nothing vouches for it
