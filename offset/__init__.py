@@ -10,15 +10,19 @@ This package never imports the stages; of :mod:`shellvox.voxel` it uses
 method, the voxels' own scan of the nearest faces.
 """
 
+from shellvox.offset.field.step import (
+    MAX_FIELD_TRIANGLES,
+    SHELL_STEP_MM,
+    automatic_lattice,
+    automatic_step,
+)
 from shellvox.offset.methods import (
     DEFAULT_METHOD,
-    MAX_FIELD_TRIANGLES,
     METHODS,
-    SHELL_STEP_MM,
     Method,
     MethodName,
     MethodShells,
-    automatic_step,
+    field_shells,
     method_shells,
     offset_shells,
     ready_for_file,
@@ -35,7 +39,9 @@ __all__ = [
     "MethodName",
     "MethodShells",
     "Shell",
+    "automatic_lattice",
     "automatic_step",
+    "field_shells",
     "method_shells",
     "offset_shells",
     "ready_for_file",

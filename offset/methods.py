@@ -20,10 +20,9 @@ configuration's check and the documentation read it. The methods:
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
-from typing import Any, Literal, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -37,24 +36,16 @@ from shellvox.offset._validate import (
 )
 from shellvox.offset.adjacency import edge_adjacency
 from shellvox.offset.field.simplify import DEFAULT_LIMITS, GuardLimits
+from shellvox.offset.field.step import (
+    automatic_step,
+)
 from shellvox.offset.reference.for_file import ShellForFile
 from shellvox.offset.shells import Shell
 
+if TYPE_CHECKING:
+    from shellvox.offset.field.layer_field import FieldSurfaces
+
 MethodName = Literal["field", "robust", "paper"]
-
-#: Default grid step of the ``field`` shells (``--shell-step``), mm. On spot at 100 mm
-#: (93,696 faces, depths 0.5 and 1.5 mm) 0.1 mm gave |d - D| p99 1.3 um and max 25 um before
-#: simplification; 0.05 mm halves the error at four times the triangles and eight times the
-#: nodes (benchmarks/bench_field_shells.py).
-SHELL_STEP_MM = 0.1
-
-#: Marching-tetrahedra triangles of one layer per mm^2 of surface times the step squared
-#: (spot at 100 mm: 16.5 M triangles of 19,127 mm^2 at 0.1 mm, 8.6).
-TRIANGLES_PER_AREA = 8.7
-
-#: Triangles all layers may have before simplification at the automatic step (about 320
-#: bytes each at the peak: 11.5 GB; spot at 100 mm, two layers, 31.6 M, keeps 0.1 mm).
-MAX_FIELD_TRIANGLES = 36_000_000
 
 
 class MethodShells(NamedTuple):
@@ -117,20 +108,6 @@ class Method(NamedTuple):
     seconds_per_face_layer: float
 
 
-def automatic_step(area_mm2: float, layers: int) -> float:
-    """Return the grid step of the ``field`` shells for a surface (mm).
-
-    ``SHELL_STEP_MM``, raised (to whole hundredths of a mm) where the layers' triangles
-    before simplification would pass ``MAX_FIELD_TRIANGLES``; a 120 mm polyhedron of
-    53,660 mm^2 with two layers gets 0.17 mm.
-
-    >>> automatic_step(19127.0, 2), automatic_step(53660.0, 2)
-    (0.1, 0.17)
-    """
-    needed = math.sqrt(TRIANGLES_PER_AREA * area_mm2 * layers / MAX_FIELD_TRIANGLES)
-    return max(SHELL_STEP_MM, math.ceil(round(needed * 100.0, 6)) / 100.0)
-
-
 def _shells(meshes: list[tuple[FloatArray, IntArray]], depth: FloatArray) -> list[Shell]:
     return [
         Shell(vertices=mv, faces=mf, layer=k + 1, depth_mm=np.ascontiguousarray(depth[k]))
@@ -142,24 +119,66 @@ def _field(
     v: FloatArray, f: IntArray, depth: FloatArray, step_mm: float | None, limits: GuardLimits
 ) -> MethodShells:
     from shellvox.offset.field.layer_field import field_surfaces
+
+    if step_mm is None:
+        step_mm = automatic_step(surface_area(v, f), depth.shape[0])
+    tick = time.perf_counter()
+    field = field_surfaces(v, f, depth, step_mm)
+    return field_shells(field, v, f, depth, limits=limits, field_s=time.perf_counter() - tick)
+
+
+def surface_area(vertices: FloatArray, faces: IntArray) -> float:
+    """Return the area of a triangle mesh, mm^2."""
+    tri = vertices[faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    return float(0.5 * np.linalg.norm(cross, axis=1).sum())
+
+
+def field_shells(
+    field: FieldSurfaces,
+    vertices: FloatArray,
+    faces: IntArray,
+    depth: FloatArray,
+    *,
+    limits: GuardLimits = DEFAULT_LIMITS,
+    field_s: float = 0.0,
+    source: str = "own scan",
+) -> MethodShells:
+    """Return the ``field`` method's shells from its layers' surfaces, simplified.
+
+    Parameters
+    ----------
+    field : FieldSurfaces
+        The marched layers (:func:`shellvox.offset.field.layer_field.field_surfaces`, or
+        a build's :class:`shellvox.offset.field.layer_field.LatticeMesher`).
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+        The mesh they offset.
+    depth : (K, F) float64, mm
+        Cumulative depth of each layer per face.
+    limits : GuardLimits, optional
+        Bounds of the simplification.
+    field_s : float, s
+        Seconds the surfaces took (recorded).
+    source : str
+        Where the nodes' field came from (recorded as ``field_source``).
+    """
     from shellvox.offset.field.simplify import simplify_shells
     from shellvox.voxel.geometry._nearest import SurfaceIndex
 
-    if step_mm is None:
-        tri = v[f]
-        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-        step_mm = automatic_step(float(area.sum()), depth.shape[0])
     tick = time.perf_counter()
-    field = field_surfaces(v, f, depth, step_mm)
-    field_s = time.perf_counter() - tick
-    simplified = simplify_shells(field.surfaces, SurfaceIndex.build(v, f), depth, limits=limits)
+    simplified = simplify_shells(
+        field.surfaces, SurfaceIndex.build(vertices, faces), depth, limits=limits
+    )
     record = {
         "method": "field",
-        "step_mm": step_mm,
+        "step_mm": max(field.grid.voxel_mm),
+        "node_step_mm": list(field.grid.voxel_mm),
         "grid_zyx": list(field.grid.shape_zyx),
+        "field_source": source,
         "unbalanced_rows": field.n_unbalanced_rows,
         "marched_faces": field.marched_faces,
-        "seconds": {"field": field_s, "simplify": time.perf_counter() - tick - field_s},
+        "seconds": {"field": field_s, "simplify": time.perf_counter() - tick},
         "simplify": simplified.record,
     }
     return MethodShells(_shells(simplified.meshes, depth), record, simplified.crossing_free)

@@ -22,6 +22,10 @@ from shellvox.testing import Command, holds_nothing, temporary_files, verified_f
 
 STATUS = {signal.SIGINT: 130, signal.SIGTERM: 143}
 
+#: Shell meshes made in a process of their own, beside the slab workers (the ``field``
+#: shells are meshed in the main process from the voxels' scan; the other methods spawn).
+SHELL_PROCESS = ("--shell-meshes", "--method", "robust")
+
 
 def _signal_in_slabs(command: Command, rng: random.Random, signum: int) -> float:
     """Send `signum` at a random time once the slab workers run; return the delay."""
@@ -82,7 +86,7 @@ def test_signal_during_slabs(tmp_path, signum, seed):
 )
 def test_signal_to_the_process_group_with_shell_process(tmp_path, signum, status, message):
     out = tmp_path / "out"
-    command = Command(build_argv(out, "--shell-meshes"), tmp_path / "run")
+    command = Command(build_argv(out, *SHELL_PROCESS), tmp_path / "run")
     wait_for(lambda: len(command.children()) >= 4, what="workers, shell process, tracker")
     os.killpg(command.pid, signum)
     result = command.finish(timeout=60)
@@ -106,7 +110,7 @@ def test_interrupted_rebuild_leaves_no_build(tmp_path):
 
 def test_sigkill_of_the_main_process(tmp_path):
     out = tmp_path / "out"
-    command = Command(build_argv(out, "--shell-meshes"), tmp_path / "run")
+    command = Command(build_argv(out, *SHELL_PROCESS), tmp_path / "run")
     wait_for(lambda: len(command.children()) >= 4, what="workers, shell process, tracker")
     # once every temporary is there: partial TIFFs and VDB, the VDB spool folder, the lock
     wait_for(lambda: len(temporary_files(out)) >= 5, what="the build's temporary files")
@@ -137,7 +141,7 @@ def test_killed_shell_process_warns_and_keeps_the_voxels(tmp_path):
     # The shell meshes are computed beside the voxels; when their process dies the build
     # must not hang: it ends with the voxel stack, without shells/, and one warning.
     out = tmp_path / "out"
-    command = Command(build_argv(out, "--shell-meshes"), tmp_path / "run")
+    command = Command(build_argv(out, *SHELL_PROCESS), tmp_path / "run")
 
     def shell_process():
         workers = {p.pid for p in command.workers()}
@@ -160,12 +164,12 @@ def test_killed_shell_process_warns_and_keeps_the_voxels(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("trial", range(6))
 def test_random_signals_with_shell_meshes(tmp_path, trial):
-    # Any time from start to the end of the shells (~20 s): the build may also finish first.
+    # Any time from start to the end of the robust shells (~30 s): the build may also finish first.
     rng = random.Random(f"random-{trial}")
     signum = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
     delay = rng.uniform(0.05, 20.0)
     out = tmp_path / "out"
-    command = Command(build_argv(out, "--shell-meshes"), tmp_path / "run")
+    command = Command(build_argv(out, *SHELL_PROCESS), tmp_path / "run")
     time.sleep(delay)
     command.signal(signum)
     # A shell process spawned just before a SIGKILL arms its death signal only once it has

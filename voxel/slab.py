@@ -14,6 +14,13 @@ Two layer realisations:
   gives each of them its exact nearest face; deeper inside voxels are core by the inside test alone.
 * **shells** (``layer_rule == "shells"``, no ``depth_mm``): a voxel's layer is how many
   of the nested closed surfaces ``surfaces`` contain its centre (exact winding numbers).
+
+With a :class:`NodeLattice` (distance layers whose shells are meshed too), a slab also
+returns what the scan found at every ``stride``-th voxel centre (:class:`FieldNodes`): the
+layer field there, which :class:`shellvox.offset.field.layer_field.FieldMesher` meshes, so
+the shells need no scan of their own. The scan then reaches two node steps beyond the
+deepest depth (the march's edges cross it); the voxels' layers, colours and signed distances
+do not change with the reach.
 """
 
 from __future__ import annotations
@@ -26,8 +33,10 @@ from numpy.typing import NDArray
 
 from shellvox.voxel.colour import ColourAt, SurfaceColour, nearest_colour, voxel_colours
 from shellvox.voxel.geometry import (
+    FieldNodes,
     LayerInputs,
     LayerOutputs,
+    NodeLattice,
     SurfaceIndex,
     assign_layers,
     colour_voxels,
@@ -72,6 +81,8 @@ class StackModel:
         (:mod:`shellvox.voxel.colour._surface_colour`), which gives what `colour_at` gives.
     layer_rule : {"shells", "distance"}
         How voxels get their layer (see the module).
+    field_nodes : NodeLattice, optional
+        Keep the layer field at these voxel centres (distance layers only).
     """
 
     surfaces: tuple[Surface, ...]
@@ -82,6 +93,7 @@ class StackModel:
     depth_mm: NDArray[np.float64] | None = None
     surface_colour: SurfaceColour | None = None
     layer_rule: LayerRule = "shells"
+    field_nodes: NodeLattice | None = None
 
     def __post_init__(self) -> None:
         if not self.surfaces:
@@ -109,6 +121,15 @@ class StackModel:
             raise ValueError(f"colour_layers must lie in 1..{top}, got {list(self.colour_layers)}")
         if not self.sdf_half_width_mm >= 0:
             raise ValueError(f"sdf_half_width_mm must be >= 0, got {self.sdf_half_width_mm}")
+        if self.field_nodes is not None and (
+            self.layer_rule != "distance"
+            or min(self.field_nodes.stride_zyx) < 1
+            or not self.field_nodes.beyond_mm >= 0
+        ):
+            raise ValueError(
+                "field_nodes needs the 'distance' layer rule, strides >= 1 and beyond_mm >= 0, "
+                f"got {self.layer_rule!r} and {self.field_nodes}"
+            )
 
     @property
     def n_bands(self) -> int:
@@ -144,6 +165,8 @@ class SlabResult(NamedTuple):
         Point-triangle distance tests of the scan (its work).
     layer_counts : (K + 2,) int64
         Voxels per layer (0 outside .. K + 1 core).
+    nodes : FieldNodes or None
+        The layer field at the model's :class:`NodeLattice` in these rows (None without).
     """
 
     z_start: int
@@ -157,17 +180,20 @@ class SlabResult(NamedTuple):
     n_nearest_queries: int
     n_distance_tests: int
     layer_counts: NDArray[np.int64]
+    nodes: FieldNodes | None = None
 
 
 def reach_mm(model: StackModel) -> float:
     """Return the distance (mm) within which inside voxels need their nearest face.
 
-    Distance layers need it out to the deepest band limit, so anything farther is core;
+    Distance layers need it out to the deepest band limit, so anything farther is core
+    (and the nodes of the shell meshes a little farther, :class:`NodeLattice`);
     the signed-distance band needs it out to its half width. Shell layers need the
     nearest face only for colour, which is found by a query where it lies farther.
     """
     if model.layer_rule == "distance" and model.depth_mm is not None:
-        return max(float(model.depth_mm.max()), model.sdf_half_width_mm)
+        beyond = 0.0 if model.field_nodes is None else model.field_nodes.beyond_mm
+        return max(float(model.depth_mm.max()) + beyond, model.sdf_half_width_mm)
     return model.sdf_half_width_mm
 
 
@@ -238,6 +264,9 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
         LayerInputs(inside, squared, face, depth, by_distance, half_width, is_colour),
         LayerOutputs(layers, sdf, sdf_band, layer_counts),
     )
+    nodes = None
+    if model.field_nodes is not None:
+        nodes = _field_nodes(model.field_nodes, z_start, inside, squared, face)
     del squared
     flat = colour_voxels(layers, is_colour, n_colour)
     face_ids = face.reshape(-1)[flat].astype(np.int64)
@@ -269,6 +298,30 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
         n_reached + n_unreached,
         n_tests,
         layer_counts[: model.n_bands + 2],
+        nodes,
+    )
+
+
+def _field_nodes(
+    lattice: NodeLattice,
+    z_start: int,
+    inside: NDArray[np.bool_],
+    squared: NDArray[np.float64],
+    face: NDArray[np.int32],
+) -> FieldNodes:
+    """Return the slab's arrays at the lattice's nodes (copies: the slab's are let go)."""
+    stride_z, stride_y, stride_x = lattice.stride_zyx
+    rows = lattice.planes(z_start, z_start + len(inside))
+    at = (
+        slice(rows.start - z_start, None, stride_z),
+        slice(None, None, stride_y),
+        slice(None, None, stride_x),
+    )
+    return FieldNodes(
+        rows.start // stride_z,
+        np.ascontiguousarray(inside[at]),
+        np.ascontiguousarray(squared[at]),
+        np.ascontiguousarray(face[at]),
     )
 
 

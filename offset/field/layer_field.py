@@ -40,6 +40,7 @@ from shellvox.offset.field.marching_tets import (
 from shellvox.offset.field.planar_patches import merge_planar_patches
 from shellvox.voxel._compiled import kernel
 from shellvox.voxel.geometry._distance_scan import NearestInReach, nearest_in_reach
+from shellvox.voxel.geometry._field_nodes import FieldNodes, NodeLattice
 from shellvox.voxel.geometry._voronoi import voronoi_regions
 from shellvox.voxel.geometry._winding import inside_slab
 from shellvox.voxel.grid import GridSpec
@@ -118,106 +119,275 @@ def field_surfaces(
     >>> round(float(v[:, 0].max()), 6), trimesh.Trimesh(v, f).is_watertight
     (1.5, True)
     """
-    vertices = np.ascontiguousarray(vertices, dtype=np.float64)
-    faces = np.ascontiguousarray(faces, dtype=np.int64)
-    depth = np.ascontiguousarray(depth_mm, dtype=np.float64)
-    n_levels = depth.shape[0]
-    if depth.ndim != 2 or depth.shape[1] != len(faces) or not 1 <= n_levels <= 8:
-        raise ValueError(f"depth_mm must be (K, {len(faces)}) with 1 <= K <= 8, got {depth.shape}")
     if not (math.isfinite(step_mm) and step_mm > 0):
         raise ValueError(f"step_mm must be positive and finite, got {step_mm}")
+    vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
     grid = field_grid(vertices, step_mm)
+    mesher = FieldMesher(vertices, faces, depth_mm, grid)
     n_z, n_y, n_x = grid.shape_zyx
-    reach = float(depth.max()) + 2.0 * step_mm
-    far = depth.max(axis=1) - reach
+    reach = mesher.reach_mm
     regions = voronoi_regions(vertices, faces)
-    origin = np.asarray(grid.origin_mm, dtype=np.float64)
-    step = np.asarray(grid.voxel_mm, dtype=np.float64)
-    ids = VertexIds(
-        plane_ids=np.full((2, n_levels, n_y, n_x, 3), -1, dtype=np.int64),
-        between_ids=np.full((n_levels, n_y, n_x, 4), -1, dtype=np.int64),
-        state=np.zeros((2, n_levels), dtype=np.int64),
-    )
-    tables = (EDGES, TETS, TABLE)
-    out_v: list[list[NDArray[np.float64]]] = [[] for _ in range(n_levels)]
-    out_f: list[list[NDArray[np.int64]]] = [[] for _ in range(n_levels)]
-    out_face: list[list[NDArray[np.int32]]] = [[] for _ in range(n_levels)]
     planes = max(2, nodes_per_slab // (n_y * n_x))
-    unbalanced = 0
 
-    def scan(
-        z_start: int, before: NDArray[np.bool_]
-    ) -> tuple[int, NDArray[np.bool_], int, NearestInReach, NDArray[np.uint8]]:
-        """Scan the node planes ``z_start`` to the slab's end and the plane before them.
-
-        `before` is the inside test of that plane ((1, Y, X), from the slab before; (0, Y, X)
-        for the first slab), so the arrays returned run from it on and the slabs' meshes
-        meet without copying a plane over. Returns the arrays' first plane with them.
-        """
+    def scan(z_start: int) -> tuple[NDArray[np.bool_], int, NearestInReach]:
+        """Scan the node planes ``z_start`` to the slab's end."""
         z_stop = min(n_z, z_start + planes)
-        z_first = z_start - len(before)
-        own, n_bad = inside_slab(vertices, faces, grid, z_start, z_stop)
-        inside = np.concatenate([before, own]) if len(before) else own
+        inside, n_bad = inside_slab(vertices, faces, grid, z_start, z_stop)
         near = nearest_in_reach(
             vertices,
             faces,
             grid,
-            z_first,
+            z_start,
             z_stop,
             reach,
             inside=inside,
             outside_reach_mm=0.0,
             regions=regions,
         )
-        bits = np.empty(inside.shape, dtype=np.uint8)
-        _layer_bits(inside, near.squared_mm2, near.face, depth, bits)
-        return z_first, inside, n_bad, near, bits
+        return inside, n_bad, near
 
     starts = range(0, n_z, planes)
     # The next slab is scanned in a second thread while this one is meshed (the kernels
     # release the GIL); it holds one more slab of nodes.
     with ThreadPoolExecutor(1, thread_name_prefix="shellvox-field") as pool:
-        ahead = pool.submit(scan, starts[0], np.zeros((0, n_y, n_x), dtype=bool))
+        ahead = pool.submit(scan, starts[0])
         for index in range(len(starts)):
-            z_base, inside, n_bad, near, bits = ahead.result()
+            inside, n_bad, near = ahead.result()
             if index + 1 < len(starts):
-                ahead = pool.submit(scan, starts[index + 1], inside[-1:])
-            unbalanced += n_bad
-            if len(bits) < 2:
-                continue
-            counts = count_triangles(bits, n_levels, TETS, TRIANGLES_PER_CASE)
-            f_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-            v_start = 3 * f_start
-            new_vertices = np.empty((int(v_start[-1]), 3))
-            new_faces = np.empty((int(f_start[-1]), 3), dtype=np.int64)
-            new_vertex_face = np.empty(int(v_start[-1]), dtype=np.int32)
-            field = NodeField(
-                bits, inside, near.squared_mm2, near.face, depth, far, step_mm, origin, step, z_base
+                ahead = pool.submit(scan, starts[index + 1])
+            mesher.add(inside, near.squared_mm2, near.face, unbalanced_rows=n_bad)
+    return mesher.surfaces(merge_planar=merge_planar)
+
+
+class FieldMesher:
+    """Mesh the layer fields of a closed mesh from node planes given in order.
+
+    The planes come from a scan of the grid's nodes: :func:`field_surfaces` scans them
+    itself; a build gives those its voxels' scan found at every few voxel centres
+    (:class:`shellvox.voxel.geometry._field_nodes.NodeLattice`). Each call to :meth:`add` meshes the
+    cubes between the planes given so far; :meth:`surfaces` ends the mesh.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+        Closed, outward-oriented triangles.
+    depth_mm : (K, F) float64, mm
+        Cumulative depth of each layer per face, positive, non-decreasing in ``k``
+        (``K <= 8``).
+    grid : GridSpec
+        The nodes (any spacing per axis); the nodes of its outermost planes and rows
+        must lie outside the mesh.
+    """
+
+    def __init__(
+        self,
+        vertices: NDArray[np.float64],
+        faces: NDArray[np.int64],
+        depth_mm: NDArray[np.float64],
+        grid: GridSpec,
+    ) -> None:
+        self.vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+        self.faces = np.ascontiguousarray(faces, dtype=np.int64)
+        depth = np.ascontiguousarray(depth_mm, dtype=np.float64)
+        n_levels = depth.shape[0]
+        if depth.ndim != 2 or depth.shape[1] != len(faces) or not 1 <= n_levels <= 8:
+            raise ValueError(
+                f"depth_mm must be (K, {len(faces)}) with 1 <= K <= 8, got {depth.shape}"
             )
-            out = MarchOutputs(new_vertices, v_start, new_faces, f_start, new_vertex_face)
-            made = march_slab(field, ids, tables, out)
-            for k in range(n_levels):
-                out_v[k].append(new_vertices[v_start[k] : v_start[k] + made[k]])
-                out_f[k].append(new_faces[f_start[k] : f_start[k + 1]])
-                out_face[k].append(new_vertex_face[v_start[k] : v_start[k] + made[k]])
-    normals = _unit_normals(vertices, faces)
-    plane_at = np.einsum("ij,ij->i", normals, vertices[faces[:, 0]])
+        self.depth = depth
+        self.grid = grid
+        _, n_y, n_x = grid.shape_zyx
+        step = np.asarray(grid.voxel_mm, dtype=np.float64)
+        #: The nodes' exact nearest face is needed this deep (two of the largest steps
+        #: beyond the deepest depth: no edge of the march that crosses a layer reaches
+        #: farther).
+        self.reach_mm = float(depth.max()) + 2.0 * float(step.max())
+        self._far = depth.max(axis=1) - self.reach_mm
+        self._outside = float(step.max())
+        self._origin = np.asarray(grid.origin_mm, dtype=np.float64)
+        self._step = step
+        self._ids = VertexIds(
+            plane_ids=np.full((2, n_levels, n_y, n_x, 3), -1, dtype=np.int64),
+            between_ids=np.full((n_levels, n_y, n_x, 4), -1, dtype=np.int64),
+            state=np.zeros((2, n_levels), dtype=np.int64),
+        )
+        self._v: list[list[NDArray[np.float64]]] = [[] for _ in range(n_levels)]
+        self._f: list[list[NDArray[np.int64]]] = [[] for _ in range(n_levels)]
+        self._face: list[list[NDArray[np.int32]]] = [[] for _ in range(n_levels)]
+        self._last: tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.int32]] | None = None
+        self._next_plane = 0
+        self._unbalanced = 0
 
-    def level(k: int) -> tuple[NDArray[np.float64], NDArray[np.int64], int]:
-        v = np.concatenate(out_v[k]) if out_v[k] else np.zeros((0, 3))
-        f = np.concatenate(out_f[k]) if out_f[k] else np.zeros((0, 3), dtype=np.int64)
-        if not (merge_planar and len(f)):
-            return v, f, len(f)
-        vertex_face = np.concatenate(out_face[k])
-        merged = merge_planar_patches(v, f, vertex_face, normals, plane_at - depth[k])
-        return merged.vertices, merged.faces, len(f)
+    def add(
+        self,
+        inside: NDArray[np.bool_],
+        squared: NDArray[np.float64],
+        face: NDArray[np.int32],
+        *,
+        unbalanced_rows: int = 0,
+    ) -> None:
+        """Mesh the next node planes.
 
-    # The layers' patches are merged side by side (the kernels and GEOS release the GIL).
-    with ThreadPoolExecutor(min(n_levels, 2), thread_name_prefix="shellvox-patches") as pool:
-        done = list(pool.map(level, range(n_levels)))
-    surfaces = [(v, f) for v, f, _ in done]
-    marched = [n for _, _, n in done]
-    return FieldSurfaces(surfaces, grid, unbalanced, marched)
+        Parameters
+        ----------
+        inside : (P, Y, X) bool
+            Nodes inside the mesh (the planes after those given before).
+        squared : (P, Y, X) float64, mm^2
+            Squared distance to the nearest face where ``face >= 0``.
+        face : (P, Y, X) int32
+            Nearest face (lowest index among ties) of every inside node within
+            :attr:`reach_mm`, -1 beyond it.
+        unbalanced_rows : int, optional
+            Rows of the inside test whose crossings did not cancel (reported).
+        """
+        n_y, n_x = self.grid.shape_zyx[1:]
+        if inside.shape[1:] != (n_y, n_x) or not inside.shape == squared.shape == face.shape:
+            raise ValueError(
+                f"node planes must be (P, {n_y}, {n_x}), got {inside.shape}, {squared.shape} "
+                f"and {face.shape}"
+            )
+        self._unbalanced += unbalanced_rows
+        if not len(inside):
+            return
+        z_base = self._next_plane
+        self._next_plane += len(inside)
+        if self._last is not None:
+            inside, squared, face = (
+                np.concatenate([kept, new])
+                for kept, new in zip(self._last, (inside, squared, face), strict=True)
+            )
+            z_base -= 1
+        self._last = (inside[-1:].copy(), squared[-1:].copy(), face[-1:].copy())
+        if len(inside) < 2:
+            return
+        n_levels = self.depth.shape[0]
+        bits = np.empty(inside.shape, dtype=np.uint8)
+        _layer_bits(inside, squared, face, self.depth, bits)
+        counts = count_triangles(bits, n_levels, TETS, TRIANGLES_PER_CASE)
+        f_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        v_start = 3 * f_start
+        new_vertices = np.empty((int(v_start[-1]), 3))
+        new_faces = np.empty((int(f_start[-1]), 3), dtype=np.int64)
+        new_vertex_face = np.empty(int(v_start[-1]), dtype=np.int32)
+        field = NodeField(
+            bits,
+            inside,
+            squared,
+            face,
+            self.depth,
+            self._far,
+            self._outside,
+            self._origin,
+            self._step,
+            z_base,
+        )
+        out = MarchOutputs(new_vertices, v_start, new_faces, f_start, new_vertex_face)
+        made = march_slab(field, self._ids, (EDGES, TETS, TABLE), out)
+        for k in range(n_levels):
+            self._v[k].append(new_vertices[v_start[k] : v_start[k] + made[k]])
+            self._f[k].append(new_faces[f_start[k] : f_start[k + 1]])
+            self._face[k].append(new_vertex_face[v_start[k] : v_start[k] + made[k]])
+
+    def surfaces(self, *, merge_planar: bool = True) -> FieldSurfaces:
+        """Return the layers' surfaces, once every node plane was given.
+
+        `merge_planar`: triangulate the planar patches again (default); False keeps the
+        marched triangles.
+        """
+        n_planes = self.grid.shape_zyx[0]
+        if self._next_plane != n_planes:
+            raise ValueError(f"{self._next_plane} of {n_planes} node planes were given")
+        depth = self.depth
+        normals = _unit_normals(self.vertices, self.faces)
+        plane_at = np.einsum("ij,ij->i", normals, self.vertices[self.faces[:, 0]])
+
+        def level(k: int) -> tuple[NDArray[np.float64], NDArray[np.int64], int]:
+            v = np.concatenate(self._v[k]) if self._v[k] else np.zeros((0, 3))
+            f = np.concatenate(self._f[k]) if self._f[k] else np.zeros((0, 3), dtype=np.int64)
+            if not (merge_planar and len(f)):
+                return v, f, len(f)
+            vertex_face = np.concatenate(self._face[k])
+            merged = merge_planar_patches(v, f, vertex_face, normals, plane_at - depth[k])
+            return merged.vertices, merged.faces, len(f)
+
+        # The layers' patches are merged side by side (the kernels and GEOS release the GIL).
+        n_levels = depth.shape[0]
+        with ThreadPoolExecutor(min(n_levels, 2), thread_name_prefix="shellvox-patches") as pool:
+            done = list(pool.map(level, range(n_levels)))
+        surfaces = [(v, f) for v, f, _ in done]
+        marched = [n for _, _, n in done]
+        return FieldSurfaces(surfaces, self.grid, self._unbalanced, marched)
+
+
+class LatticeMesher(FieldMesher):
+    """Mesh the layer fields from a build's voxels: the :class:`FieldNodes` of its slabs.
+
+    The nodes are the :class:`NodeLattice`'s voxel centres with one more node, outside,
+    on every side; the slabs' nodes are given in z order (:meth:`add_nodes`).
+
+    Parameters
+    ----------
+    vertices, faces, depth_mm
+        As :class:`FieldMesher`.
+    voxels : GridSpec
+        The build's voxel grid.
+    lattice : NodeLattice
+        The voxel centres kept (its ``beyond_mm`` at least two node steps).
+    """
+
+    def __init__(
+        self,
+        vertices: NDArray[np.float64],
+        faces: NDArray[np.int64],
+        depth_mm: NDArray[np.float64],
+        voxels: GridSpec,
+        lattice: NodeLattice,
+    ) -> None:
+        stride_zyx = np.asarray(lattice.stride_zyx)
+        count = -(-np.asarray(voxels.shape_zyx) // stride_zyx)  # nodes per axis
+        step = np.asarray(voxels.voxel_mm) * stride_zyx[::-1]
+        origin = np.asarray(voxels.origin_mm) - step
+        grid = GridSpec(
+            (float(origin[0]), float(origin[1]), float(origin[2])),
+            (float(step[0]), float(step[1]), float(step[2])),
+            (int(count[0]) + 2, int(count[1]) + 2, int(count[2]) + 2),
+        )
+        super().__init__(vertices, faces, depth_mm, grid)
+        if lattice.beyond_mm < 2.0 * float(step.max()) * (1 - 1e-9):
+            raise ValueError(
+                f"the lattice's nodes are scanned {lattice.beyond_mm} mm beyond the deepest "
+                f"depth; its steps {step.tolist()} mm need {2.0 * float(step.max())}"
+            )
+        self._expected = 0
+        self._add_outside()
+
+    def add_nodes(self, nodes: FieldNodes) -> None:
+        """Mesh one slab's nodes (the slab after the last one given)."""
+        if nodes.first != self._expected:
+            raise ValueError(f"node plane {nodes.first} came where {self._expected} was due")
+        self._expected += len(nodes.inside)
+        pad = ((0, 0), (1, 1), (1, 1))
+        self.add(
+            np.pad(nodes.inside, pad),
+            np.pad(nodes.squared, pad),
+            np.pad(nodes.face, pad, constant_values=-1),
+        )
+
+    def surfaces(self, *, merge_planar: bool = True) -> FieldSurfaces:
+        """Return the layers' surfaces once every slab's nodes were given."""
+        if self._expected != self.grid.shape_zyx[0] - 2:
+            raise ValueError(
+                f"{self._expected} of {self.grid.shape_zyx[0] - 2} node planes were given"
+            )
+        self._add_outside()
+        return super().surfaces(merge_planar=merge_planar)
+
+    def _add_outside(self) -> None:
+        """Mesh one plane of nodes outside the mesh."""
+        shape = (1, *self.grid.shape_zyx[1:])
+        self.add(np.zeros(shape, bool), np.zeros(shape), np.full(shape, -1, np.int32))
 
 
 def _unit_normals(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.float64]:

@@ -97,6 +97,7 @@ def stack_manifest(
     seconds: Mapping[str, float],
     *,
     shell_agreement: dict[str, Any] | None,
+    shell_meshes: Mapping[str, Any] | None = None,
     summaries: Mapping[str, Any],
     slab_rows: int,
     faces: FaceThickness | None,
@@ -126,6 +127,9 @@ def stack_manifest(
         The stages' timings (copied; ``total`` is added when the manifest is written).
     shell_agreement : dict or None
         How well the distance layers agree with the shell meshes.
+    shell_meshes : mapping or None
+        How the shell meshes were made (the method's record: for ``field``, its nodes,
+        where their layer field came from and how many scans it took).
     summaries : mapping
         The writers' summaries (``tiff``, ``vdb``, ``gcvf``, ...), in the manifest's order.
     slab_rows : int
@@ -202,6 +206,7 @@ def stack_manifest(
         "diagnostics": tally.diagnostics,
         "seconds": dict(seconds),
         "shell_agreement": shell_agreement,
+        **({"shell_meshes": dict(shell_meshes)} if shell_meshes is not None else {}),
         **summaries,
         "slab_rows": slab_rows,
         "thickness": thickness_entry(config, faces),

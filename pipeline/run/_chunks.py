@@ -2,14 +2,15 @@
 
 :func:`encode_chunk` packs everything :meth:`shellvox.stack._stack._Job._stream` consumes of a
 :class:`~shellvox.run._task.StackSlab` (the slab's arrays and counters, its materials
-and tally, its encoded VDB leaves and pages) into a zip of ``.npy`` members (the arrays
-deflated at zlib level 1, the leaves and pages stored as they are, being compressed
-already; no pickles: :func:`decode_chunk` reads it with ``allow_pickle=False``), and
-:func:`decode_chunk` gives back a slab that feeds the writers exactly as the original
-does. A slab that comes with its pages leaves out the voxel arrays the writing process
-does not use (the job's ``send``): they are carried by the pages and leaves, and
-decode as empty arrays. :func:`save_chunk` puts such bytes in place atomically
-(temporary name, fsync, rename), so a chunk file that exists is complete.
+and tally, its encoded VDB leaves and pages, the layer field at the shell meshes' nodes)
+into a zip of ``.npy`` members (the arrays deflated at zlib level 1, the leaves and
+pages stored as they are, being compressed already; no pickles: :func:`decode_chunk`
+reads it with ``allow_pickle=False``), and :func:`decode_chunk` gives back a slab that
+feeds the writers exactly as the original does. A slab that comes with its pages leaves
+out the voxel arrays the writing process does not use (the job's ``send``): they are
+carried by the pages and leaves, and decode as empty arrays. :func:`save_chunk` puts such
+bytes in place atomically (temporary name, fsync, rename), so a chunk file that exists is
+complete.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.run._task import SLAB_ARRAYS, StackSlab
+from shellvox.voxel.geometry import FieldNodes
 from shellvox.voxel.io.vdb import GridSpool
 from shellvox.voxel.slab import SlabResult
 
@@ -42,6 +44,8 @@ _COUNTERS = (
     "n_nearest_queries",
     "n_distance_tests",
 )
+#: The layer field at the shell meshes' nodes (:class:`shellvox.voxel.geometry.FieldNodes`).
+_NODE_ARRAYS = ("inside", "squared", "face")
 _SPOOL_TEXT = ("name", "value_type", "grid_class")
 _SPOOL_LISTS = {
     "leaf_origin": ((0, 3), np.int32),
@@ -69,6 +73,10 @@ def encode_chunk(done: StackSlab, send: tuple[str, ...] | None = None) -> bytes:
         members[f"slab.{name}"] = array
     for name in _COUNTERS:
         members[f"slab.{name}"] = np.array(int(getattr(slab, name)), np.int64)
+    if slab.nodes is not None:
+        members["nodes.first"] = np.array(slab.nodes.first, np.int64)
+        for name in _NODE_ARRAYS:
+            members[f"nodes.{name}"] = getattr(slab.nodes, name)
     if done.materials is not None:
         members["materials"] = done.materials
     if done.tally is not None:
@@ -130,6 +138,11 @@ def decode_chunk(data: bytes) -> StackSlab:
             n_nearest_queries=count["n_nearest_queries"],
             n_distance_tests=count["n_distance_tests"],
             layer_counts=members["slab.layer_counts"],
+            nodes=None
+            if "nodes.first" not in members
+            else FieldNodes(
+                int(members["nodes.first"]), *(members[f"nodes.{n}"] for n in _NODE_ARRAYS)
+            ),
         )
         n_spools = int(members["n_spools"])
         spools = None if n_spools < 0 else [_spool(members, f"vdb{i}.") for i in range(n_spools)]

@@ -2,9 +2,13 @@
 
 With the ``"shells"`` layer rule the voxels are counted between the shells, so the shells
 come first, in this process. With the ``"distance"`` rule and ``shell_meshes`` they are a
-second realisation of the layers, computed beside the voxels in a spawned process
-(:class:`shellvox.run._children.ChildCall`: it dies with the build); the voxels do not depend
-on them, so a failure there is a warning, not an error. The shells for the files are
+second realisation of the layers, and the voxels do not depend on them, so a failure there
+is a warning, not an error. The ``field`` method's shells are meshed from the voxels' own
+scan: each slab keeps the layer field at every few voxel centres
+(:class:`shellvox.voxel.geometry.NodeLattice`), which this process marches as the slabs come
+(:class:`shellvox.offset.field.layer_field.LatticeMesher`) and simplifies at the end; the
+layer field is scanned once. The other methods run beside the voxels in a spawned process
+(:class:`shellvox.run._children.ChildCall`: it dies with the build). The shells for the files are
 cleaned and jittered here (:func:`shellvox.offset.reference.for_file.shell_for_file`; in the spawned
 process when there is one); the voxels of the ``"shells"`` rule use them as computed.
 """
@@ -16,6 +20,7 @@ import threading
 import time
 import warnings
 from collections.abc import Iterator, Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -25,9 +30,19 @@ from tqdm import tqdm
 from shellvox.config import BuildConfig
 from shellvox.errors import ShellvoxWarning
 from shellvox.model import ColouredMesh
-from shellvox.offset import method_shells, ready_for_file
+from shellvox.offset import (
+    automatic_lattice,
+    field_shells,
+    method_shells,
+    ready_for_file,
+)
+from shellvox.offset.field.layer_field import LatticeMesher
+from shellvox.offset.methods import surface_area
 from shellvox.offset.shells import Shell
 from shellvox.run import ChildCall
+from shellvox.voxel.geometry import FieldNodes, NodeLattice
+from shellvox.voxel.grid import GridSpec
+from shellvox.voxel.slab import SlabResult
 
 #: Seconds between updates of the shells' progress bar.
 TICK_S = 0.5
@@ -37,7 +52,8 @@ class ShellsDone(NamedTuple):
     """The shells for the files (None: none, or they failed) and the seconds of the wait."""
 
     shells: list[Shell] | None
-    #: ``shells`` (computed beside the slabs) and ``shells_wait``; empty when computed first.
+    #: ``shells`` (computed beside the slabs) and ``shells_wait`` (after them); empty when
+    #: computed first.
     seconds: dict[str, float]
 
 
@@ -60,6 +76,9 @@ class ShellJob:
         the length of their progress bar.
     progress : bool or None
         Show the progress bar; ``None``: only on a terminal.
+    grid : GridSpec, optional
+        The voxel grid, whose scan gives the ``field`` shells their nodes (the distance
+        rule with shell meshes).
     """
 
     def __init__(
@@ -70,6 +89,7 @@ class ShellJob:
         *,
         estimate_s: float = 0.0,
         progress: bool | None = None,
+        grid: GridSpec | None = None,
     ) -> None:
         self.mesh = mesh
         self.thickness = thickness
@@ -82,6 +102,24 @@ class ShellJob:
         self.shells: list[Shell] | None = None
         #: ``shells``: the seconds of the shells computed at once (the "shells" rule).
         self.first_seconds: Mapping[str, float] = {}
+        #: The shell method's record (:attr:`shellvox.offset.MethodShells.record`), when
+        #: the shells were made in this process.
+        self.record: dict[str, Any] | None = None
+        #: The voxel centres whose layer field the slabs keep for the ``field`` shells.
+        self.lattice: NodeLattice | None = None
+        self._mesher: LatticeMesher | None = None
+        self._march_s = 0.0
+        self._nodes_missing = False
+        # The slabs' nodes are marched in a thread of their own, in z order (the kernels
+        # release the GIL), while this thread writes the slabs.
+        self._marcher: ThreadPoolExecutor | None = None
+        self._marched: list[Future[None]] = []
+        if self.meshes_voxels and grid is not None:
+            self.lattice = automatic_lattice(
+                grid, surface_area(mesh.vertices, mesh.faces), thickness.shape[0]
+            )
+            depth = np.cumsum(thickness, axis=0)
+            self._mesher = LatticeMesher(mesh.vertices, mesh.faces, depth, grid, self.lattice)
         if config.layer_rule == "shells":
             with self._bar(time.perf_counter()):
                 self.shells, shell_s = timed_shells(mesh.vertices, mesh.faces, thickness, config)
@@ -92,13 +130,46 @@ class ShellJob:
         """The distance layers' build computes shell meshes beside the slabs."""
         return self.config.layer_rule == "distance" and self.config.shell_meshes
 
+    @property
+    def meshes_voxels(self) -> bool:
+        """The shell meshes are the ``field`` method's, meshed from the voxels' scan."""
+        return self.writes_meshes and self.config.shell_method == "field"
+
+    def add_slab(self, slab: SlabResult) -> None:
+        """March the layer field a slab kept at the lattice's nodes (slabs in z order).
+
+        A slab without them (checkpointed by a build that did not keep them) leaves the
+        shells to a scan of their own at the end.
+        """
+        if self._mesher is None:
+            return
+        if slab.nodes is None:
+            self._mesher, self._nodes_missing = None, True
+            return
+        if self._marcher is None:
+            self._marcher = ThreadPoolExecutor(1, thread_name_prefix="shellvox-march")
+        self._marched.append(self._marcher.submit(self._march, self._mesher, slab.nodes))
+
+    def _march(self, mesher: LatticeMesher, nodes: FieldNodes) -> None:
+        tick = time.perf_counter()
+        mesher.add_nodes(nodes)
+        self._march_s += time.perf_counter() - tick
+
+    def _stop_marching(self) -> None:
+        """End the marching thread (at once: what it had left is not wanted)."""
+        if self._marcher is not None:
+            self._marcher.shutdown(wait=True, cancel_futures=True)
+            self._marcher = None
+
     def start_beside(self, stack: contextlib.ExitStack) -> None:
         """Start the shells in another process, with the distance rule and shell meshes.
 
         Call after the slab workers are forked; `stack` stops the process if the build
-        fails.
+        fails. The ``field`` shells need none: they are meshed here from the slabs (the
+        marching thread is stopped with `stack`).
         """
-        if self.writes_meshes:
+        stack.callback(self._stop_marching)
+        if self.writes_meshes and not self.meshes_voxels:
             call = ChildCall(  # a process that dies fails the call instead of hanging it
                 timed_shells,
                 self.mesh.vertices,
@@ -119,6 +190,8 @@ class ShellJob:
         with the "shells" rule :attr:`shells` stays as computed (the voxels' shells), and without
         shell meshes to write those are what is returned.
         """
+        if self.meshes_voxels:
+            return self._voxel_shells()
         if self._pending is None:
             if self.shells is None or not self.config.shell_meshes:
                 return ShellsDone(self.shells, {})  # no files: the voxels' shells as computed
@@ -140,6 +213,42 @@ class ShellJob:
         seconds["shells_wait"] = time.perf_counter() - tick
         self._pending = None
         return ShellsDone(self.shells, seconds)
+
+    def _voxel_shells(self) -> ShellsDone:
+        """Return the ``field`` shells of the layer field the slabs kept, simplified."""
+        tick = time.perf_counter()
+        mesh, depth = self.mesh, np.cumsum(self.thickness, axis=0)
+        try:
+            for marched in self._marched:  # a march's error is raised here
+                marched.result()
+            self._stop_marching()
+            if self._mesher is not None:
+                with self._bar(tick - self._march_s):
+                    field = self._mesher.surfaces()
+                    made = field_shells(
+                        field,
+                        mesh.vertices,
+                        mesh.faces,
+                        depth,
+                        field_s=self._march_s + time.perf_counter() - tick,
+                        source="voxels",
+                    )
+                self._mesher = None
+            else:  # resumed slabs without nodes: the shells scan the field themselves
+                made = method_shells(mesh.vertices, mesh.faces, self.thickness, method="field")
+                made.record["field_source"] = "own scan (resumed slabs kept no nodes)"
+            self.shells = [ready_for_file(shell, "field").shell for shell in made.shells]
+            self.record = {**made.record, "layer_field_scans": 1 + self._nodes_missing}
+        except Exception as error:  # the voxels do not depend on the shell meshes
+            warnings.warn(
+                f"{mesh.source}: the shell meshes failed ({error}); the voxel stack is "
+                "complete without shells/; run `shellvox shells` on the model for its shells",
+                ShellvoxWarning,
+                stacklevel=3,
+            )
+            self.shells = None
+        seconds = time.perf_counter() - tick
+        return ShellsDone(self.shells, {"shells": self._march_s + seconds, "shells_wait": seconds})
 
     @contextlib.contextmanager
     def _bar(self, started: float) -> Iterator[None]:

@@ -51,7 +51,7 @@ from shellvox.stack._shell_job import ShellJob
 from shellvox.thickness import FaceThickness
 from shellvox.voxel.agreement import shell_agreement
 from shellvox.voxel.colour import MaterialPlan, materials_for_slab
-from shellvox.voxel.geometry import SurfaceIndex
+from shellvox.voxel.geometry import NodeLattice, SurfaceIndex
 from shellvox.voxel.io import PageEncoder
 from shellvox.voxel.io.vdb import VdbEncoder
 from shellvox.voxel.sampler import LayerSampler
@@ -121,11 +121,13 @@ def stack_model(
     config: BuildConfig,
     depth: np.ndarray[Any, np.dtype[np.float64]] | None,
     shells: list[Shell] | None = None,
+    lattice: NodeLattice | None = None,
 ) -> StackModel:
     """Return what every slab of `mesh` needs, its scan regions computed (before forking).
 
     `depth` ``(K, F) float64`` mm: the distance layers' depths (None with the "shells"
-    rule, whose `shells` give the layers).
+    rule, whose `shells` give the layers); `lattice`: the voxel centres whose layer field
+    the slabs keep for the shell meshes.
     """
     model = StackModel(
         surfaces=(
@@ -139,6 +141,7 @@ def stack_model(
         sdf_half_width_mm=config.sdf_half_width_mm,
         depth_mm=depth,
         layer_rule=config.layer_rule,
+        field_nodes=lattice,
     )
     _ = model.surface.regions  # the scan's regions, computed once, inherited by workers
     return model
@@ -184,8 +187,9 @@ class _Job:
             config,
             estimate_s=plan.estimate.shell_seconds,
             progress=self.progress,
+            grid=plan.grid,
         )
-        model = self._model(shell_job.shells)
+        model = self._model(shell_job.shells, shell_job.lattice)
         # Before any other thread (shell process, writers, progress bar) starts: the slab
         # workers are forked.
         setup = stack.enter_context(DeferredSignals())  # no signal until all is registered
@@ -219,7 +223,7 @@ class _Job:
         tally = Tally(model.n_bands)
         check = self._colour_check()
         setup.close()  # a signal that came during the set-up is raised here
-        slabs_s = self._stream(slabs, outputs, sampler, tally, check)
+        slabs_s = self._stream(slabs, outputs, sampler, tally, check, shell_job)
         tick = time.perf_counter()
         summaries = outputs.finish()
         finish_s = time.perf_counter() - tick
@@ -257,6 +261,7 @@ class _Job:
             tally,
             seconds,
             shell_agreement=agreement,
+            shell_meshes=shell_job.record if shells is not None else None,
             summaries=summaries,
             slab_rows=plan.rows,
             faces=self.faces,
@@ -283,10 +288,15 @@ class _Job:
         """Return the printer profile when the voxels get materials."""
         return self.profile if self.materials is not None else None
 
-    def _model(self, shells: list[Shell] | None) -> StackModel:
-        """Return what every slab needs (the shells only with the "shells" rule)."""
+    def _model(self, shells: list[Shell] | None, lattice: NodeLattice | None) -> StackModel:
+        """Return what every slab needs.
+
+        The shells only with the "shells" rule; the nodes of the shell meshes with
+        distance layers and `field` shells.
+        """
         by_distance = self.config.layer_rule == "distance"
-        return stack_model(self.mesh, self.config, self.plan.depth if by_distance else None, shells)
+        depth = self.plan.depth if by_distance else None
+        return stack_model(self.mesh, self.config, depth, shells, lattice)
 
     def _page_encoder(self) -> PageEncoder | None:
         """Return the slab workers' encoder of TIFF pages, job slices and the store's shards."""
@@ -344,8 +354,12 @@ class _Job:
         sampler: LayerSampler | None,
         tally: Tally,
         check: ColourCheck | None,
+        shell_job: ShellJob,
     ) -> float:
-        """Write every slab, in z order, as it comes back from the workers; return the seconds."""
+        """Write every slab, in z order, as it comes back from the workers; return the seconds.
+
+        The layer field the slabs kept for the shell meshes is marched meanwhile.
+        """
         n_bands = tally.n_layers - 2
         disable = None if self.progress is None else not self.progress
         tick = time.perf_counter()
@@ -364,6 +378,7 @@ class _Job:
                     sampler.add(slab.z_start, slab.layers)
                 if check is not None and materials is not None:
                     check.add_slab(slab.z_start, materials)
+                shell_job.add_slab(slab)
                 outputs.write(slab, materials, encoded, pages, counts)
                 bar.update(slab.z_stop - slab.z_start)
         return time.perf_counter() - tick

@@ -34,6 +34,7 @@ from shellvox.stack._stack import _Job, _material_plan, stack_model
 from shellvox.thickness import FaceThickness
 from shellvox.tray._mesh import TrayMesh, concatenate_thickness
 from shellvox.tray._plan import TrayPlan
+from shellvox.voxel.geometry import NodeLattice
 from shellvox.voxel.slab import StackModel
 from shellvox.voxel.tray_slab import TrayStack
 
@@ -154,7 +155,10 @@ class _TrayJob(_Job):
         """Return the manifest's ``tray`` section: the models and their places."""
         return self.entry
 
-    def _model(self, shells: list[Shell] | None) -> StackModel:
-        """Return the tray: the slab runner hands it to compute_slab, which takes trays."""
+    def _model(self, shells: list[Shell] | None, lattice: NodeLattice | None) -> StackModel:
+        """Return the tray: the slab runner hands it to compute_slab, which takes trays.
+
+        A tray has distance layers and no shell meshes: no shells, no lattice.
+        """
         assert self.tray is not None
         return cast(StackModel, self.tray)

@@ -155,6 +155,43 @@ def test_resume_in_an_empty_folder_builds_from_the_start(tmp_path, capsys):
     assert json.loads((out / "manifest.json").read_text())["run"]["resumed_slabs"] == 0
 
 
+def test_resumed_slabs_give_the_shell_meshes_of_one_run(tmp_path, monkeypatch):
+    """The field shells are meshed from the layer field the slabs keep, which their chunks
+    carry: a resumed build's shells are the uninterrupted build's, byte for byte; chunks
+    without it (a build that kept none) leave the shells to a scan of their own."""
+    options = [*SMALL, "--shell-meshes", "--workers", "2"]
+    options.remove("--no-shell-meshes")
+    reference, out = tmp_path / "reference", tmp_path / "out"
+    assert _build(reference, *options) == 0
+    with monkeypatch.context() as patch:  # as if killed once the manifest was written
+        patch.setattr(RunFolder, "remove", lambda self: None)
+        assert _build(out, *options) == 0
+    chunks = _chunks(out)
+    assert len(chunks) >= 4
+    for chunk in chunks[1::2]:
+        chunk.unlink()
+    assert _build(out, *options, "--resume") == 0
+    assert output_digests(out) == output_digests(reference)
+    assert any(name.startswith("shells/") for name in output_digests(out))
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["shell_meshes"]["layer_field_scans"] == 1
+
+    with monkeypatch.context() as patch:
+        patch.setattr(RunFolder, "remove", lambda self: None)
+        assert _build(out, *options) == 0
+    first = _chunks(out)[0]
+    done = decode_chunk(first.read_bytes())
+    assert done.slab.nodes is not None
+    first.write_bytes(encode_chunk(done._replace(slab=done.slab._replace(nodes=None))))
+    assert _build(out, *options, "--resume") == 0
+    record = json.loads((out / "manifest.json").read_text())["shell_meshes"]
+    assert record["layer_field_scans"] == 2 and "resumed" in record["field_source"]
+    digests, expected = output_digests(out), output_digests(reference)
+    assert {n: d for n, d in digests.items() if not n.startswith("shells/")} == {
+        n: d for n, d in expected.items() if not n.startswith("shells/")
+    }
+
+
 def test_a_chunk_decodes_to_the_slab_it_encodes(tmp_path):
     out = tmp_path / "out"
     with pytest.MonkeyPatch.context() as patch:

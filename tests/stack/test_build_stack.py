@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -201,6 +202,26 @@ def test_vdb_encoded_in_workers_equals_vdb_encoded_here(tmp_path):
         other = grids[3][name]
         assert grid.active_voxels == other.active_voxels
         np.testing.assert_array_equal(grid.values, other.values)
+
+
+def test_shell_meshes_come_from_the_voxels_scan(built, tmp_path):
+    # The field shells are meshed from the layer field the slabs scanned (one scan), and
+    # keeping it changes no voxel: a build without shell meshes has the same files.
+    out, config, manifest = built
+    record = manifest["shell_meshes"]
+    assert record["method"] == "field" and record["field_source"] == "voxels"
+    assert record["layer_field_scans"] == 1
+    voxel = np.array(manifest["grid"]["voxel_size_mm"])
+    stride = np.array(record["node_step_mm"]) / voxel
+    np.testing.assert_allclose(stride, np.round(stride))  # nodes are voxel centres
+    plain = dataclasses.replace(config, shell_meshes=False)
+    other = build_stack(_ball(), plain, tmp_path, progress=False)
+    assert "shell_meshes" not in other
+    for name in ("layers.tif", "colour.tif", "volume.vdb"):
+        assert other["files"][name] == manifest["files"][name], name
+    for k in (1, 2):
+        shell = trimesh.load(out / "shells" / f"shell_{k}.ply", process=False)
+        assert shell.is_watertight and shell.is_winding_consistent and shell.volume > 0
 
 
 def test_distance_layers_agree_with_the_shells(built):

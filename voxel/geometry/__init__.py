@@ -6,16 +6,19 @@
   :mod:`~shellvox.voxel.geometry._closest_point` the compiled point-triangle test;
 - :mod:`~shellvox.voxel.geometry._nearest` exact nearest points and generalised winding numbers of
   points (libigl);
-- :mod:`~shellvox.voxel.geometry._layer_kernel` the per-voxel pass: layers, SDF band, colour voxels.
+- :mod:`~shellvox.voxel.geometry._layer_kernel` the per-voxel pass: layers, SDF band, colour voxels;
+- :mod:`~shellvox.voxel.geometry._field_nodes` the voxel centres where a slab keeps the layer
+  field for the shell meshes.
 
 :mod:`shellvox.offset` uses :mod:`~shellvox.voxel.geometry._nearest`, and its field method
-the scan of the nearest faces (:mod:`shellvox.offset.field.layer_field`).
+the scan of the nearest faces and the field's nodes (:mod:`shellvox.offset.field`).
 """
 
 from __future__ import annotations
 
 from shellvox.voxel.geometry._closest_point import barycentric
 from shellvox.voxel.geometry._distance_scan import nearest_in_reach, nearest_within
+from shellvox.voxel.geometry._field_nodes import FieldNodes, NodeLattice, node_lattice
 from shellvox.voxel.geometry._layer_kernel import (
     LayerInputs,
     LayerOutputs,
@@ -37,9 +40,11 @@ from shellvox.voxel.geometry._voronoi import voronoi_regions
 from shellvox.voxel.geometry._winding import inside_slab, winding_slab
 
 __all__ = [
+    "FieldNodes",
     "LayerInputs",
     "LayerOutputs",
     "Nearest",
+    "NodeLattice",
     "SurfaceIndex",
     "assign_layers",
     "barycentric",
@@ -52,6 +57,7 @@ __all__ = [
     "nearest_in_reach",
     "nearest_on_surface",
     "nearest_within",
+    "node_lattice",
     "on_faces",
     "voronoi_regions",
     "winding_numbers",
