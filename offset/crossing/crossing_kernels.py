@@ -139,19 +139,19 @@ crossing_pairs = _jit(_crossing_pairs_py)
 
 
 def _cell_pair_hits_py(  # type: ignore[no-untyped-def]
-    a0, a1, later, key_sorted, owner_sorted, i0, boxes, lo, hi, span, faces, tri, eps, active
+    a0, a1, later, skip, key_sorted, owner_sorted, i0, boxes, lo, hi, span, faces, tri, eps, active
 ):
     """Crossing pairs among the entries ``a0 .. a1 - 1`` of a sorted hash grid.
 
-    Entry ``a`` pairs with the ``later[a]`` entries after it (same cell). A pair is tested
-    only in the cell of the low corner of the boxes' intersection (so once), when the
-    boxes overlap (closed), the triangles share fewer than two vertices and at least
-    one of them is ``active``.
+    Entry ``a`` pairs with the ``later[a]`` entries after its next ``skip[a]`` (same
+    cell). A pair is tested only in the cell of the low corner of the boxes' intersection
+    (so once), when the boxes overlap (closed), the triangles share fewer than two
+    vertices and at least one of them is ``active``.
 
     Parameters
     ----------
     a0, a1 : int
-    later : (E,) int64
+    later, skip : (E,) int64
     key_sorted, owner_sorted : (E,) int64
         Cell key and binned box (index into ``boxes``) of each entry, sorted by cell.
     i0 : (B,) int64 (B, 3)
@@ -178,7 +178,8 @@ def _cell_pair_hits_py(  # type: ignore[no-untyped-def]
         la = owner_sorted[a]
         fa = boxes[la]
         here = key_sorted[a]
-        for b in range(a + 1, a + 1 + later[a]):
+        first = a + 1 + skip[a]
+        for b in range(first, first + later[a]):
             lb = owner_sorted[b]
             fb = boxes[lb]
             if not (active[fa] or active[fb]):

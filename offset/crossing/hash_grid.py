@@ -23,14 +23,22 @@ FINE_CELLS = 27
 
 @dataclass(frozen=True)
 class HashGrid:
-    """The entries of one grid of :func:`hash_grids`, sorted by cell, leaders first.
+    """The entries of one grid of :func:`hash_grids`, sorted by cell.
+
+    In a cell: the active leaders, the active followers, the other leaders, the other
+    followers (all are active without an ``active`` mask, see :func:`hash_grids`).
 
     Attributes
     ----------
     key, owner : (E,) int64
         Cell key and binned box (an index into ``boxes``) of every entry.
     later : (E,) int64
-        Entries after this one in its cell that it pairs with (0 for followers).
+        Entries of its cell that this one pairs with: an active leader all entries after
+        it, an active follower the other leaders, the rest none.
+    skip : (E,) int64
+        Entries right after this one that it does not pair with (the active followers
+        after an active follower); its partners are entries ``skip + 1`` to
+        ``skip + later`` after it.
     ends : (E,) int64
         Cumulative sum of ``later``.
     boxes : (B,) int64
@@ -44,6 +52,7 @@ class HashGrid:
     key: IntArray
     owner: IntArray
     later: IntArray
+    skip: IntArray
     ends: IntArray
     boxes: IntArray
     low_cell: IntArray
@@ -59,7 +68,9 @@ class HashGrid:
             a0, base = a1, int(self.ends[a1 - 1])
 
 
-def hash_grids(lo: FloatArray, hi: FloatArray) -> Iterator[HashGrid]:
+def hash_grids(
+    lo: FloatArray, hi: FloatArray, active: npt.NDArray[np.bool_] | None = None
+) -> Iterator[HashGrid]:
     """Yield the grids of a hierarchical hash grid [1]_ over the boxes ``lo, hi``.
 
     The fine grid's cell is the median box size ``s``; a box spanning at most
@@ -74,10 +85,17 @@ def hash_grids(lo: FloatArray, hi: FloatArray) -> Iterator[HashGrid]:
     the fine grid, 8 per coarser level) whatever the sizes: long sliver triangles among
     tiny ones (CAD fans) never span billions of cells.
 
+    With `active`, only the pairs with an active box are made: a cell without an active
+    entry is dropped, and an inactive entry pairs only with active ones. A few large
+    boxes among many small ones (the long triangles of planar patches) then cost in
+    proportion to the active boxes near them, not to all boxes in their cells.
+
     Parameters
     ----------
     lo, hi : (F, 3) float64, mm
         Box corners.
+    active : (F,) bool, optional
+        The boxes a pair needs one of (all by default).
 
     Yields
     ------
@@ -112,12 +130,13 @@ def hash_grids(lo: FloatArray, hi: FloatArray) -> Iterator[HashGrid]:
             break
         level[short] += 1
     fine = np.flatnonzero(~coarse)
-    grid = _grid(lo_c, hi_c, fine, np.ones(fine.size, dtype=bool), size)
+    on = np.ones(n_box, dtype=bool) if active is None else np.asarray(active, dtype=bool)
+    grid = _grid(lo_c, hi_c, fine, np.ones(fine.size, dtype=bool), on[fine], size)
     if grid is not None:
         yield grid
     for m in np.unique(level[coarse]):
         boxes = np.flatnonzero(level <= m)
-        grid = _grid(lo_c, hi_c, boxes, level[boxes] == m, size * 2.0 ** (m + 1))
+        grid = _grid(lo_c, hi_c, boxes, level[boxes] == m, on[boxes], size * 2.0 ** (m + 1))
         if grid is not None:
             yield grid
 
@@ -127,9 +146,10 @@ def _grid(
     hi_c: FloatArray,
     boxes: IntArray,
     lead: npt.NDArray[np.bool_],
+    active: npt.NDArray[np.bool_],
     size: float,
 ) -> HashGrid | None:
-    """Bin `boxes` in cells of `size`; a pair needs at least one leader.
+    """Bin `boxes` in cells of `size`; a pair needs a leader and an active box.
 
     Parameters
     ----------
@@ -139,6 +159,8 @@ def _grid(
         Indices of the boxes binned.
     lead : (B,) bool
         Leaders: a pair is made when at least one of its boxes leads.
+    active : (B,) bool
+        Active boxes: a pair is made when at least one of its boxes is active.
     size : float, mm
         Cell size.
 
@@ -147,31 +169,51 @@ def _grid(
     HashGrid or None
         None when no pair can be made.
     """
-    if boxes.size < 2 or not np.any(lead):
+    if boxes.size < 2 or not np.any(lead) or not np.any(active):
         return None
     i0 = np.floor(lo_c[boxes] / size).astype(np.int64)
     n = np.floor(hi_c[boxes] / size).astype(np.int64) - i0 + 1
     span = (i0 + n - 1).max(axis=0) + 1
     key, owner = _cell_entries(i0, n, span)  # one int64 per cell
-    led = lead[owner]
-    if not np.all(led):
-        # Followers only matter in cells that a leader occupies.
+    # 0 active leader, 1 active follower, 2 other leader, 3 other follower
+    group = np.where(lead[owner], 0, 1) + np.where(active[owner], 0, 2)
+    if np.any(group):
+        # Followers only matter in cells that a leader occupies, the others (inactive) in
+        # cells an active one occupies, and with a leader only inactive, its followers
+        # only where an active leader is.
+        led = group % 2 == 0
         keep = led | np.isin(key, key[led])
-        key, owner, led = key[keep], owner[keep], led[keep]
-    # Cells in order, and in a cell the leaders first: each pairs with all entries after it.
-    order = np.argsort(key, kind="stable") if np.all(led) else np.lexsort((~led, key))
+        if np.any(group >= 2):
+            keep &= (group < 2) | np.isin(key, key[group < 2])
+            keep &= (group != 3) | np.isin(key, key[group == 0])
+        key, owner, group = key[keep], owner[keep], group[keep]
+    order = np.argsort(key, kind="stable") if not np.any(group) else np.lexsort((group, key))
     key_sorted = key[order]
     owner_sorted = owner[order]
-    led_sorted = led[order]
-    del key, owner, led, order
+    group_sorted = group[order]
+    del key, owner, group, order
     start = np.flatnonzero(np.r_[True, key_sorted[1:] != key_sorted[:-1]])
     size_g = np.diff(np.r_[start, key_sorted.size])
-    after = np.repeat(size_g, size_g) - (np.arange(key_sorted.size) - np.repeat(start, size_g)) - 1
-    later = np.where(led_sorted, after, 0)
+    cell_start = np.repeat(start, size_g)
+    position = np.arange(key_sorted.size) - cell_start
+    after = np.repeat(size_g, size_g) - position - 1
+    if not np.any(group_sorted):
+        later = after
+        skip = np.zeros_like(later)
+    else:
+        # entries per cell of the active leaders, active followers and other leaders
+        counts = [np.add.reduceat((group_sorted == g).astype(np.int64), start) for g in range(3)]
+        n_active_lead, n_active, n_other_lead = (np.repeat(c, size_g) for c in counts)
+        n_active += n_active_lead
+        follower = (group_sorted == 1) & (n_other_lead > 0)
+        later = np.select([group_sorted == 0, follower], [after, n_other_lead], 0)
+        # an active follower skips the active followers after it, to the other leaders
+        skip = np.where(follower, n_active - position - 1, 0)
     return HashGrid(
         key=np.ascontiguousarray(key_sorted),
         owner=np.ascontiguousarray(owner_sorted),
-        later=np.ascontiguousarray(later),
+        later=np.ascontiguousarray(later, dtype=np.int64),
+        skip=np.ascontiguousarray(skip, dtype=np.int64),
         ends=np.cumsum(later),
         boxes=boxes,
         low_cell=np.ascontiguousarray(i0),

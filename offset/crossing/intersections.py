@@ -82,7 +82,7 @@ def intersecting_pairs(
         return np.zeros((0, 2), dtype=np.int64)
     hits: list[IntArray] = []
     with ThreadPoolExecutor(_threads(), thread_name_prefix="shellvox-crossings") as pool:
-        for grid in hash_grids(lo, hi):
+        for grid in hash_grids(lo, hi, None if only is None else active):
             # Leaders in sorted order, a bounded number of pairs at a time; the pairs are
             # walked and tested in one compiled loop (shellvox.offset.crossing.crossing_kernels),
             # which releases the GIL: the spans of a grid are tested side by side.
@@ -91,6 +91,7 @@ def intersecting_pairs(
                     span[0],
                     span[1],
                     grid.later,
+                    grid.skip,
                     grid.key,
                     grid.owner,
                     grid.low_cell,
@@ -119,7 +120,11 @@ def _threads() -> int:
 
 
 def _candidate_pairs(
-    lo: FloatArray, hi: FloatArray, *, chunk: int = 200_000
+    lo: FloatArray,
+    hi: FloatArray,
+    *,
+    chunk: int = 200_000,
+    active: npt.NDArray[np.bool_] | None = None,
 ) -> tuple[IntArray, IntArray]:
     """Return the pairs ``i < j`` of overlapping boxes (closed), sorted by ``(i, j)``.
 
@@ -129,7 +134,7 @@ def _candidate_pairs(
     ----------
     lo, hi : (F, 3) float64, mm
         Box corners.
-    chunk : int, optional
+    chunk, active : optional
         See :func:`_candidate_chunks`.
 
     Returns
@@ -137,13 +142,17 @@ def _candidate_pairs(
     first, second : (P,) int64
     """
     n_box = len(lo)
-    codes = [a * n_box + b for a, b in _candidate_chunks(lo, hi, chunk=chunk)]
+    codes = [a * n_box + b for a, b in _candidate_chunks(lo, hi, chunk=chunk, active=active)]
     pair = np.sort(np.concatenate(codes)) if codes else np.zeros(0, dtype=np.int64)
     return pair // max(n_box, 1), pair % max(n_box, 1)
 
 
 def _candidate_chunks(
-    lo: FloatArray, hi: FloatArray, *, chunk: int = 200_000
+    lo: FloatArray,
+    hi: FloatArray,
+    *,
+    chunk: int = 200_000,
+    active: npt.NDArray[np.bool_] | None = None,
 ) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield the pairs ``i < j`` of overlapping boxes (closed), each exactly once.
 
@@ -157,17 +166,20 @@ def _candidate_chunks(
         Box corners.
     chunk : int, optional
         Candidate pairs generated at once, at least those of one box in one cell.
+    active : (F,) bool, optional
+        Only the pairs with an active box (all by default).
 
     Yields
     ------
     first, second : (p,) int64
         Overlapping pairs, ``first < second``, in no particular order.
     """
-    for grid in hash_grids(lo, hi):
+    for grid in hash_grids(lo, hi, active):
         for a0, a1 in grid.spans(chunk):
             cnt = grid.later[a0:a1]
             a = np.repeat(np.arange(a0, a1), cnt)
-            b = a + 1 + (np.arange(a.size) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+            b = a + 1 + np.repeat(grid.skip[a0:a1], cnt)
+            b += np.arange(a.size) - np.repeat(np.cumsum(cnt) - cnt, cnt)
             la, lb = grid.owner[a], grid.owner[b]
             here = grid.key[a]
             del a, b

@@ -82,26 +82,41 @@ def _jittered(plain: list[Mesh]) -> tuple[list[Mesh], IntArray, IntArray]:
 
     The vertices of triangles that cross after the jitter go back to their places and the
     shells are checked again, up to ``JITTER_REVERTS`` times (a vertex put back can make a
-    crossing with a neighbour still moved: the faceted spot at 100 mm needs two); if they
-    still cross, the unjittered shells are checked (a fold of the simplification crosses
-    either way). Dropping the whole jitter for a few crossings would leave every flat part
-    exactly coplanar, which MeshLab's triangle test reads as crossings at random (261
-    faces of spot's outer shell at 100 mm).
+    crossing with a neighbour still moved: the faceted spot at 100 mm needs two). Each
+    check after the first tests only the pairs with a triangle that moved back; the others
+    are as they were. When every crossing triangle is back in place, the crossings are the
+    simplification's own (a fold) and are returned as they are; when the rounds run out
+    first, the unjittered shells are checked. Dropping the whole jitter for a few crossings
+    would leave every flat part exactly coplanar, which MeshLab's triangle test reads as
+    crossings at random (261 faces of spot's outer shell at 100 mm).
     """
     moved = [_jitter(v, f) for v, f in plain]
+    still = [np.ones(len(v), dtype=bool) for v, _ in plain]  # vertices still jittered
     pairs, owner = crossings(moved)
     start = np.cumsum([0] + [len(f) for _, f in plain])
     for _ in range(JITTER_REVERTS):
         if len(pairs) == 0:
             return moved, pairs, owner
+        changed = np.zeros(len(owner), dtype=bool)
         faces = np.unique(pairs)
         for k in np.unique(owner[faces]):
             local = faces[owner[faces] == k] - start[k]
-            back = np.unique(plain[k][1][local])
+            corners = plain[k][1][local]
+            back = np.unique(corners[still[k][corners]])
+            if len(back) == 0:
+                continue
             v = moved[k][0].copy()
             v[back] = plain[k][0][back]
             moved[k] = (v, plain[k][1])
-        pairs, owner = crossings(moved)
+            still[k][back] = False
+            touched = np.zeros(len(v), dtype=bool)
+            touched[back] = True
+            changed[start[k] : start[k + 1]] = touched[plain[k][1]].any(axis=1)
+        if not changed.any():  # the crossing triangles are where the simplification put them
+            return moved, pairs, owner
+        kept = pairs[~changed[pairs].any(axis=1)]
+        new, owner = crossings(moved, only=changed)
+        pairs = np.unique(np.concatenate([kept, new]), axis=0)
     if len(pairs) == 0:
         return moved, pairs, owner
     pairs, owner = crossings(plain)
@@ -242,8 +257,13 @@ def _jitter(vertices: FloatArray, faces: IntArray) -> Mesh:
     return vertices + move, faces
 
 
-def crossings(meshes: list[Mesh]) -> tuple[IntArray, IntArray]:
+def crossings(
+    meshes: list[Mesh], *, only: npt.NDArray[np.bool_] | None = None
+) -> tuple[IntArray, IntArray]:
     """Return the crossing triangle pairs of the shells, all together, and each face's shell.
+
+    `only` ((T,) bool over the concatenated faces) restricts the test to the pairs with a
+    face in it (:func:`shellvox.offset.crossing.intersections.intersecting_pairs`).
 
     Returns
     -------
@@ -256,7 +276,7 @@ def crossings(meshes: list[Mesh]) -> tuple[IntArray, IntArray]:
     owner = np.repeat(np.arange(len(meshes)), [len(f) for _, f in meshes])
     if len(faces) == 0:
         return np.zeros((0, 2), dtype=np.int64), owner
-    return intersecting_pairs(vertices, faces), owner
+    return intersecting_pairs(vertices, faces, only=only), owner
 
 
 def _concatenated(meshes: list[Mesh]) -> Mesh:

@@ -131,6 +131,24 @@ def test_candidate_pairs_of_long_slivers_among_dust_are_exact(shift):
         np.testing.assert_array_equal(second, ref_j)
 
 
+@pytest.mark.parametrize("share", [0.0, 0.01, 0.3, 1.0])
+def test_candidate_pairs_with_an_active_box_are_exact(share):
+    # Long slivers among dust (a pair of two slivers, of a sliver and a speck, of two
+    # specks): with some boxes active, exactly the overlapping pairs that hold one, as
+    # all pairs tested by brute force give them; slivers active or not.
+    rng = np.random.default_rng(7)
+    tri = _fan_and_dust(rng)
+    lo, hi = tri.min(axis=1), tri.max(axis=1)
+    ref_i, ref_j = _brute_overlaps(lo, hi)
+    for active in (rng.random(len(tri)) < share, np.r_[np.ones(120, bool), np.zeros(1500, bool)]):
+        keep = active[ref_i] | active[ref_j]
+        for chunk in (50, 200_000):
+            first, second = _candidate_pairs(lo, hi, chunk=chunk, active=active)
+            np.testing.assert_array_equal(first, ref_i[keep])
+            np.testing.assert_array_equal(second, ref_j[keep])
+    assert keep.sum() > 1000
+
+
 def test_candidate_pairs_of_identical_points():
     lo = np.ones((5, 3))
     first, second = _candidate_pairs(lo, lo.copy())

@@ -140,14 +140,17 @@ def test_the_jitter_is_put_back_around_crossings_until_none_is_left(monkeypatch)
     plain = [(np.asarray(box.vertices, dtype=np.float64), np.asarray(box.faces, dtype=np.int64))]
     v0, f0 = plain[0]
 
-    def fake_crossings(meshes):
+    def fake_crossings(meshes, only=None):
         back = np.all(meshes[0][0] == v0, axis=1)
         owner = np.zeros(len(f0), dtype=np.int64)
+        pairs = np.zeros((0, 2), dtype=np.int64)
         if not back[f0[:2]].all():
-            return np.array([[0, 1]]), owner
-        if not back[f0[2]].all():
-            return np.array([[1, 2]]), owner
-        return np.zeros((0, 2), dtype=np.int64), owner
+            pairs = np.array([[0, 1]])
+        elif not back[f0[2]].all():
+            pairs = np.array([[1, 2]])
+        if only is not None:
+            pairs = pairs[only[pairs].any(axis=1)]
+        return pairs, owner
 
     monkeypatch.setattr(simplify_passes, "crossings", fake_crossings)
     (shell,), pairs, _ = simplify_passes._jittered(plain)
@@ -155,6 +158,32 @@ def test_the_jitter_is_put_back_around_crossings_until_none_is_left(monkeypatch)
     back = np.all(shell[0] == v0, axis=1)
     np.testing.assert_array_equal(np.flatnonzero(back), np.unique(f0[:3]))
     assert np.abs(shell[0] - v0).max() <= simplify_passes.JITTER_FRACTION * 10.0
+
+
+def test_crossings_of_the_simplification_itself_stop_the_put_back_at_once(monkeypatch):
+    # Two boxes through each other, as one shell: they cross jittered or not. One round
+    # puts the crossing triangles back; they still cross, all in place, so the shells are
+    # returned with exactly the crossings a full test of them finds, after two tests.
+    one = trimesh.creation.box((10.0, 10.0, 10.0))
+    two = trimesh.creation.box((10.0, 10.0, 10.0))
+    two.apply_translation((4.0, 3.0, 2.0))
+    both = trimesh.util.concatenate([one, two])
+    plain = [(np.asarray(both.vertices, np.float64), np.asarray(both.faces, np.int64))]
+    calls = []
+    real = simplify_passes.crossings
+
+    def counted(meshes, only=None):
+        calls.append(only is None)
+        return real(meshes, only=only)
+
+    monkeypatch.setattr(simplify_passes, "crossings", counted)
+    shells, pairs, _ = simplify_passes._jittered(plain)
+    assert calls == [True, False]
+    full, _ = real(shells)
+    assert len(full) > 0
+    np.testing.assert_array_equal(pairs, full)
+    crossing = np.unique(plain[0][1][np.unique(pairs)])
+    np.testing.assert_array_equal(shells[0][0][crossing], plain[0][0][crossing])
 
 
 @pytest.mark.slow
