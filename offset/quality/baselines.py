@@ -105,9 +105,7 @@ def slicer_thickness(
                 regions[i] = (
                     None
                     if path is None
-                    else shapely.union_all(list(path.polygons_full)).buffer(
-                        -width_mm, join_style="mitre", mitre_limit=10.0
-                    )
+                    else _filled(path).buffer(-width_mm, join_style="mitre", mitre_limit=10.0)
                 )
         order: npt.NDArray[np.intp] = np.asarray(np.argsort(idx, kind="stable"))
         bounds: npt.NDArray[np.intp] = np.asarray(
@@ -133,3 +131,32 @@ def slicer_thickness(
         hi_s = np.where(found & ok, mid, hi_s)
         lo_s = np.where(found & ~ok, mid, lo_s)
     return np.asarray(np.where(found, hi_s, max_factor * width_mm), dtype=np.float64)
+
+
+def _filled(section: trimesh.path.Path2D) -> shapely.Geometry:
+    """Fill a closed section's loops even-odd: the region it encloses.
+
+    A plane section of a closed surface is a set of closed loops, nested where the solid has
+    holes or islands; a point is inside when it is inside an odd number of loops, so the
+    region is the symmetric difference of the loops' polygons. (Trimesh's own nesting of the
+    loops, ``Path2D.polygons_full``, needs rtree, which shellvox does not depend on.)
+
+    Parameters
+    ----------
+    section : trimesh.path.Path2D
+        One section in its plane's coordinates (mm).
+
+    Returns
+    -------
+    shapely.Geometry
+        The enclosed region, in the same coordinates; empty when no loop closes.
+    """
+    region: shapely.Geometry = shapely.Polygon()
+    for loop in section.discrete:
+        if len(loop) < 4:  # a closed loop repeats its first point: a triangle at least
+            continue
+        parts = shapely.get_parts(shapely.make_valid(shapely.Polygon(loop)))
+        area = [part for part in parts if part.geom_type in ("Polygon", "MultiPolygon")]
+        if area:
+            region = shapely.symmetric_difference(region, shapely.union_all(area))
+    return region

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import trimesh
@@ -34,3 +37,34 @@ def test_slicer_band_is_the_width_on_walls_and_nothing_under_a_flat_top():
     band = slicer_thickness(box, 0.5, points, normals, layer_height_mm=0.1)
     assert band[:2] == pytest.approx([0.5, 0.5], abs=1e-3)
     assert band[2] < 1e-3  # zero, to the bisection's resolution
+
+
+def test_slicer_band_of_a_tube_fills_its_section_even_odd_without_rtree():
+    # A square tube (10 mm outside, a 4 mm square hole through it): every slice is an annulus.
+    # On the outer and inner walls the band is the width; rtree, which trimesh's nesting of
+    # section loops needs, is no dependency of shellvox, so the check runs where it is absent.
+    script = """
+import sys
+sys.modules["rtree"] = None
+import subprocess
+import sys
+
+import numpy as np
+import trimesh
+from shellvox.offset.quality.baselines import slicer_thickness
+
+outer = trimesh.creation.box((10.0, 10.0, 10.0))
+hole = trimesh.creation.box((4.0, 4.0, 12.0))
+tube = trimesh.boolean.difference([outer, hole], engine="manifold")
+points = np.array([[5.0, 1.0, 0.3], [2.0, 0.5, -1.7], [-0.5, -2.0, 2.2], [3.5, 3.5, 5.0]])
+normals = np.array([[1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]])
+print(*slicer_thickness(tube, 0.5, points, normals, layer_height_mm=0.1))
+"""
+    run = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, check=False
+    )
+    assert run.returncode == 0, run.stderr
+    band = np.array(run.stdout.split(), dtype=np.float64)
+    # outer wall, inner wall (normal into the hole), inner wall, flat top (reached at once)
+    assert band[:3] == pytest.approx([0.5, 0.5, 0.5], abs=1e-3)
+    assert band[3] < 1e-3
