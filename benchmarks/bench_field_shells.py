@@ -13,11 +13,12 @@ band reaching 1.5 mm (half width ceil(1.5 / 0.05) + 2 voxels), in the same sessi
 ``meshes``: the shells of every shared mesh (the 3MF files as they are), each timed as one
 command (``--only``: some of them).
 
-Both read the files back: trimesh (merged vertices: closed, oriented), MeshLab (duplicate
-vertices removed: self-intersecting faces, 2-manifold; in a process of its own), the
-project's crossing test over both shells together (nested: no crossing, and shell 2's
-vertices inside shell 1 by winding numbers), and ``|d - D|`` with libigl's exact
-distances at 200,000 area-weighted samples and every vertex (p50, p99 as % of D, max mm).
+Both read the files back: trimesh (merged vertices: closed, oriented; the smallest triangle
+angle), MeshLab (duplicate vertices removed: self-intersecting faces, 2-manifold; in a
+process of its own), the project's crossing test over both shells together (nested: no
+crossing, and shell 2's vertices inside shell 1 by winding numbers), and ``|d - D|`` with
+libigl's exact distances at 200,000 area-weighted samples and every vertex (p50, p99 as % of
+D, max mm).
 
 ``agreement``: the 93,696-face spot by the default method and by ``--method robust``
 (minutes), each a child process; per layer, volumes, and distances from 200,000
@@ -105,6 +106,8 @@ def validity(mesh: trimesh.Trimesh, out: Path) -> dict[str, Any]:
         except MeshLabCrashedError:
             row["meshlab"] = {"crashed": "MeshLab's process died twice"}
         if len(shell.faces):
+            # the smallest angle of a triangle (degrees), as trimesh reads the file
+            row["min_angle_deg"] = float(np.degrees(shell.face_angles.min()))
             points = np.concatenate([shell.sample(200_000, seed=0), shell.vertices])
             error = np.abs(distance_to_surface(surface, points) - depth)
             row["error"] = {

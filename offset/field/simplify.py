@@ -11,7 +11,8 @@ most slivers and folds the first leaves), and the result is accepted only when
 * every shell's error against its target depth, ``|d - D_k(f)|`` with the exact nearest
   face, stays within ``GuardLimits`` (the maximum at the vertices, the face centroids and
   area-weighted samples; the 99th percentile over the samples, within its share of ``D``),
-  or within the unsimplified shell's own error plus the tolerance where the grid alone
+  or within the unsimplified shell's own error plus how far the passes may move the
+  surface (``(1 + TIDY + SLIVER_MOVE)`` times the tolerance) where the grid alone
   exceeds a limit (the p99 over its samples; past the maximum, its largest error near each
   such point, or its error at the point's nearest point plus the distance to it: the
   creases of a faceted input, which a finer ``--shell-step`` sharpens), and
@@ -35,6 +36,10 @@ The simplified vertices are then moved by at most 1e-8 of the part's size (seed 
 breaks the exact coplanarity of flat parts that MeshLab's triangle test misreads (see
 :mod:`shellvox.offset.reference.for_file`); both checks run on the moved vertices, and where the
 move makes a crossing (two triangles within the move of each other) their vertices go back.
+Shells without crossings or pinches then lose their slivers
+(:func:`shellvox.offset.field.simplify_passes.without_slivers`: collapses and flips that
+each move the surface by at most ``SLIVER_MOVE`` times the tolerance, kept only where the
+triangles they made cross nothing), and the error bound is checked on the result.
 Otherwise the tolerance is quartered and the shells simplified again from the originals; when every
 try fails the unsimplified shells are kept (they are valid by construction).
 """
@@ -50,7 +55,7 @@ from scipy.spatial import cKDTree
 
 from shellvox.offset._validate import FloatArray, IntArray
 from shellvox.offset.field.heap import heap_blocks
-from shellvox.offset.field.simplify_passes import LOG, TIDY, Mesh, crossing_free
+from shellvox.offset.field.simplify_passes import LOG, SLIVER_MOVE, TIDY, Mesh, crossing_free
 from shellvox.voxel.geometry._nearest import SurfaceIndex, nearest_faces, nearest_on_surface
 
 #: Triangles per chunk of a pass over an unsimplified shell.
@@ -159,15 +164,16 @@ def _simplify_shells(
     tolerance = limits.tolerance_mm
     for attempt in range(limits.tries):
         record["tries"] = attempt + 1
-        candidate, locked, crossings = crossing_free(meshes, tolerance, limits.lock_rounds)
+        candidate, locked, crossings, slivers = crossing_free(meshes, tolerance, limits.lock_rounds)
         errors = [_depth_error(surface, depth_mm[k], v, f) for k, (v, f) in enumerate(candidate)]
-        moved = (1.0 + TIDY) * tolerance
+        moved = (1.0 + TIDY + SLIVER_MOVE) * tolerance
         within = all(
             _within(e, r, limits, moved, surface, depth_mm[k], meshes[k])
             for k, (e, r) in enumerate(zip(errors, raw, strict=True))
         )
         record.update(
             crossing_pairs=crossings,
+            slivers=slivers,
             lock_rounds=locked.rounds,
             locked_faces=[int(lock.sum()) for lock in locked.faces],
             error_mm=[[e.p99, e.max] for e in errors],

@@ -3,13 +3,14 @@
 A pass is Manifold's edge collapse (``Manifold.simplify``) and then a tidy pass over its
 result at ``TIDY`` of the tolerance. Where the shells still cross, the unsimplified
 triangles near the crossing are locked (a ``face_id`` each) and the shell is simplified
-again; see :mod:`shellvox.offset.field.simplify`, whose guard uses them.
+again; see :mod:`shellvox.offset.field.simplify`, whose guard uses them. Shells that
+cross nothing then lose their slivers (:func:`without_slivers`).
 """
 
 from __future__ import annotations
 
 import logging
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import manifold3d
 import numpy as np
@@ -18,6 +19,7 @@ from scipy.spatial import cKDTree
 
 from shellvox.offset._validate import FloatArray, IntArray
 from shellvox.offset.crossing.intersections import JITTER_FRACTION, intersecting_pairs
+from shellvox.offset.field.slivers import Desliver, corner_angles, remove_slivers
 
 Mesh = tuple[FloatArray, IntArray]
 
@@ -25,6 +27,9 @@ LOG = logging.getLogger(__name__)
 
 #: Tolerance of the tidy pass over a simplification, as a share of the first one's.
 TIDY = 0.25
+
+#: Largest move of the sliver pass after the tidy one, as a share of the first tolerance.
+SLIVER_MOVE = 1.0
 
 #: Rounds of putting back the jittered vertices of crossing triangles before the jitter is
 #: dropped (each round is one crossing check of all the shells).
@@ -40,20 +45,23 @@ class Locks(NamedTuple):
 
 def crossing_free(
     meshes: list[Mesh], tolerance_mm: float, rounds: int
-) -> tuple[list[Mesh], Locks, int]:
+) -> tuple[list[Mesh], Locks, int, dict[str, Any]]:
     """Simplify the shells, locking the triangles near defects until there are none.
 
     The defects are crossing triangle pairs and pinches: Manifold keeps its result
     2-manifold where a collapse makes the surface touch itself at a vertex by splitting
     that vertex in two at the same place, which a reader that welds coincident vertices
-    (MeshLab) reads as a non-manifold vertex.
+    (MeshLab) reads as a non-manifold vertex. Shells without defects lose their slivers
+    (:func:`without_slivers`).
 
-    Returns the shells (jittered unless the jitter makes a crossing), the locks and the
+    Returns the shells (jittered unless the jitter makes a crossing), the locks, the
     crossing pairs and faces at pinches left after the last round (0 when the shells are
-    accepted).
+    accepted), and the sliver pass's record (empty when the shells were not accepted).
     """
     locks = [np.zeros(len(f), dtype=bool) for _, f in meshes]
-    plain = [simplified(v, f, tolerance_mm) for v, f in meshes]
+    passes = [simplified(v, f, tolerance_mm) for v, f in meshes]
+    plain = [mesh for mesh, _ in passes]
+    still = [lock for _, lock in passes]
     done = 0
     while True:
         candidate, pairs, owner = _jittered(plain)
@@ -66,15 +74,62 @@ def crossing_free(
             len(pinched),
         )
         pairs = np.concatenate([pairs, np.stack([pinched, pinched], axis=1)])
-        if len(pairs) == 0 or done == rounds:
-            return candidate, Locks(locks, done), len(pairs)
+        if len(pairs) == 0:
+            shells, record = without_slivers(candidate, still, SLIVER_MOVE * tolerance_mm)
+            return shells, Locks(locks, done), 0, record
+        if done == rounds:
+            return candidate, Locks(locks, done), len(pairs), {}
         for k in np.unique(owner[pairs]):
             near = _near_crossings(candidate, pairs, owner, meshes[int(k)], 2.0**done)
             if (near & ~locks[k]).any():
                 locks[k] |= near
                 v, f = meshes[int(k)]
-                plain[k] = simplified(v, f, tolerance_mm, locked=locks[k])
+                plain[k], still[k] = simplified(v, f, tolerance_mm, locked=locks[k])
         done += 1
+
+
+def without_slivers(
+    shells: list[Mesh], locked: list[npt.NDArray[np.bool_] | None], move_mm: float
+) -> tuple[list[Mesh], dict[str, Any]]:
+    """Remove the slivers of crossing-free shells where that makes no crossing.
+
+    Each shell goes through :func:`shellvox.offset.field.slivers.remove_slivers` (moves of
+    at most `move_mm`); the triangles the moves made are then tested against all of the
+    shells' (the others are as they were: they cross nothing) and for pinches. The first
+    try moves every triangle; where it makes a crossing, the second keeps the `locked`
+    ones (the unsimplified triangles kept around the simplification's folds) as they are;
+    where that crosses too, the shells are returned as given.
+
+    Returns the shells and a record: ``collapsed``, ``flipped`` and ``left`` (slivers)
+    per shell, ``min_angle_deg`` per shell, and ``kept``: ``"all"`` (the first try),
+    ``"unlocked"`` (the second) or ``"none"``.
+    """
+    tries: list[tuple[str, list[npt.NDArray[np.bool_] | None]]] = [("all", [None] * len(shells))]
+    if any(lock is not None and lock.any() for lock in locked):
+        tries.append(("unlocked", locked))
+    for name, locks in tries:
+        out = [
+            remove_slivers(v, f, move_mm, locked=lock)
+            for (v, f), lock in zip(shells, locks, strict=True)
+        ]
+        moved = [(o.vertices, o.faces) for o in out]
+        pairs, _ = crossings(moved, only=np.concatenate([o.changed for o in out]))
+        pinched = pinched_faces(moved)
+        LOG.debug("sliver pass (%s): %d crossing pairs, %d pinched", name, len(pairs), len(pinched))
+        if len(pairs) == 0 and len(pinched) == 0:
+            return moved, _sliver_record(moved, out, name)
+    return shells, _sliver_record(shells, out, "none")
+
+
+def _sliver_record(shells: list[Mesh], out: list[Desliver], kept: str) -> dict[str, Any]:
+    """Return the record of :func:`without_slivers`."""
+    return {
+        "kept": kept,
+        "collapsed": [o.collapsed for o in out],
+        "flipped": [o.flipped for o in out],
+        "left": [o.left for o in out],
+        "min_angle_deg": [float(corner_angles(v, f).min()) if len(f) else None for v, f in shells],
+    }
 
 
 def _jittered(plain: list[Mesh]) -> tuple[list[Mesh], IntArray, IntArray]:
@@ -187,7 +242,7 @@ def simplified(
     tolerance_mm: float,
     *,
     locked: npt.NDArray[np.bool_] | None = None,
-) -> Mesh:
+) -> tuple[Mesh, npt.NDArray[np.bool_] | None]:
     """Return Manifold's simplification of a closed mesh, then a tidy pass over the result.
 
     The tidy pass (a new Manifold of the result, simplified at ``TIDY`` of the tolerance)
@@ -195,10 +250,11 @@ def simplified(
     (on the faceted spot at 100 mm: 49 crossing pairs before, 2 after); the surface moves
     by less than ``(1 + TIDY)`` times the tolerance in all. The `locked` triangles stay
     locked in the tidy pass too (it could fold them again: the airplane at 100 mm, around
-    the long triangles of a planar patch).
+    the long triangles of a planar patch); which triangles of the result they are is
+    returned with it (None when none were locked).
     """
     once, still = _manifold_simplify(vertices, faces, tolerance_mm, locked)
-    return _manifold_simplify(*once, TIDY * tolerance_mm, still)[0]
+    return _manifold_simplify(*once, TIDY * tolerance_mm, still)
 
 
 def manifold_simplify(

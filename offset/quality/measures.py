@@ -157,7 +157,8 @@ def mesh_checks(
         after merging: ``closed``, ``oriented`` (consistent winding, positive volume),
         ``self_intersections``
         (:func:`shellvox.offset.crossing.intersections.count_self_intersections`) and ``volume_mm3``
-        (``None`` unless closed).
+        (``None`` unless closed); ``min_angle_deg``, the smallest angle of a triangle (degrees;
+        ``None`` without faces).
     """
     if faces.shape[0] == 0:
         return {
@@ -169,6 +170,7 @@ def mesh_checks(
             "oriented": True,
             "self_intersections": 0,
             "volume_mm3": 0.0,
+            "min_angle_deg": None,
         }
     unique, inverse = np.unique(vertices, axis=0, return_inverse=True)
     merged = np.asarray(inverse, dtype=np.int64).reshape(-1)[faces]
@@ -194,7 +196,20 @@ def mesh_checks(
         if crossing_pairs is None or len(unique) != len(vertices)
         else int(crossing_pairs),
         "volume_mm3": volume,
+        "min_angle_deg": _smallest_angle(vertices[faces]),
     }
+
+
+def _smallest_angle(triangles: FloatArray) -> float:
+    """Return the smallest angle (degrees) of triangles ``(m, 3, 3)`` mm.
+
+    ``atan2(|u x w|, u . w)`` at each corner: exact to rounding at angles near zero, where
+    the arccosine of a dot product loses half the digits.
+    """
+    u = triangles[:, [1, 2, 0]] - triangles
+    w = triangles[:, [2, 0, 1]] - triangles
+    sine = np.linalg.norm(np.cross(u, w), axis=2)
+    return float(np.degrees(np.arctan2(sine, np.einsum("tij,tij->ti", u, w)).min()))
 
 
 def nested_in(

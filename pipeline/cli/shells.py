@@ -81,8 +81,11 @@ def run(args: argparse.Namespace) -> int:
         load=load_options(args),
         say=_say,
     )
-    for shell, path in zip(result.shells, result.files, strict=False):
-        print(f"{path}: {len(shell.faces):,} faces")
+    for layer, path in zip(result.report["layers"], result.files, strict=False):
+        checks = layer["shell"]
+        smallest = checks["min_angle_deg"]
+        angle = "" if smallest is None else f", smallest angle {smallest:.2g} degrees"
+        print(f"{path}: {checks['n_faces']:,} faces{angle}")
     for path in result.files[len(result.shells) :]:
         print(path)
     return 0

@@ -48,7 +48,10 @@ def _unchanged(vertices: np.ndarray, faces: np.ndarray, before: tuple) -> int:
 @needs_meshlab
 def test_a_folded_simplification_is_simplified_again_with_the_fold_locked(shared_mesh, monkeypatch):
     # Without the tidy pass (which removes this fold too), so that the lock is what does it.
-    monkeypatch.setattr(simplify_passes, "simplified", simplify_passes.manifold_simplify)
+    def one_pass(vertices, faces, tolerance_mm, *, locked=None):
+        return simplify_passes._manifold_simplify(vertices, faces, tolerance_mm, locked)
+
+    monkeypatch.setattr(simplify_passes, "simplified", one_pass)
     spot = _spot(shared_mesh, 30.0)
     v0, f0 = np.asarray(spot.vertices), np.asarray(spot.faces, dtype=np.int64)
     depth = np.full((1, len(f0)), 0.5)
@@ -123,11 +126,25 @@ def test_field_shells_of_the_bunny_are_2_manifold_as_meshlab_reads_them(tmp_path
     for written in save_shells(tmp_path, made.shells, crossing_free=made.crossing_free):
         assert written.checks["coincident_vertices"] == 0
         assert written.checks["closed"] and written.checks["self_intersections"] == 0
+        _assert_no_needle(written)
         if HAVE_PYMESHLAB:
             checks = meshlab_checks(written.path)
             assert checks["two_manifold"] and checks["non_manifold_vertices"] == 0
-            # (crossings: the exact test above; MeshLab's, without a coplanar tolerance,
-            # selects a few faces of shell 1 where that finds none, as before this guard)
+            assert checks["self_intersecting_faces"] == 0
+
+
+def _assert_no_needle(written):
+    """The file's smallest angle, read by trimesh, is the one its checks state, and above
+    0.01 degrees (the marched and simplified shells of the bunny and spot had angles under
+    1e-4 degrees before the sliver pass)."""
+    shell = trimesh.load(written.path, process=False, force="mesh")
+    tri = np.asarray(shell.triangles)
+    a, b = tri[:, [1, 2, 0]] - tri, tri[:, [2, 0, 1]] - tri
+    sine = np.linalg.norm(np.cross(a, b), axis=2)  # arctan2: exact for tiny angles
+    smallest = float(np.degrees(np.arctan2(sine, np.einsum("tij,tij->ti", a, b)).min()))
+    print(f"{written.path.name}: smallest triangle angle {smallest:.3g} degrees")
+    assert written.checks["min_angle_deg"] == pytest.approx(smallest, rel=1e-6)
+    assert smallest > 0.01
 
 
 def test_the_jitter_is_put_back_around_crossings_until_none_is_left(monkeypatch):
@@ -200,10 +217,4 @@ def test_field_shell_files_of_spot_at_100_mm_are_clean_as_meshlab_reads_them(tmp
         checks = meshlab_checks(written.path)
         assert checks["self_intersecting_faces"] == 0
         assert checks["two_manifold"]
-        shell = trimesh.load(written.path, process=False, force="mesh")
-        tri = np.asarray(shell.triangles)
-        a, b = tri[:, [1, 2, 0]] - tri, tri[:, [2, 0, 1]] - tri
-        sine = np.linalg.norm(np.cross(a, b), axis=2)  # arctan2: exact for tiny angles
-        smallest = float(np.degrees(np.arctan2(sine, np.einsum("tij,tij->ti", a, b)).min()))
-        print(f"{written.path.name}: smallest triangle angle {smallest:.3g} degrees")
-        assert smallest > 0.0
+        _assert_no_needle(written)

@@ -275,6 +275,9 @@ def test_real_mesh_shell_files_are_valid_outside_shellvox(real_mesh_shells, tmp_
         # Moved by less than a micrometre in all (1e-3 of the 1 um voxel of the finest
         # printer profile is far below what matters; this bounds the depth error).
         assert w.cleaning["max_move_mm"] + w.cleaning["jitter_mm"] < 1e-2
+        # The smallest angle the checks state is the one trimesh reads in the file.
+        angles = np.degrees(trimesh.load(w.path, process=False).face_angles)
+        assert w.checks["min_angle_deg"] == pytest.approx(angles.min(), abs=1e-5)
         if HAVE_PYMESHLAB:
             ml = meshlab_checks(w.path)
             assert ml["two_manifold"] and ml["boundary_edges"] == 0
