@@ -1,4 +1,4 @@
-"""Face normals and edge-face adjacency of closed, consistently oriented triangle meshes."""
+"""Face normals, triangle angles and edge-face adjacency of closed, oriented triangle meshes."""
 
 from __future__ import annotations
 
@@ -54,6 +54,20 @@ def face_normals(vertices: FloatArray, faces: IntArray) -> tuple[FloatArray, Flo
     normals = np.zeros_like(cross)
     normals[valid] = cross[valid] / norm[valid, None]
     return normals, 0.5 * norm
+
+
+def smallest_angles(triangles: FloatArray) -> FloatArray:
+    """Return the smallest angle of each triangle, (T,) float64 degrees.
+
+    `triangles` is ``(T, 3, 3)`` float64 mm. ``atan2(|u x w|, u . w)`` at each corner keeps
+    its precision near 0 and 180 degrees, where the arccosine of a dot product loses half
+    the digits.
+    """
+    u = triangles[:, [1, 2, 0]] - triangles
+    w = triangles[:, [2, 0, 1]] - triangles
+    sine = np.linalg.norm(np.cross(u, w), axis=2)
+    angles: FloatArray = np.degrees(np.arctan2(sine, np.einsum("tij,tij->ti", u, w)).min(axis=1))
+    return angles
 
 
 def edge_adjacency(faces: IntArray) -> EdgeAdjacency:

@@ -18,8 +18,9 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from shellvox.offset._validate import FloatArray, IntArray
+from shellvox.offset.adjacency import smallest_angles
 from shellvox.offset.crossing.intersections import JITTER_FRACTION, intersecting_pairs
-from shellvox.offset.field.slivers import Desliver, corner_angles, remove_slivers
+from shellvox.offset.field.slivers import Desliver, remove_slivers
 
 Mesh = tuple[FloatArray, IntArray]
 
@@ -128,7 +129,9 @@ def _sliver_record(shells: list[Mesh], out: list[Desliver], kept: str) -> dict[s
         "collapsed": [o.collapsed for o in out],
         "flipped": [o.flipped for o in out],
         "left": [o.left for o in out],
-        "min_angle_deg": [float(corner_angles(v, f).min()) if len(f) else None for v, f in shells],
+        "min_angle_deg": [
+            float(smallest_angles(v[f]).min()) if len(f) else None for v, f in shells
+        ],
     }
 
 

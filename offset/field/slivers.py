@@ -34,6 +34,7 @@ import numpy as np
 import numpy.typing as npt
 
 from shellvox.offset._validate import FloatArray, IntArray
+from shellvox.offset.adjacency import smallest_angles
 from shellvox.voxel._compiled import kernel
 
 #: Triangles with an angle under this (degrees) are slivers.
@@ -72,20 +73,6 @@ class Desliver(NamedTuple):
     collapsed: int
     flipped: int
     left: int
-
-
-def corner_angles(vertices: FloatArray, faces: IntArray) -> FloatArray:
-    """Return each triangle's angles, (T, 3) float64 degrees, at its corners in order.
-
-    ``atan2(|u x w|, u . w)`` keeps its precision at angles near 0 and 180 degrees.
-    """
-    t = vertices[faces]
-    out = np.empty((len(faces), 3), dtype=np.float64)
-    for j in range(3):
-        u = t[:, (j + 1) % 3] - t[:, j]
-        w = t[:, (j + 2) % 3] - t[:, j]
-        out[:, j] = np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), np.einsum("ij,ij->i", u, w))
-    return np.degrees(out)
 
 
 def remove_slivers(
@@ -133,7 +120,7 @@ def remove_slivers(
     lock = np.zeros(len(f), dtype=bool) if locked is None else np.array(locked, dtype=bool)
     collapsed = flipped = 0
     cos_turn = float(np.cos(np.radians(MAX_TURN_DEG)))
-    worst = corner_angles(v, f).min(axis=1) if len(f) else np.zeros(0)
+    worst = smallest_angles(v[f])
     retry = np.ones(len(f), dtype=bool)  # slivers whose neighbourhood changed since tried
     made = np.zeros(len(f), dtype=bool)
     for _ in range(ROUNDS):
@@ -158,7 +145,7 @@ def remove_slivers(
         changed = changed[keep]
         f, lock, worst = f[keep], lock[keep], worst[keep]
         made = made[keep] | changed
-        worst[changed] = _min_angles(v[f[changed]])
+        worst[changed] = smallest_angles(v[f[changed]])
         retry = _two_rings(f, changed, len(v))
     used = np.zeros(len(v), dtype=bool)
     used[f.reshape(-1)] = True
@@ -513,15 +500,3 @@ def _flip(
         changed[f] = True
     touched[s] = changed[s] = True
     return True
-
-
-def _min_angles(corners: FloatArray) -> FloatArray:
-    """Return the smallest angle (degrees) of each triangle of `corners`, (T, 3, 3) mm."""
-    out = np.full(len(corners), np.inf)
-    for j in range(3):
-        u = corners[:, (j + 1) % 3] - corners[:, j]
-        w = corners[:, (j + 2) % 3] - corners[:, j]
-        angle = np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), np.einsum("ij,ij->i", u, w))
-        out = np.minimum(out, angle)
-    degrees: FloatArray = np.degrees(out)
-    return degrees

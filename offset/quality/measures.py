@@ -10,7 +10,7 @@ import scipy.sparse.csgraph
 import trimesh
 
 from shellvox.offset._validate import FloatArray, IntArray
-from shellvox.offset.adjacency import bend_angles, edge_adjacency, face_normals
+from shellvox.offset.adjacency import bend_angles, edge_adjacency, face_normals, smallest_angles
 from shellvox.offset.crossing.intersections import count_self_intersections, intersecting_pairs
 from shellvox.voxel.geometry._nearest import SurfaceIndex, nearest_on_surface, winding_numbers
 
@@ -196,20 +196,8 @@ def mesh_checks(
         if crossing_pairs is None or len(unique) != len(vertices)
         else int(crossing_pairs),
         "volume_mm3": volume,
-        "min_angle_deg": _smallest_angle(vertices[faces]),
+        "min_angle_deg": float(smallest_angles(vertices[faces]).min()),
     }
-
-
-def _smallest_angle(triangles: FloatArray) -> float:
-    """Return the smallest angle (degrees) of triangles ``(m, 3, 3)`` mm.
-
-    ``atan2(|u x w|, u . w)`` at each corner: exact to rounding at angles near zero, where
-    the arccosine of a dot product loses half the digits.
-    """
-    u = triangles[:, [1, 2, 0]] - triangles
-    w = triangles[:, [2, 0, 1]] - triangles
-    sine = np.linalg.norm(np.cross(u, w), axis=2)
-    return float(np.degrees(np.arctan2(sine, np.einsum("tij,tij->ti", u, w)).min()))
 
 
 def nested_in(

@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from shellvox.offset.field.slivers import corner_angles, remove_slivers
+from shellvox.offset.adjacency import smallest_angles
+from shellvox.offset.field.slivers import remove_slivers
 from shellvox.voxel.geometry._nearest import SurfaceIndex, distance_to_surface
 
 
@@ -50,13 +51,13 @@ def _slivered_box() -> trimesh.Trimesh:
 def test_slivers_in_planes_go_and_the_solid_stays():
     box = _slivered_box()
     v, f = np.asarray(box.vertices), np.asarray(box.faces, np.int64)
-    before = corner_angles(v, f).min(axis=1)
+    before = smallest_angles(v[f])
     assert (before < 0.1).sum() >= 60  # needles and caps both
     out = remove_slivers(v, f, 0.002)
     result = trimesh.Trimesh(out.vertices, out.faces, process=False)
     assert result.is_watertight and result.is_winding_consistent
     assert out.left == 0
-    assert corner_angles(out.vertices, out.faces).min() >= 1.0
+    assert smallest_angles(out.vertices[out.faces]).min() >= 1.0
     assert out.collapsed > 0 and out.flipped > 0
     np.testing.assert_allclose(result.volume, 1000.0, rtol=1e-12)
     # every vertex still on the cube
@@ -84,8 +85,8 @@ def test_moves_on_a_sphere_stay_within_the_budget():
     samples_before = np.concatenate([v, v[f].mean(axis=1)])
     assert distance_to_surface(before, samples_after).max() <= budget
     assert distance_to_surface(after, samples_before).max() <= budget
-    worse = corner_angles(v, f).min(axis=1)
-    better = corner_angles(out.vertices, out.faces).min(axis=1)
+    worse = smallest_angles(v[f])
+    better = smallest_angles(out.vertices[out.faces])
     assert (better < 1.0).sum() < (worse < 1.0).sum()
 
 
@@ -131,7 +132,7 @@ def test_a_sliver_pass_that_makes_a_crossing_is_tried_with_the_locks_then_droppe
     kept_rows = {tuple(row) for row in np.sort(out[0][out[1]].reshape(-1, 9), axis=1)}
     locked_rows = {tuple(row) for row in np.sort(shell[0][shell[1][locked]].reshape(-1, 9), axis=1)}
     assert locked_rows <= kept_rows  # every locked triangle is there as it was
-    assert record["min_angle_deg"][0] == corner_angles(*out).min()
+    assert record["min_angle_deg"][0] == smallest_angles(out[0][out[1]]).min()
 
     seen.clear()
     monkeypatch.setattr(simplify_passes, "crossings", crossing_on({1, 2}))
