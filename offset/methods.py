@@ -178,6 +178,7 @@ def field_shells(
         "field_source": source,
         "unbalanced_rows": field.n_unbalanced_rows,
         "marched_faces": field.marched_faces,
+        "crease_points": field.crease_points,
         "seconds": {"field": field_s, "simplify": time.perf_counter() - tick},
         "simplify": simplified.record,
     }

@@ -8,13 +8,17 @@ by the project's own scan (:func:`shellvox.voxel.geometry._distance_scan.nearest
 the deepest depth plus two steps) and inside test
 (:func:`shellvox.voxel.geometry._winding.inside_slab`), one slab of node planes at a time (memory
 bounded by the slab), and every layer's zero set is meshed in the same pass by marching tetrahedra
-(:mod:`shellvox.offset.field.marching_tets`). Its planar patches (most of a faceted part's
-surface) are then triangulated again from their boundaries
+(:mod:`shellvox.offset.field.marching_tets`), each vertex at the exact crossing of its grid
+edge. The creases and corners the grid cut off are then put back
+(:mod:`shellvox.offset.field.creases`), and the planar patches (most of a faceted part's
+surface) triangulated again from their boundaries
 (:mod:`shellvox.offset.field.planar_patches`): the same surface, several times fewer triangles.
 
 A deeper layer has a depth at least as large on every face, so its field is no higher at
-every node and its surface is nested inside the shallower one by construction (strictly
-when the thickness is positive).
+every node and its marched surface is nested inside the shallower one by construction
+(strictly when the thickness is positive); the creases move each surface by at most a grid
+step towards the exact offset, which the crossing check of the simplification
+(:mod:`shellvox.offset.field.simplify`) verifies.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from shellvox.offset.field.creases import sharpen_creases
 from shellvox.offset.field.marching_tets import (
     EDGES,
     TABLE,
@@ -41,6 +46,7 @@ from shellvox.offset.field.planar_patches import merge_planar_patches
 from shellvox.voxel._compiled import kernel
 from shellvox.voxel.geometry._distance_scan import NearestInReach, nearest_in_reach
 from shellvox.voxel.geometry._field_nodes import FieldNodes, NodeLattice
+from shellvox.voxel.geometry._nearest import SurfaceIndex
 from shellvox.voxel.geometry._voronoi import voronoi_regions
 from shellvox.voxel.geometry._winding import inside_slab
 from shellvox.voxel.grid import GridSpec
@@ -63,14 +69,17 @@ class FieldSurfaces(NamedTuple):
     n_unbalanced_rows : int
         Rows of the inside test whose crossings did not cancel (0 for a closed mesh).
     marched_faces : list of int
-        Triangles of each layer as marched, before its planar patches were triangulated
-        again.
+        Triangles of each layer as marched, before its creases were put back and its
+        planar patches triangulated again.
+    crease_points : list of int
+        Points each layer got on its creases and corners (:mod:`shellvox.offset.field.creases`).
     """
 
     surfaces: list[tuple[NDArray[np.float64], NDArray[np.int64]]]
     grid: GridSpec
     n_unbalanced_rows: int
     marched_faces: list[int]
+    crease_points: list[int]
 
 
 def field_grid(vertices: NDArray[np.float64], step_mm: float) -> GridSpec:
@@ -88,6 +97,7 @@ def field_surfaces(
     *,
     nodes_per_slab: int = NODES_PER_SLAB,
     merge_planar: bool = True,
+    sharpen: bool = True,
 ) -> FieldSurfaces:
     """Mesh the zero set of every layer field of a closed mesh on a grid of step `step_mm`.
 
@@ -105,6 +115,8 @@ def field_surfaces(
         Nodes scanned at once (bounds the memory).
     merge_planar : bool, optional
         Triangulate the planar patches again (default); False keeps the marched triangles.
+    sharpen : bool, optional
+        Put the creases and corners back (default); False keeps the chamfers of the grid.
 
     Returns
     -------
@@ -157,7 +169,7 @@ def field_surfaces(
             if index + 1 < len(starts):
                 ahead = pool.submit(scan, starts[index + 1])
             mesher.add(inside, near.squared_mm2, near.face, unbalanced_rows=n_bad)
-    return mesher.surfaces(merge_planar=merge_planar)
+    return mesher.surfaces(merge_planar=merge_planar, sharpen=sharpen)
 
 
 class FieldMesher:
@@ -198,6 +210,7 @@ class FieldMesher:
             )
         self.depth = depth
         self.grid = grid
+        self._neighbours = face_neighbours(self.faces)
         _, n_y, n_x = grid.shape_zyx
         step = np.asarray(grid.voxel_mm, dtype=np.float64)
         #: The nodes' exact nearest face is needed this deep (two of the largest steps
@@ -282,6 +295,9 @@ class FieldMesher:
             self._origin,
             self._step,
             z_base,
+            self.vertices,
+            self.faces,
+            self._neighbours,
         )
         out = MarchOutputs(new_vertices, v_start, new_faces, f_start, new_vertex_face)
         made = march_slab(field, self._ids, (EDGES, TETS, TABLE), out)
@@ -290,35 +306,57 @@ class FieldMesher:
             self._f[k].append(new_faces[f_start[k] : f_start[k + 1]])
             self._face[k].append(new_vertex_face[v_start[k] : v_start[k] + made[k]])
 
-    def surfaces(self, *, merge_planar: bool = True) -> FieldSurfaces:
+    def surfaces(self, *, merge_planar: bool = True, sharpen: bool = True) -> FieldSurfaces:
         """Return the layers' surfaces, once every node plane was given.
 
-        `merge_planar`: triangulate the planar patches again (default); False keeps the
-        marched triangles.
+        `sharpen`: put the creases and corners back (default); `merge_planar`: triangulate
+        the planar patches again (default). False keeps the marched triangles.
         """
         n_planes = self.grid.shape_zyx[0]
         if self._next_plane != n_planes:
             raise ValueError(f"{self._next_plane} of {n_planes} node planes were given")
         depth = self.depth
         normals = _unit_normals(self.vertices, self.faces)
-        plane_at = np.einsum("ij,ij->i", normals, self.vertices[self.faces[:, 0]])
+        surface = SurfaceIndex.build(self.vertices, self.faces)
+        plane_levels = np.einsum("ij,ij->i", normals, self.vertices[self.faces[:, 0]]) - depth
 
-        def level(k: int) -> tuple[NDArray[np.float64], NDArray[np.int64], int]:
+        def level(k: int) -> tuple[NDArray[np.float64], NDArray[np.int64], int, int]:
             v = np.concatenate(self._v[k]) if self._v[k] else np.zeros((0, 3))
             f = np.concatenate(self._f[k]) if self._f[k] else np.zeros((0, 3), dtype=np.int64)
-            if not (merge_planar and len(f)):
-                return v, f, len(f)
+            n_marched = len(f)
+            if not len(f):
+                return v, f, n_marched, 0
             vertex_face = np.concatenate(self._face[k])
-            merged = merge_planar_patches(v, f, vertex_face, normals, plane_at - depth[k])
-            return merged.vertices, merged.faces, len(f)
+            on_several = None
+            if sharpen:
+                sharp = sharpen_creases(
+                    v, f, vertex_face, normals, plane_levels[k], depth[k], surface
+                )
+                v, f, vertex_face, on_several = (
+                    sharp.vertices,
+                    sharp.faces,
+                    sharp.vertex_face,
+                    sharp.on_crease,
+                )
+            n_points = int(on_several.sum()) if on_several is not None else 0
+            if not merge_planar:
+                return v, f, n_marched, n_points
+            merged = merge_planar_patches(
+                v, f, vertex_face, normals, plane_levels[k], on_several=on_several
+            )
+            return merged.vertices, merged.faces, n_marched, n_points
 
-        # The layers' patches are merged side by side (the kernels and GEOS release the GIL).
+        # The layers are finished side by side (the kernels and GEOS release the GIL).
         n_levels = depth.shape[0]
         with ThreadPoolExecutor(min(n_levels, 2), thread_name_prefix="shellvox-patches") as pool:
             done = list(pool.map(level, range(n_levels)))
-        surfaces = [(v, f) for v, f, _ in done]
-        marched = [n for _, _, n in done]
-        return FieldSurfaces(surfaces, self.grid, self._unbalanced, marched)
+        return FieldSurfaces(
+            [(v, f) for v, f, _, _ in done],
+            self.grid,
+            self._unbalanced,
+            [n for _, _, n, _ in done],
+            [c for _, _, _, c in done],
+        )
 
 
 class LatticeMesher(FieldMesher):
@@ -375,19 +413,44 @@ class LatticeMesher(FieldMesher):
             np.pad(nodes.face, pad, constant_values=-1),
         )
 
-    def surfaces(self, *, merge_planar: bool = True) -> FieldSurfaces:
+    def surfaces(self, *, merge_planar: bool = True, sharpen: bool = True) -> FieldSurfaces:
         """Return the layers' surfaces once every slab's nodes were given."""
         if self._expected != self.grid.shape_zyx[0] - 2:
             raise ValueError(
                 f"{self._expected} of {self.grid.shape_zyx[0] - 2} node planes were given"
             )
         self._add_outside()
-        return super().surfaces(merge_planar=merge_planar)
+        return super().surfaces(merge_planar=merge_planar, sharpen=sharpen)
 
     def _add_outside(self) -> None:
         """Mesh one plane of nodes outside the mesh."""
         shape = (1, *self.grid.shape_zyx[1:])
         self.add(np.zeros(shape, bool), np.zeros(shape), np.full(shape, -1, np.int32))
+
+
+def face_neighbours(faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Return the face across each edge ``(f[i], f[i+1])`` of every face, (F, 3) int64.
+
+    -1 where the edge does not have exactly two faces.
+
+    >>> face_neighbours(np.array([[0, 1, 2], [0, 2, 3]])).tolist()
+    [[-1, 1, -1], [0, -1, -1]]
+    """
+    n = len(faces)
+    if n == 0:
+        return np.zeros((0, 3), dtype=np.int64)
+    a, b = faces, np.roll(faces, -1, axis=1)
+    key = (np.minimum(a, b) * (int(faces.max()) + 1) + np.maximum(a, b)).ravel()
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    start = np.flatnonzero(np.concatenate([[True], sorted_key[1:] != sorted_key[:-1]]))
+    count = np.diff(np.concatenate([start, [len(key)]]))
+    pairs = start[count == 2]
+    first, second = order[pairs], order[pairs + 1]
+    out = np.full(3 * n, -1, dtype=np.int64)
+    out[first] = second // 3
+    out[second] = first // 3
+    return out.reshape(n, 3)
 
 
 def _unit_normals(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.float64]:

@@ -12,11 +12,16 @@ interior vertices go, so the surface covers the same points, stays closed, 2-man
 free of self-intersections and nested with the other layers, with about
 ``boundary vertices + 2 holes - 2`` triangles per patch.
 
-A patch is kept as marched where its boundary touches itself at a vertex, its loops are
-not one outer ring (anticlockwise seen from outside) and holes, GEOS finds the polygon
-invalid, or the new triangles fail the check: every corner a boundary vertex, each directed
-edge used once, the unpaired edges exactly the boundary, positive areas and the polygon's
-area in all.
+Where a patch's boundary touches itself at a vertex (not a simple polygon), the patch's
+triangles at that vertex stay as they are and the rest is a patch again. A patch is kept as
+marched where its loops are not one outer ring (anticlockwise seen from outside) and holes,
+GEOS finds the polygon invalid, or the new triangles fail the check: every corner a
+boundary vertex, each directed edge used once, the unpaired edges exactly the boundary,
+positive areas and the polygon's area in all.
+
+A crease or corner point (:mod:`shellvox.offset.field.creases`) lies on two or three planes:
+a triangle with one belongs to the patch of any of its corners' planes that holds all
+three corners.
 """
 
 from __future__ import annotations
@@ -38,6 +43,9 @@ MAX_OFFSET_MM = 1e-6
 
 #: Whole tolerances in the largest offset.
 QUANTA = round(MAX_OFFSET_MM / PLANE_TOLERANCE_MM)
+
+#: Rounds of taking the triangles at a touching vertex out of their patch.
+UNTOUCH_ROUNDS = 4
 
 #: Relative tolerance of a patch's area against the sum of its new triangles'.
 AREA_TOLERANCE = 1e-9
@@ -69,6 +77,8 @@ def merge_planar_patches(
     vertex_face: NDArray[np.int32],
     normals: NDArray[np.float64],
     plane_levels: NDArray[np.float64],
+    *,
+    on_several: NDArray[np.bool_] | None = None,
 ) -> Merged:
     """Triangulate the planar patches of a closed, outward-oriented surface again.
 
@@ -83,6 +93,10 @@ def merge_planar_patches(
         Unit outward normal of every face of the original surface (NaN where degenerate).
     plane_levels : (F,) float64, mm
         Offset plane of every face: the points ``x`` with ``normals[f] . x == plane_levels[f]``.
+    on_several : (V,) bool, optional
+        Vertices that may lie on more planes than their face's (crease and corner points):
+        a triangle with one is in the patch of any of its corners' planes that all three
+        corners lie on.
 
     Returns
     -------
@@ -98,11 +112,18 @@ def merge_planar_patches(
         corner[:, 0],
         -1,
     )
-    twin = twins(faces, len(vertices), tri_label)
-    patch, seeds = patches(tri_label, twin)
-    n_patches = len(seeds)
-    loop_vertex, loop_start, loop_patch = boundary_loops(faces, twin, patch)
-    patch_face = np.asarray(vertex_face, dtype=np.int64)[faces[seeds, 0]]
+    if on_several is not None and on_several.any():
+        _shared_planes(vertices, faces, label, on_several, normals, plane_levels, tri_label)
+    for _ in range(UNTOUCH_ROUNDS):
+        twin = twins(faces, len(vertices), tri_label)
+        patch, seeds = patches(tri_label, twin)
+        n_patches = len(seeds)
+        loop_vertex, loop_start, loop_patch = boundary_loops(faces, twin, patch)
+        touching = _touching(faces, patch, loop_vertex, loop_start, loop_patch, len(vertices))
+        if not touching.any():
+            break
+        tri_label[touching] = -1
+    patch_face = tri_label[seeds] // (2 * QUANTA + 1)
     chosen = _polygons(
         vertices, patch, n_patches, normals[patch_face], loop_vertex, loop_start, loop_patch
     )
@@ -145,6 +166,58 @@ def _plane_labels(
     quantum = np.rint(off / PLANE_TOLERANCE_MM).astype(np.int64) + QUANTA
     label[candidate] = face[candidate] * (2 * QUANTA + 1) + quantum
     return label
+
+
+def _touching(
+    faces: NDArray[np.int64],
+    patch: NDArray[np.int64],
+    loop_vertex: NDArray[np.int64],
+    loop_start: NDArray[np.int64],
+    loop_patch: NDArray[np.int64],
+    n_vertices: int,
+) -> NDArray[np.bool_]:
+    """Return the triangles at a vertex where their patch's boundary touches itself.
+
+    The patch's loops pass the vertex twice: not a simple polygon. (T,) bool.
+    """
+    entry_patch = np.repeat(loop_patch, np.diff(loop_start))
+    key = entry_patch * np.int64(n_vertices) + loop_vertex
+    unique, counts = np.unique(key, return_counts=True)
+    twice = unique[counts > 1]
+    if len(twice) == 0:
+        return np.zeros(len(faces), dtype=bool)
+    corner_key = np.where(patch[:, None] >= 0, patch[:, None] * np.int64(n_vertices) + faces, -1)
+    touching: NDArray[np.bool_] = np.asarray(np.isin(corner_key, twice).any(axis=1), dtype=bool)
+    return touching
+
+
+def _shared_planes(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    label: NDArray[np.int64],
+    on_several: NDArray[np.bool_],
+    normals: NDArray[np.float64],
+    plane_levels: NDArray[np.float64],
+    tri_label: NDArray[np.int64],
+) -> None:
+    """Label the triangles with a vertex on several planes by a plane all corners lie on.
+
+    For each such triangle without a label, its corners' labels are tried in order; the
+    first whose plane (with its offset in whole tolerances) every corner lies on labels it.
+    `tri_label` is updated in place.
+    """
+    rows = np.flatnonzero((tri_label < 0) & on_several[faces].any(axis=1))
+    for j in range(3):
+        rows = rows[tri_label[rows] < 0]
+        candidate = label[faces[rows, j]]
+        rows, candidate = rows[candidate >= 0], candidate[candidate >= 0]
+        face = candidate // (2 * QUANTA + 1)
+        quantum = candidate % (2 * QUANTA + 1) - QUANTA
+        level = plane_levels[face] + quantum * PLANE_TOLERANCE_MM
+        corners = vertices[faces[rows]]
+        off = np.einsum("ij,ikj->ik", normals[face], corners) - level[:, None]
+        on = (np.abs(off) <= 0.5 * PLANE_TOLERANCE_MM).all(axis=1)
+        tri_label[rows[on]] = candidate[on]
 
 
 def _polygons(

@@ -96,7 +96,8 @@ def test_meshlab_finds_no_crossing_in_the_simplified_shells():
         assert meshlab_crossing_faces(shell.vertices, shell.faces) == 0
     record = out.record["simplify"]
     assert record["tolerance_mm"] > 0  # accepted
-    assert record["faces_after"][0] < record["faces_before"][0] / 5
+    assert record["faces_after"][0] < record["faces_before"][0] / 4
+    assert record["faces_after"][0] < out.record["marched_faces"][0] / 5
     # accepted shells were tested together (what the files' checks then take)
     assert out.crossing_free
 
