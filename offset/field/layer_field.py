@@ -434,7 +434,7 @@ def face_neighbours(faces: NDArray[np.int64]) -> NDArray[np.int64]:
     -1 where the edge does not have exactly two faces.
 
     >>> face_neighbours(np.array([[0, 1, 2], [0, 2, 3]])).tolist()
-    [[-1, 1, -1], [0, -1, -1]]
+    [[-1, -1, 1], [0, -1, -1]]
     """
     n = len(faces)
     if n == 0:
