@@ -116,22 +116,13 @@ def edge_crease_points(
             s = -gu / (-gu - gw)
             for i in range(3):
                 p[i] = vertices[u, i] + s * (vertices[w, i] - vertices[u, i])
-            # The nearest point of the planes' line: p + alpha nA + beta nB.
-            ra = -plane_offset(normals, levels, fa, p)
-            rb = -plane_offset(normals, levels, fb, p)
-            c = normals[fa, 0] * normals[fb, 0] + normals[fa, 1] * normals[fb, 1]
-            c += normals[fa, 2] * normals[fb, 2]
-            det = 1.0 - c * c
-            alpha = (ra - c * rb) / det
-            beta = (rb - c * ra) / det
+            # The nearest point of the planes' line.
+            line_point(normals, levels, fa, fb, p, point[e, combo])
             move2 = 0.0
             length2 = 0.0
             for i in range(3):
-                step = alpha * normals[fa, i] + beta * normals[fb, i]
-                point[e, combo, i] = p[i] + step
-                move2 += step * step
-                d = vertices[w, i] - vertices[u, i]
-                length2 += d * d
+                move2 += (point[e, combo, i] - p[i]) ** 2
+                length2 += (vertices[w, i] - vertices[u, i]) ** 2
             valid[e, combo] = MIN_MOVE_MM * MIN_MOVE_MM <= move2 <= length2
     return point, valid
 

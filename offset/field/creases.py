@@ -476,12 +476,9 @@ def _merge_points(
         if first != second:
             edge_point[first] = 0.5 * (edge_point[first] + edge_point[second])
             rep[second] = first
-    # every edge straight to its root
-    for e in range(len(rep)):
-        root = e
-        while rep[root] != root:
-            root = rep[root]
-        rep[e] = root
+    # every edge straight to its root (pointer jumping)
+    while (rep[rep] != rep).any():
+        rep[:] = rep[rep]
 
 
 def _first_on_surface(
