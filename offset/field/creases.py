@@ -52,6 +52,7 @@ from shellvox.offset.field.crease_geometry import (
     plane_labels,
     triangle_corners,
 )
+from shellvox.offset.field.patch_topology import fans, twins
 from shellvox.voxel.geometry._nearest import SurfaceIndex, nearest_on_surface
 
 #: Largest difference (mm) between a crease or corner point's distance to the part and
@@ -218,13 +219,21 @@ def _sharpen(
     changed[candidate] = True
     out_vertices = np.concatenate([vertices, points[n_old:]])
     out_vertices[kept_ids] = points[:n_old]  # the vertices moved onto a crease
+    out_faces = np.concatenate([faces[~changed], to_global[tri]])
+    region = np.zeros(len(out_vertices), dtype=bool)
+    region[kept_ids] = True
+    region[n_vertices:] = True
+    pinch = _pinches(out_vertices, out_faces, region)
+    if pinch.any():
+        at = tri[pinch[to_global[tri]].any(axis=1)].ravel()
+        return None, kept_ids[np.unique(at[at < n_old])]
     on_crease = np.zeros(n_vertices + n_new, dtype=bool)
     on_crease[n_vertices:] = True
     on_crease[kept_ids] = planes[:n_old, 1] >= 0
     return (
         Creases(
             out_vertices,
-            np.concatenate([faces[~changed], to_global[tri]]),
+            out_faces,
             np.concatenate(
                 [np.asarray(vertex_face, dtype=np.int32), planes[n_old:, 0].astype(np.int32)]
             ),
@@ -234,6 +243,28 @@ def _sharpen(
         ),
         none,
     )
+
+
+def _pinches(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], region: NDArray[np.bool_]
+) -> NDArray[np.bool_]:
+    """Return the `region`'s vertices where the surface pinches. (V,) bool.
+
+    A pinch is a vertex with two fans of triangles (the surface touches itself there), or
+    a vertex at exactly the position of another: Manifold splits the first into the
+    second, and a reader that welds coincident vertices reads either as a non-manifold
+    vertex.
+    """
+    near = faces[region[faces].any(axis=1)]
+    ids, local = np.unique(near, return_inverse=True)
+    local = local.reshape(-1, 3).astype(np.int64)
+    count = fans(local, twins(local, len(ids), np.zeros(len(local), dtype=np.int64)), len(ids))
+    pinched = count > 1
+    _, same, copies = np.unique(vertices[ids], axis=0, return_inverse=True, return_counts=True)
+    pinched |= copies[same.ravel()] > 1
+    out = np.zeros(len(vertices), dtype=bool)
+    out[ids[pinched & region[ids]]] = True
+    return out
 
 
 def _one_pass(

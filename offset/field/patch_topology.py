@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from shellvox.voxel._compiled import kernel
 
-__all__ = ["boundary_loops", "patches", "twins"]
+__all__ = ["boundary_loops", "fans", "patches", "twins"]
 
 
 @kernel
@@ -132,3 +132,38 @@ def boundary_loops(
                 break
     start[n_loops] = n_entries
     return vertex[:n_entries], start[: n_loops + 1], owner[:n_loops]
+
+
+@kernel
+def fans(faces: NDArray[np.int64], twin: NDArray[np.int64], n_vertices: int) -> NDArray[np.int64]:
+    """Fans of triangles around every vertex: more than one is a pinch (not a 2-manifold).
+
+    A fan is a cycle of the triangles at a vertex, each the next's neighbour across an edge
+    at the vertex (``twin`` over every triangle at the vertices counted; an open fan ends
+    where a half-edge has no twin). (V,) int64, 0 for a vertex of no triangle.
+    """
+    count = np.zeros(n_vertices, dtype=np.int64)
+    seen = np.zeros(3 * len(faces), dtype=np.bool_)
+    for h in range(3 * len(faces)):
+        if seen[h]:
+            continue
+        count[faces[h // 3, h % 3]] += 1
+        seen[h] = True
+        # Half-edges out of the vertex: the one into it in the same triangle, then its twin.
+        g = twin[3 * (h // 3) + (h % 3 + 2) % 3]
+        while g >= 0 and not seen[g]:
+            seen[g] = True
+            g = twin[3 * (g // 3) + (g % 3 + 2) % 3]
+        if g >= 0:
+            continue  # closed
+        # An open fan: the other way from h, to its other end.
+        g = h
+        while True:
+            back = twin[g]
+            if back < 0:
+                break
+            g = 3 * (back // 3) + (back % 3 + 1) % 3
+            if seen[g]:
+                break
+            seen[g] = True
+    return count
