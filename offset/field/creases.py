@@ -250,18 +250,32 @@ def _pinches(
 ) -> NDArray[np.bool_]:
     """Return the `region`'s vertices where the surface pinches. (V,) bool.
 
-    A pinch is a vertex with two fans of triangles (the surface touches itself there), or
-    a vertex at exactly the position of another: Manifold splits the first into the
-    second, and a reader that welds coincident vertices reads either as a non-manifold
-    vertex.
+    A pinch is a vertex with two fans of triangles (the surface touches itself there:
+    Manifold splits it into two vertices at one position, which no simplification joins
+    again), or vertices at one position not joined by a chain of edges under ``THIN_MM``
+    (the grid's clusters at nodes on the surface are joined so, and simplifying collapses
+    them).
     """
     near = faces[region[faces].any(axis=1)]
     ids, local = np.unique(near, return_inverse=True)
     local = local.reshape(-1, 3).astype(np.int64)
     count = fans(local, twins(local, len(ids), np.zeros(len(local), dtype=np.int64)), len(ids))
     pinched = count > 1
-    _, same, copies = np.unique(vertices[ids], axis=0, return_inverse=True, return_counts=True)
-    pinched |= copies[same.ravel()] > 1
+    _, place, copies = np.unique(vertices[ids], axis=0, return_inverse=True, return_counts=True)
+    place = place.ravel()
+    shared = copies[place] > 1
+    if shared.any():
+        # the vertices at one place, joined by chains of edges under THIN_MM
+        a, b = local.ravel(), local[:, [1, 2, 0]].ravel()
+        points = vertices[ids]
+        zero = np.linalg.norm(points[a] - points[b], axis=1) <= THIN_MM
+        graph = scipy.sparse.coo_matrix(
+            (np.ones(int(zero.sum())), (a[zero], b[zero])), shape=(len(ids), len(ids))
+        )
+        _, part = scipy.sparse.csgraph.connected_components(graph, directed=False)
+        groups = np.unique(np.column_stack([place[shared], part[shared]]), axis=0)
+        split = np.bincount(groups[:, 0], minlength=len(copies)) > 1
+        pinched |= split[place]
     out = np.zeros(len(vertices), dtype=bool)
     out[ids[pinched & region[ids]]] = True
     return out

@@ -377,6 +377,7 @@ def _search(
     return out
 
 
+@kernel
 def _edges_differ(
     entry_of: NDArray[np.int64],
     tri_patch: NDArray[np.int64],
@@ -387,19 +388,45 @@ def _edges_differ(
 ) -> NDArray[np.bool_]:
     """Patches whose new triangles' unpaired edges are not exactly their boundary.
 
-    Entries belong to one patch each, so a directed edge ``a * n + b`` between entries
-    names its patch.
+    Every directed edge between entries (their patch's) is used once; one without its
+    reverse is a boundary edge ``i -> nxt[i]``, and every boundary edge of a patch with
+    new triangles is one of them, without its reverse. (P,) bool.
     """
-    a = entry_of.ravel()
-    b = entry_of[:, [1, 2, 0]].ravel()
-    edge = a * n_entries + b
-    bad = np.zeros(n_patches, dtype=bool)
-    unique, counts = np.unique(edge, return_counts=True)
-    bad[entry_patch[unique[counts > 1] // n_entries]] = True
-    paired = np.isin(edge, b * n_entries + a)
-    unpaired = np.unique(edge[~paired])
-    in_patch = np.flatnonzero(np.isin(entry_patch, np.unique(tri_patch)))
-    boundary = np.unique(in_patch * n_entries + nxt[in_patch])
-    differ = np.setxor1d(unpaired, boundary, assume_unique=True)
-    bad[entry_patch[differ // n_entries]] = True
+    start = np.zeros(n_entries + 1, dtype=np.int64)
+    has_triangles = np.zeros(n_patches, dtype=np.bool_)
+    for t in range(len(entry_of)):
+        has_triangles[tri_patch[t]] = True
+        for i in range(3):
+            start[entry_of[t, i] + 1] += 1
+    for a in range(n_entries):
+        start[a + 1] += start[a]
+    end = np.empty(start[n_entries], dtype=np.int64)
+    fill = start[:-1].copy()
+    for t in range(len(entry_of)):
+        for i in range(3):
+            a = entry_of[t, i]
+            end[fill[a]] = entry_of[t, (i + 1) % 3]
+            fill[a] += 1
+    bad = np.zeros(n_patches, dtype=np.bool_)
+    for a in range(n_entries):
+        p = entry_patch[a]
+        boundary_seen = False
+        for j in range(start[a], start[a + 1]):
+            b = end[j]
+            for q in range(start[a], j):
+                if end[q] == b:
+                    bad[p] = True  # the edge twice
+            paired = False
+            for q in range(start[b], start[b + 1]):
+                if end[q] == a:
+                    paired = True
+                    break
+            if b == nxt[a]:
+                boundary_seen = True
+                if paired:
+                    bad[p] = True  # a boundary edge inside
+            elif not paired:
+                bad[p] = True  # an open edge off the boundary
+        if has_triangles[p] and not boundary_seen:
+            bad[p] = True  # a boundary edge missing
     return bad
