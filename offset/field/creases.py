@@ -52,7 +52,7 @@ from shellvox.offset.field.crease_geometry import (
     plane_labels,
     triangle_corners,
 )
-from shellvox.offset.field.patch_topology import fans, twins
+from shellvox.offset.field.patch_topology import at_vertices, fans, twins
 from shellvox.voxel.geometry._nearest import SurfaceIndex, nearest_on_surface
 
 #: Largest difference (mm) between a crease or corner point's distance to the part and
@@ -146,8 +146,9 @@ def sharpen_creases(
         if len(crossing) == 0:
             return unchanged if out is None else out
         # Leave the surface as marched around the crossings (a vertex ring further).
-        ring = np.isin(faces, crossing).any(axis=1)
-        label[faces[ring].ravel()] = -1
+        at = np.zeros(len(vertices), dtype=bool)
+        at[crossing] = True
+        label[faces[at_vertices(faces, at)].ravel()] = -1
     return unchanged
 
 
@@ -177,7 +178,7 @@ def _sharpen(
     # whose triangles are here, may move.
     inner = np.zeros(n_vertices, dtype=bool)
     inner[faces[candidate].ravel()] = True
-    candidate = np.flatnonzero(inner[faces].any(axis=1))
+    candidate = np.flatnonzero(at_vertices(faces, inner))
     kept_ids, local = np.unique(faces[candidate], return_inverse=True)
     tri = local.reshape(-1, 3).astype(np.int64)
     points = vertices[kept_ids]
@@ -219,7 +220,10 @@ def _sharpen(
     changed[candidate] = True
     out_vertices = np.concatenate([vertices, points[n_old:]])
     out_vertices[kept_ids] = points[:n_old]  # the vertices moved onto a crease
-    out_faces = np.concatenate([faces[~changed], to_global[tri]])
+    n_kept = len(faces) - len(candidate)
+    out_faces = np.empty((n_kept + len(tri), 3), dtype=np.int64)
+    np.compress(~changed, faces, axis=0, out=out_faces[:n_kept])
+    out_faces[n_kept:] = to_global[tri]
     region = np.zeros(len(out_vertices), dtype=bool)
     region[kept_ids] = True
     region[n_vertices:] = True
@@ -256,7 +260,7 @@ def _pinches(
     (the grid's clusters at nodes on the surface are joined so, and simplifying collapses
     them).
     """
-    near = faces[region[faces].any(axis=1)]
+    near = faces[at_vertices(faces, region)]
     ids, local = np.unique(near, return_inverse=True)
     local = local.reshape(-1, 3).astype(np.int64)
     count = fans(local, twins(local, len(ids), np.zeros(len(local), dtype=np.int64)), len(ids))

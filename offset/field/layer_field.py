@@ -211,6 +211,9 @@ class FieldMesher:
         self.depth = depth
         self.grid = grid
         self._neighbours = face_neighbours(self.faces)
+        normals = _unit_normals(self.vertices, self.faces)
+        levels = np.einsum("ij,ij->i", normals, self.vertices[self.faces[:, 0]])
+        self._planes = np.ascontiguousarray(np.column_stack([normals, levels]))
         _, n_y, n_x = grid.shape_zyx
         step = np.asarray(grid.voxel_mm, dtype=np.float64)
         #: The nodes' exact nearest face is needed this deep (two of the largest steps
@@ -298,6 +301,7 @@ class FieldMesher:
             self.vertices,
             self.faces,
             self._neighbours,
+            self._planes,
         )
         out = MarchOutputs(new_vertices, v_start, new_faces, f_start, new_vertex_face)
         made = march_slab(field, self._ids, (EDGES, TETS, TABLE), out)

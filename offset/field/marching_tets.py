@@ -187,6 +187,9 @@ class NodeField(NamedTuple):
         The surface whose faces ``face`` names (the crossings are found on it exactly).
     mesh_neighbours : (F, 3) int64
         The faces across each face's edges (-1 where an edge has not exactly two faces).
+    mesh_planes : (F, 4) float64
+        Every face's unit outward normal ``n`` and level ``n . x`` on its plane (NaN
+        without area).
     """
 
     bits: NDArray[np.uint8]
@@ -202,6 +205,7 @@ class NodeField(NamedTuple):
     mesh_vertices: NDArray[np.float64]
     mesh_faces: NDArray[np.int64]
     mesh_neighbours: NDArray[np.int64]
+    mesh_planes: NDArray[np.float64]
 
 
 class VertexIds(NamedTuple):
@@ -283,6 +287,19 @@ ROOT_STEPS = 60
 
 
 @kernel(inline="always")
+def _foot_inside(
+    field: NodeField, f: int, z: int, y: int, x: int, p: tuple[float, float, float]
+) -> bool:
+    """Whether node ``p``'s nearest point on face ``f`` is its foot on the face's plane.
+
+    Its distance (the scan's) equals its distance to the plane within ``ON_PLANE_MM``.
+    """
+    planes = field.mesh_planes
+    behind = planes[f, 3] - (planes[f, 0] * p[0] + planes[f, 1] * p[1] + planes[f, 2] * p[2])
+    return bool(np.sqrt(field.squared[z, y, x]) - abs(behind) <= ON_PLANE_MM)
+
+
+@kernel(inline="always")
 def _face_field(
     field: NodeField, k: int, f: int, p0: float, p1: float, p2: float
 ) -> tuple[float, float, bool]:
@@ -291,25 +308,28 @@ def _face_field(
     On plane: the distance is the one to the face's plane within ``ON_PLANE_MM`` (the
     nearest point is the point's foot on the plane).
     """
-    tri = field.mesh_faces[f]
-    a, b, c = field.mesh_vertices[tri[0]], field.mesh_vertices[tri[1]], field.mesh_vertices[tri[2]]
-    u0, u1, u2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    w0, w1, w2 = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    # scalars, not row views (a view per corner costs more than the arithmetic)
+    i0, i1, i2 = field.mesh_faces[f, 0], field.mesh_faces[f, 1], field.mesh_faces[f, 2]
+    a0, a1, a2 = field.mesh_vertices[i0, 0], field.mesh_vertices[i0, 1], field.mesh_vertices[i0, 2]
+    b0, b1, b2 = field.mesh_vertices[i1, 0], field.mesh_vertices[i1, 1], field.mesh_vertices[i1, 2]
+    c0, c1, c2 = field.mesh_vertices[i2, 0], field.mesh_vertices[i2, 1], field.mesh_vertices[i2, 2]
+    u0, u1, u2 = b0 - a0, b1 - a1, b2 - a2
+    w0, w1, w2 = c0 - a0, c1 - a1, c2 - a2
     n0, n1, n2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
     norm2 = n0 * n0 + n1 * n1 + n2 * n2
     depth = float(field.depth[k, f])
     if norm2 > 0.0:
-        r0, r1, r2 = p0 - a[0], p1 - a[1], p2 - a[2]
+        r0, r1, r2 = p0 - a0, p1 - a1, p2 - a2
         # the foot's barycentric weights of b and c (signed areas over the whole)
         v = ((r1 * w2 - r2 * w1) * n0 + (r2 * w0 - r0 * w2) * n1 + (r0 * w1 - r1 * w0) * n2) / norm2
         w = ((u1 * r2 - u2 * r1) * n0 + (u2 * r0 - u0 * r2) * n1 + (u0 * r1 - u1 * r0) * n2) / norm2
         if v >= 0.0 and w >= 0.0 and v + w <= 1.0:
             along = n0 * r0 + n1 * r1 + n2 * r2
             return along * along / norm2, depth, True
-    d2 = triangle_d2(p0, p1, p2, a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2])
+    d2 = triangle_d2(p0, p1, p2, a0, a1, a2, b0, b1, b2, c0, c1, c2)
     on_plane = False
     if norm2 > 0.0:
-        plane = abs(n0 * (p0 - a[0]) + n1 * (p1 - a[1]) + n2 * (p2 - a[2])) / np.sqrt(norm2)
+        plane = abs(n0 * (p0 - a0) + n1 * (p1 - a1) + n2 * (p2 - a2)) / np.sqrt(norm2)
         on_plane = np.sqrt(d2) - plane <= ON_PLANE_MM
     return d2, depth, on_plane
 
@@ -332,7 +352,7 @@ def _near_field(
     return best_depth - np.sqrt(best_d2), best_f, best_on, best_d2
 
 
-@kernel
+@kernel(inline="always")
 def edge_crossing(
     field: NodeField,
     k: int,
@@ -342,6 +362,7 @@ def edge_crossing(
     fb: int,
     va: float,
     vb: float,
+    faces: NDArray[np.int64],
 ) -> tuple[float, int]:
     """Where layer ``k``'s zero set crosses the grid edge from node ``a`` to node ``b``.
 
@@ -350,7 +371,8 @@ def edge_crossing(
     (Illinois) between the node values ``va`` and ``vb`` (opposite signs). A face's field
     is linear where its nearest point lies inside the face, so on a planar part the first
     step is exact. Where a face next to one of those is nearer at the zero found, it joins
-    them and the zero is found again (up to ``MAX_FACES`` faces).
+    them and the zero is found again (up to ``MAX_FACES`` faces), listed in ``faces``
+    ((MAX_FACES,) int64, scratch).
 
     Returns
     -------
@@ -363,7 +385,6 @@ def edge_crossing(
         face), -1 if none.
     """
     linear = va / (va - vb)
-    faces = np.empty(MAX_FACES, dtype=np.int64)
     faces[0] = fa
     n = 1
     if fb != fa:
@@ -388,6 +409,11 @@ def edge_crossing(
                 for q in range(n):
                     known = known or faces[q] == g
                 if known:
+                    continue
+                # no nearer than its plane: skipped where the plane is not nearer
+                planes = field.mesh_planes
+                behind = planes[g, 3] - (planes[g, 0] * p0 + planes[g, 1] * p1 + planes[g, 2] * p2)
+                if behind * behind >= nearer_d2 * (1.0 - 1e-12):
                     continue
                 g_d2, _, _ = _face_field(field, k, g, p0, p1, p2)
                 if g_d2 < nearer_d2 * (1.0 - 1e-12):
@@ -482,6 +508,7 @@ def march_slab(
     made = np.zeros(n_levels, dtype=np.int64)
     n_faces = np.zeros(n_levels, dtype=np.int64)
     corner = np.zeros(8, dtype=np.uint8)
+    scratch = np.empty(MAX_FACES, dtype=np.int64)
     for z in range(n_p - 1):
         g = field.z_base + z
         previous = state[1].copy()
@@ -549,9 +576,19 @@ def march_slab(
                                     fa = _near_face(field, z + az, ay, ax)
                                     fb = _near_face(field, bz, by, bx)
                                     share, on_face = va / (va - vb), -1
-                                    if fa >= 0 and fb >= 0:
+                                    if (
+                                        fa >= 0
+                                        and fa == fb
+                                        and _foot_inside(field, fa, z + az, ay, ax, pa)
+                                        and _foot_inside(field, fb, bz, by, bx, pb)
+                                    ):
+                                        # one face, its plane at both nodes: the field is
+                                        # linear along the edge (the feet are an affine
+                                        # map of the points), the linear share exact
+                                        on_face = fa
+                                    elif fa >= 0 and fb >= 0:
                                         share, on_face = edge_crossing(
-                                            field, k, pa, pb, fa, fb, va, vb
+                                            field, k, pa, pb, fa, fb, va, vb, scratch
                                         )
                                     share = min(max(share, EDGE_MARGIN), 1.0 - EDGE_MARGIN)
                                     v_row = v_start[k] + made[k]

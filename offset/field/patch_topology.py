@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from shellvox.voxel._compiled import kernel
 
-__all__ = ["boundary_loops", "fans", "patches", "twins"]
+__all__ = ["at_vertices", "boundary_loops", "fans", "patches", "twins"]
 
 
 @kernel
@@ -167,3 +167,12 @@ def fans(faces: NDArray[np.int64], twin: NDArray[np.int64], n_vertices: int) -> 
                 break
             seen[g] = True
     return count
+
+
+@kernel
+def at_vertices(faces: NDArray[np.int64], mark: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Return which triangles have a corner at a marked vertex ((V,) bool). (T,) bool."""
+    out = np.zeros(len(faces), dtype=np.bool_)
+    for t in range(len(faces)):
+        out[t] = mark[faces[t, 0]] or mark[faces[t, 1]] or mark[faces[t, 2]]
+    return out
