@@ -41,7 +41,9 @@ Shells without crossings or pinches then lose their slivers
 each move the surface by at most ``SLIVER_MOVE`` times the tolerance, kept only where the
 triangles they made cross nothing), and the error bound is checked on the result.
 Otherwise the tolerance is quartered and the shells simplified again from the originals; when every
-try fails the unsimplified shells are kept (they are valid by construction).
+try fails the unsimplified shells are kept (they are valid by construction), less their
+slivers where the sliver pass (moves of at most ``SLIVER_MOVE`` times the first tolerance)
+makes no crossing or pinch.
 """
 
 from __future__ import annotations
@@ -55,7 +57,14 @@ from scipy.spatial import cKDTree
 
 from shellvox.offset._validate import FloatArray, IntArray
 from shellvox.offset.field.heap import heap_blocks
-from shellvox.offset.field.simplify_passes import LOG, SLIVER_MOVE, TIDY, Mesh, crossing_free
+from shellvox.offset.field.simplify_passes import (
+    LOG,
+    SLIVER_MOVE,
+    TIDY,
+    Mesh,
+    crossing_free,
+    without_slivers,
+)
 from shellvox.voxel.geometry._nearest import SurfaceIndex, nearest_faces, nearest_on_surface
 
 #: Triangles per chunk of a pass over an unsimplified shell.
@@ -192,8 +201,12 @@ def _simplify_shells(
             record.update(tolerance_mm=tolerance, faces_after=[len(f) for _, f in candidate])
             return Simplified(candidate, record, crossing_free=True)
         tolerance /= 4.0
-    record.update(tolerance_mm=0.0, faces_after=before)
-    return Simplified(meshes, record)
+    # Unsimplified: still without their slivers where that makes no crossing or pinch.
+    shells, slivers = without_slivers(
+        meshes, [None] * len(meshes), SLIVER_MOVE * limits.tolerance_mm
+    )
+    record.update(tolerance_mm=0.0, faces_after=[len(f) for _, f in shells], slivers=slivers)
+    return Simplified(shells, record)
 
 
 def _within(

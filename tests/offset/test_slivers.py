@@ -139,3 +139,36 @@ def test_a_sliver_pass_that_makes_a_crossing_is_tried_with_the_locks_then_droppe
     (out,), record = simplify_passes.without_slivers([shell], [locked], 0.002)
     assert record["kept"] == "none" and len(seen) == 2
     assert out[0] is shell[0] and out[1] is shell[1]
+
+
+def test_shells_kept_unsimplified_lose_their_slivers_too(monkeypatch):
+    # Every simplification refused (a fake crossing in each try): the shells come back
+    # unsimplified, through the sliver pass, and within its move of the originals.
+    from shellvox.offset.field import simplify
+    from shellvox.offset.field.simplify_passes import SLIVER_MOVE
+
+    box = _slivered_box()
+    v, f = np.asarray(box.vertices), np.asarray(box.faces, np.int64)
+    monkeypatch.setattr(simplify, "crossing_free", lambda m, t, r: (m, _NoLocks(m), 1, {}))
+    depth = np.full((1, len(f)), 0.5)
+    limits = simplify.GuardLimits(tries=2)
+    out = simplify.simplify_shells([(v, f)], SurfaceIndex.build(v, f), depth, limits=limits)
+    record = out.record
+    assert record["tolerance_mm"] == 0.0 and record["tries"] == 2
+    assert record["slivers"]["kept"] == "all" and record["slivers"]["left"] == [0]
+    ((sv, sf),) = out.meshes
+    result = trimesh.Trimesh(sv, sf, process=False)
+    assert result.is_watertight and result.is_winding_consistent
+    assert smallest_angles(sv[sf]).min() >= 1.0 > smallest_angles(v[f]).min()
+    assert record["faces_after"] == [len(sf)] and len(sf) < len(f)
+    budget = SLIVER_MOVE * limits.tolerance_mm
+    samples = np.concatenate([sv, sv[sf].mean(axis=1)])
+    assert distance_to_surface(SurfaceIndex.build(v, f), samples).max() <= budget
+
+
+class _NoLocks:
+    """The locks of a try that locked nothing."""
+
+    def __init__(self, meshes):
+        self.faces = [np.zeros(len(f), dtype=bool) for _, f in meshes]
+        self.rounds = 0
