@@ -225,7 +225,8 @@ def _within(
     move the surface: the p99 by the unsimplified shell's own p99, a point past the maximum
     by the unsimplified shell's largest error near it (:func:`_raw_error_near`) or, where
     those samples fall short, by the error at the point's nearest point of the unsimplified
-    shell plus the distance to it (:func:`_raw_error_at_nearest`).
+    shell plus the distance to it (:func:`_raw_error_at_nearest`); a point further than
+    `tolerance_mm` from the unsimplified shell is not within them.
     """
     p99 = error.p99_share <= limits.p99_error_share or error.p99 <= raw.p99 + tolerance_mm
     if not p99:
@@ -239,7 +240,8 @@ def _within(
     if fine.all():
         return True
     exact = _raw_error_at_nearest(surface, depth, original, points[~fine], tolerance_mm)
-    return bool((measured[~fine] <= exact).all())
+    # infinite where the point moved further than the tolerance: nothing vouches for it
+    return bool((np.isfinite(exact) & (measured[~fine] <= exact)).all())
 
 
 def _raw_error_at_nearest(
