@@ -116,7 +116,8 @@ def field_surfaces(
     merge_planar : bool, optional
         Triangulate the planar patches again (default); False keeps the marched triangles.
     sharpen : bool, optional
-        Put the creases and corners back (default); False keeps the chamfers of the grid.
+        Put the creases and corners back (default; in layers whose faces all have one
+        depth); False keeps the chamfers of the grid.
 
     Returns
     -------
@@ -313,8 +314,9 @@ class FieldMesher:
     def surfaces(self, *, merge_planar: bool = True, sharpen: bool = True) -> FieldSurfaces:
         """Return the layers' surfaces, once every node plane was given.
 
-        `sharpen`: put the creases and corners back (default); `merge_planar`: triangulate
-        the planar patches again (default). False keeps the marched triangles.
+        `sharpen`: put the creases and corners back (default; in a layer whose faces all
+        have one depth); `merge_planar`: triangulate the planar patches again (default).
+        False keeps the marched triangles.
         """
         n_planes = self.grid.shape_zyx[0]
         if self._next_plane != n_planes:
@@ -332,7 +334,9 @@ class FieldMesher:
                 return v, f, n_marched, 0
             vertex_face = np.concatenate(self._face[k])
             on_several = None
-            if sharpen:
+            # Creases are put back in layers of one depth; where the depth differs between
+            # faces the checks are local and do not cover the steps between depths.
+            if sharpen and np.ptp(depth[k]) == 0.0:
                 sharp = sharpen_creases(
                     v, f, vertex_face, normals, plane_levels[k], depth[k], surface
                 )

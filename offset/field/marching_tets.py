@@ -586,7 +586,9 @@ def march_slab(
                                         # linear along the edge (the feet are an affine
                                         # map of the points), the linear share exact
                                         on_face = fa
-                                    elif fa >= 0 and fb >= 0:
+                                    elif fa >= 0 and fb >= 0 and depth[k, fa] == depth[k, fb]:
+                                        # (nodes of faces at two depths: the field jumps
+                                        # between them, and the linear share stays)
                                         share, on_face = edge_crossing(
                                             field, k, pa, pb, fa, fb, va, vb, scratch
                                         )

@@ -235,3 +235,21 @@ def test_sharpened_surfaces_of_a_detailed_part_stay_two_manifold(shared_mesh):
     assert len(np.unique(vertices[used], axis=0)) == len(used)  # no two at one position
     fans = _fans_by_faces(vertices, faces)
     assert (fans[used] == 1).all(), f"{int((fans > 1).sum())} vertices with several fans"
+
+
+def test_layers_of_several_depths_cross_nothing(shared_mesh):
+    """Faces at three depths in random order (a build's colours): the field jumps where
+    the nearest face changes depth. Exact roots next to those jumps folded triangles
+    across them (3,794 crossing pairs on spot at 30 mm), and so did creases between planes
+    of two depths; those edges keep the linear share, and such layers their chamfers."""
+    raw = trimesh.load(shared_mesh("spot/spot_triangulated.obj"), force="mesh")
+    mesh = trimesh.Trimesh(raw.vertices, raw.faces, process=True)
+    mesh.merge_vertices(merge_tex=True, merge_norm=True)
+    mesh.apply_scale(30.0 / mesh.extents.max())
+    first = np.random.default_rng(0).choice([0.3, 0.5, 0.8], len(mesh.faces))
+    out = field_surfaces(mesh.vertices, mesh.faces, np.array([first, first + 0.4]), 0.1)
+    (v1, f1), (v2, f2) = out.surfaces
+    assert _crossings(np.concatenate([v1, v2]), np.concatenate([f1, f2 + len(v1)])) == 0
+    for v, f in out.surfaces:
+        shell = trimesh.Trimesh(v, f, process=False)
+        assert shell.is_watertight and shell.is_winding_consistent

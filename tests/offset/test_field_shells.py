@@ -155,8 +155,11 @@ def test_unsimplified_when_the_guard_allows_no_try():
         box.vertices, box.faces, [0.3], step_mm=0.1, limits=NO_SIMPLIFY, method="field"
     )
     assert out.record["simplify"]["tolerance_mm"] == 0.0
-    assert len(out.shells[0].faces) == out.record["simplify"]["faces_before"][0]
-    assert not out.crossing_free  # kept as marched: not tested, the files' checks test them
+    record = out.record["simplify"]
+    # kept as marched, less the slivers the sliver pass could take without a crossing
+    assert len(out.shells[0].faces) == record["faces_after"][0] <= record["faces_before"][0]
+    assert record["slivers"]["kept"] == "all"
+    assert not out.crossing_free  # not tested as a whole: the files' checks test them
 
 
 def _triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
