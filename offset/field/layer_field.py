@@ -322,9 +322,9 @@ class FieldMesher:
         if self._next_plane != n_planes:
             raise ValueError(f"{self._next_plane} of {n_planes} node planes were given")
         depth = self.depth
-        normals = _unit_normals(self.vertices, self.faces)
+        normals = np.ascontiguousarray(self._planes[:, :3])
         surface = SurfaceIndex.build(self.vertices, self.faces)
-        plane_levels = np.einsum("ij,ij->i", normals, self.vertices[self.faces[:, 0]]) - depth
+        plane_levels = self._planes[:, 3] - depth
 
         def level(k: int) -> tuple[NDArray[np.float64], NDArray[np.int64], int, int]:
             v = np.concatenate(self._v[k]) if self._v[k] else np.zeros((0, 3))

@@ -352,7 +352,7 @@ def _near_field(
     return best_depth - np.sqrt(best_d2), best_f, best_on, best_d2
 
 
-@kernel(inline="always")
+@kernel
 def edge_crossing(
     field: NodeField,
     k: int,
