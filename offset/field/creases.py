@@ -8,7 +8,7 @@ whose vertices lie on the grid's edges, cuts that edge off with a strip of chamf
 triangles, up to about half a grid step wide. :func:`sharpen_creases` puts the edge back:
 
 - every mesh edge between a vertex on plane ``A`` and one on plane ``B`` (their nearest
-  faces, :func:`shellvox.offset.field.marching_tets.edge_crossing`), the vertices each
+  faces, :func:`shellvox.offset.field.node_field.edge_crossing`), the vertices each
   behind the other's plane, is split where it crosses the planes' bisector, and the new
   vertex is moved onto the planes' line (at most the edge's length);
 - a triangle whose three edges are split (its corners on three planes) gets the three

@@ -37,11 +37,11 @@ from shellvox.offset.field.marching_tets import (
     TETS,
     TRIANGLES_PER_CASE,
     MarchOutputs,
-    NodeField,
     VertexIds,
     count_triangles,
     march_slab,
 )
+from shellvox.offset.field.node_field import NodeField
 from shellvox.offset.field.planar_patches import merge_planar_patches
 from shellvox.voxel._compiled import kernel
 from shellvox.voxel.geometry._distance_scan import NearestInReach, nearest_in_reach
@@ -480,7 +480,7 @@ def _layer_bits(
 ) -> None:
     """Set bit ``k`` of a node where it lies inside layer ``k`` (field ``<= 0``, ties inside).
 
-    The same expression as :func:`shellvox.offset.field.marching_tets.march_slab`'s node value,
+    The same expression as :func:`shellvox.offset.field.node_field.node_value`,
     so a crossed edge always has one value ``<= 0`` and one ``> 0``.
     """
     flat_inside = inside.reshape(-1)
