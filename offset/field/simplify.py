@@ -16,6 +16,13 @@ most slivers and folds the first leaves), and the result is accepted only when
   exceeds a limit (the p99 over its samples; past the maximum, its largest error near each
   such point, or its error at the point's nearest point plus the distance to it: the
   creases of a faceted input, which a finer ``--shell-step`` sharpens), and
+  and, for a layer whose faces have several depths (a build's colour-driven depths), where
+  the field jumps between two depths and ``|d - D(f)|`` measures the jump, not a distance,
+  every shell lies within those limits of its unsimplified shell instead (the distance
+  between the two, sampled both ways: the maximum within ``GuardLimits.max_error_mm``, the
+  99th percentile within its share of the layer's smallest depth, or within the tolerance
+  the passes may move it; Manifold's collapses of edges shorter than the tolerance can add
+  up past it), and
 * no two triangles of the shells cross
   (:func:`shellvox.offset.crossing.intersections.intersecting_pairs` over all shells
   together, so a shell crossing a neighbouring one counts too), and no
@@ -83,9 +90,11 @@ class GuardLimits:
     tolerance_mm : float
         First tolerance handed to Manifold's simplification.
     max_error_mm : float
-        Largest ``|d - D|`` allowed at a vertex or a face centroid of a simplified shell.
+        Largest ``|d - D|`` allowed at a vertex or a face centroid of a simplified shell
+        (in a layer of several depths: its largest distance to the unsimplified shell).
     p99_error_share : float
-        Largest 99th percentile of ``|d - D| / D`` allowed.
+        Largest 99th percentile of ``|d - D| / D`` allowed (in a layer of several depths:
+        of the distance to the unsimplified shell over the layer's smallest depth).
     tries : int
         Simplifications tried (the tolerance is quartered between tries).
     lock_rounds : int
@@ -113,7 +122,10 @@ class Simplified(NamedTuple):
     record : dict
         ``tolerance_mm`` used (0: kept unsimplified), ``tries``, ``faces_before``,
         ``faces_after``, ``raw_error_mm`` and ``error_mm`` (p99 and max of ``|d - D|`` per
-        shell, before and after), ``crossing_pairs`` of the last try,
+        shell, before and after), ``guard`` per shell (``"depth"``: ``|d - D|`` against
+        the limits; ``"unsimplified shell"``: a layer of several depths, measured by
+        ``unsimplified_distance_mm``, the p99 and max distance to its unsimplified shell,
+        null for the others), ``crossing_pairs`` of the last try,
         ``lock_rounds`` of the last try and ``locked_faces`` per shell (unsimplified
         triangles kept around crossings); ``attempts``: the tolerance, crossing pairs, lock
         rounds and error of every try.
@@ -164,10 +176,16 @@ def _simplify_shells(
         _depth_error(surface, depth_mm[k], v, f, samples_only=True)
         for k, (v, f) in enumerate(meshes)
     ]
+    # a layer of several depths is measured against its unsimplified shell
+    several = [len(f) > 0 and bool(np.ptp(depth_mm[k]) > 0) for k, (_, f) in enumerate(meshes)]
+    unsimplified = [
+        SurfaceIndex.build(v, f) if s else None for (v, f), s in zip(meshes, several, strict=True)
+    ]
     record: dict[str, Any] = {
         "faces_before": before,
         "tries": 0,
         "raw_error_mm": [[e.p99, e.max] for e in raw],
+        "guard": ["unsimplified shell" if s else "depth" for s in several],
         "attempts": [],
     }
     tolerance = limits.tolerance_mm
@@ -176,16 +194,24 @@ def _simplify_shells(
         candidate, locked, crossings, slivers = crossing_free(meshes, tolerance, limits.lock_rounds)
         errors = [_depth_error(surface, depth_mm[k], v, f) for k, (v, f) in enumerate(candidate)]
         moved = (1.0 + TIDY + SLIVER_MOVE) * tolerance
-        within = all(
-            _within(e, r, limits, moved, surface, depth_mm[k], meshes[k])
-            for k, (e, r) in enumerate(zip(errors, raw, strict=True))
-        )
+        apart: list[list[float] | None] = [None] * len(meshes)
+        within = True
+        for k, (e, r) in enumerate(zip(errors, raw, strict=True)):
+            index = unsimplified[k]
+            if index is None:
+                within = within and _within(e, r, limits, moved, surface, depth_mm[k], meshes[k])
+                continue
+            p99, far = _apart(e.points, r.points, index, candidate[k])
+            apart[k] = [p99, far]
+            share = limits.p99_error_share * float(depth_mm[k].min())
+            within = within and p99 <= max(share, moved) and far <= max(limits.max_error_mm, moved)
         record.update(
             crossing_pairs=crossings,
             slivers=slivers,
             lock_rounds=locked.rounds,
             locked_faces=[int(lock.sum()) for lock in locked.faces],
             error_mm=[[e.p99, e.max] for e in errors],
+            unsimplified_distance_mm=apart,
         )
         record["attempts"].append(
             {
@@ -193,6 +219,7 @@ def _simplify_shells(
                 "crossing_pairs": crossings,
                 "lock_rounds": locked.rounds,
                 "error_mm": record["error_mm"],
+                "unsimplified_distance_mm": apart,
                 "within": within,
             }
         )
@@ -207,6 +234,21 @@ def _simplify_shells(
     )
     record.update(tolerance_mm=0.0, faces_after=[len(f) for _, f in shells], slivers=slivers)
     return Simplified(shells, record)
+
+
+def _apart(
+    points: FloatArray, raw_points: FloatArray, unsimplified: SurfaceIndex, shell: Mesh
+) -> tuple[float, float]:
+    """Return the p99 and the maximum distance between a shell and its unsimplified one (mm).
+
+    The shell's `points` ((N, 3), mm: the area-weighted samples first, then its vertices and
+    centroids) are measured to the unsimplified shell, and `raw_points` ((M, 3), mm: samples
+    of the unsimplified shell) to the shell; the p99 is over the shell's samples, the maximum
+    over both ways.
+    """
+    _, there = nearest_faces(unsimplified, points)
+    _, back = nearest_faces(SurfaceIndex.build(*shell), raw_points)
+    return float(np.percentile(there[:SAMPLES], 99)), float(max(there.max(), back.max()))
 
 
 def _within(

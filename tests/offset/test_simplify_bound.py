@@ -54,3 +54,48 @@ def test_a_point_over_the_maximum_that_moved_past_the_tolerance_is_refused():
 
     assert not within(np.array([1.0, -2.0, 4.5 + 0.06]))
     assert within(np.array([1.0, -2.0, 4.5 + 0.04]))  # under the maximum
+
+
+def test_a_layer_of_several_depths_is_measured_against_its_unsimplified_shell(monkeypatch):
+    # A subdivided 10 mm cube, its upper half 0.5 mm deep and its lower half 1.0 mm: the
+    # field jumps at z = 0, where |d - D| of the marched shell reaches the 0.5 mm jump (its
+    # p99 is 0.37 mm), so |d - D| cannot tell a shell in place from one moved. The
+    # "simplification" here translates the unsimplified shell by `shift` along z: its
+    # distance to the unsimplified shell is `shift` everywhere, analytically. Within what
+    # the passes may move at the first tolerance ((1 + 0.25 + 1) x 0.002 mm) it is
+    # accepted; moved 0.03 mm (p99 over) or 0.08 mm (past the 0.05 mm maximum) it is not.
+    from shellvox.offset.field import simplify
+    from shellvox.offset.field.layer_field import field_surfaces
+    from shellvox.offset.field.simplify_passes import Locks
+
+    cube = trimesh.creation.box((10.0, 10.0, 10.0)).subdivide().subdivide()
+    v, f = np.asarray(cube.vertices), np.asarray(cube.faces, np.int64)
+    depth = np.where(cube.triangles_center[:, 2] > 0.0, 0.5, 1.0)[None]
+    raw = field_surfaces(v, f, depth, 0.25).surfaces
+    surface = SurfaceIndex.build(v, f)
+    one_try = simplify.GuardLimits(tries=1)
+
+    def result(shift):
+        def translated(meshes, tolerance_mm, rounds):
+            out = [(m[0] + np.array([0.0, 0.0, shift]), m[1]) for m in meshes]
+            return out, Locks([np.zeros(len(m[1]), bool) for m in meshes], 0), 0, {}
+
+        monkeypatch.setattr(simplify, "crossing_free", translated)
+        return simplify.simplify_shells(raw, surface, depth, limits=one_try).record
+
+    for shift in (0.0003, 0.003):
+        record = result(shift)
+        assert record["guard"] == ["unsimplified shell"]
+        assert record["tolerance_mm"] == one_try.tolerance_mm  # accepted
+        np.testing.assert_allclose(record["unsimplified_distance_mm"][0], shift, rtol=1e-6)
+    for shift in (0.03, 0.08):
+        record = result(shift)
+        np.testing.assert_allclose(record["attempts"][0]["unsimplified_distance_mm"][0], shift)
+        assert record["tolerance_mm"] == 0.0  # refused: kept unsimplified
+    # one depth: the guard is |d - D| itself
+    assert simplify.simplify_shells(
+        field_surfaces(v, f, np.full_like(depth, 0.5), 0.25).surfaces,
+        surface,
+        np.full_like(depth, 0.5),
+        limits=one_try,
+    ).record["guard"] == ["depth"]
