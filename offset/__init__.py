@@ -15,6 +15,7 @@ from shellvox.offset.field.step import (
     SHELL_STEP_MM,
     automatic_lattice,
     automatic_step,
+    lattice_cell_mm,
 )
 from shellvox.offset.methods import (
     DEFAULT_METHOD,
@@ -22,6 +23,7 @@ from shellvox.offset.methods import (
     Method,
     MethodName,
     MethodShells,
+    ShellCost,
     field_shells,
     method_shells,
     offset_shells,
@@ -39,9 +41,11 @@ __all__ = [
     "MethodName",
     "MethodShells",
     "Shell",
+    "ShellCost",
     "automatic_lattice",
     "automatic_step",
     "field_shells",
+    "lattice_cell_mm",
     "method_shells",
     "offset_shells",
     "ready_for_file",

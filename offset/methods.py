@@ -37,7 +37,10 @@ from shellvox.offset._validate import (
 from shellvox.offset.adjacency import edge_adjacency
 from shellvox.offset.field.simplify import DEFAULT_LIMITS, GuardLimits
 from shellvox.offset.field.step import (
+    BYTES_PER_FIELD_TRIANGLE,
+    SECONDS_PER_FIELD_TRIANGLE,
     automatic_step,
+    field_triangles,
 )
 from shellvox.offset.reference.for_file import ShellForFile
 from shellvox.offset.shells import Shell
@@ -73,6 +76,26 @@ class MethodShells(NamedTuple):
 Make = Callable[[FloatArray, IntArray, FloatArray, float | None, GuardLimits], MethodShells]
 
 
+class ShellCost(NamedTuple):
+    """What a method's shells are estimated to cost (a build's estimate).
+
+    Attributes
+    ----------
+    seconds : float
+        Time on one core.
+    memory_bytes : int
+        Working memory at the peak, beyond the model (0: not estimated).
+    """
+
+    seconds: float
+    memory_bytes: int
+
+
+#: A method's estimated cost: ``(faces, area mm^2, layers, step_mm or None) -> ShellCost``
+#: (``step_mm``: the field's grid step, None for its automatic step).
+Cost = Callable[[int, float, int, float | None], ShellCost]
+
+
 class Method(NamedTuple):
     """One shell offsetting method.
 
@@ -91,12 +114,13 @@ class Method(NamedTuple):
     closed : bool
         Its shells are closed surfaces (what shell files, layers from shells and FDM
         cores need).
-    seconds_per_face_layer : float
-        Seconds on one core per face and layer (the build's estimate): the robust shells of
-        bench_offset.json's real meshes took 2.8-12.5 ms (icosphere, spot, bunny, duck,
-        airplane at 50-100 mm, two layers); the paper's construction about 20 us; the field
-        shells scale with the area over the grid step squared (spot at 100 mm, 93,696
-        faces, two layers: about 1 ms a face and layer).
+    cost : callable
+        Its estimated cost (:data:`Cost`): the field shells' time and memory scale with
+        their triangles, the area over the grid step squared
+        (:func:`~shellvox.offset.field.step.field_triangles`); the reference methods' time
+        with the faces and layers (robust: 2.8-12.5 ms a face and layer on
+        bench_offset.json's real meshes, icosphere, spot, bunny, duck and airplane at
+        50-100 mm, two layers; paper: about 20 us), their memory not estimated.
     """
 
     name: str
@@ -105,7 +129,21 @@ class Method(NamedTuple):
     for_file: Callable[[Shell], ShellForFile]
     reference: bool
     closed: bool
-    seconds_per_face_layer: float
+    cost: Cost
+
+
+def _field_cost(n_faces: int, area_mm2: float, layers: int, step_mm: float | None) -> ShellCost:
+    if step_mm is None:
+        step_mm = automatic_step(area_mm2, layers)
+    triangles = field_triangles(area_mm2, layers, step_mm)
+    return ShellCost(triangles * SECONDS_PER_FIELD_TRIANGLE, triangles * BYTES_PER_FIELD_TRIANGLE)
+
+
+def _per_face_layer(seconds: float) -> Cost:
+    def cost(n_faces: int, area_mm2: float, layers: int, step_mm: float | None) -> ShellCost:
+        return ShellCost(n_faces * layers * seconds, 0)
+
+    return cost
 
 
 def _shells(meshes: list[tuple[FloatArray, IntArray]], depth: FloatArray) -> list[Shell]:
@@ -220,7 +258,7 @@ METHODS: dict[str, Method] = {
         _as_made,
         reference=False,
         closed=True,
-        seconds_per_face_layer=1e-3,
+        cost=_field_cost,
     ),
     "robust": Method(
         "robust",
@@ -229,7 +267,7 @@ METHODS: dict[str, Method] = {
         _cleaned,
         reference=True,
         closed=True,
-        seconds_per_face_layer=1e-2,
+        cost=_per_face_layer(1e-2),
     ),
     "paper": Method(
         "paper",
@@ -238,7 +276,7 @@ METHODS: dict[str, Method] = {
         _cleaned,
         reference=True,
         closed=False,
-        seconds_per_face_layer=2e-5,
+        cost=_per_face_layer(2e-5),
     ),
 }
 DEFAULT_METHOD: MethodName = "field"

@@ -28,6 +28,39 @@ TRIANGLES_PER_AREA = 8.7
 #: bytes each at the peak: 11.5 GB; spot at 100 mm, two layers, 31.6 M, keeps 0.1 mm).
 MAX_FIELD_TRIANGLES = 36_000_000
 
+#: Bytes per marching-tetrahedra triangle at the field shells' peak (the marched layers, the
+#: simplification's heap and its crossing tests): spot built at 100 mm with shell meshes,
+#: 31.5 M triangles, peaked at 10.9 GB in the process that meshes them.
+BYTES_PER_FIELD_TRIANGLE = 320
+
+#: Seconds per marching-tetrahedra triangle of the field shells, marching and simplifying
+#: (spot built at 100 mm with shell meshes: 31.5 M triangles, 53 s of field and 204 s of
+#: simplification).
+SECONDS_PER_FIELD_TRIANGLE = 8.2e-6
+
+
+def field_triangles(area_mm2: float, layers: int, step_mm: float) -> int:
+    """Return about how many triangles the field shells march before simplification.
+
+    ``TRIANGLES_PER_AREA`` per mm^2 of surface and layer at a step of 1 mm, over the step
+    squared (mm): spot at 100 mm, two layers, a 0.106 mm cell, 29.8 M (31.5 M marched).
+
+    >>> f"{field_triangles(19127.0, 2, 0.1056):.3g}"
+    '2.98e+07'
+    """
+    return int(TRIANGLES_PER_AREA * area_mm2 * layers / step_mm**2)
+
+
+def lattice_cell_mm(voxels: GridSpec, lattice: NodeLattice) -> float:
+    """Return the side of a cube of a lattice's cell volume (mm), its step for the triangles.
+
+    >>> voxels = GridSpec((0.0, 0, 0), (0.0423, 0.0846, 0.027), (9, 9, 9))
+    >>> round(lattice_cell_mm(voxels, NodeLattice((4, 1, 3), 0.2)), 4)
+    0.1051
+    """
+    cells = np.asarray(voxels.voxel_mm[::-1], dtype=np.float64) * lattice.stride_zyx
+    return float(np.prod(cells) ** (1 / 3))
+
 
 def automatic_step(area_mm2: float, layers: int) -> float:
     """Return the grid step of the ``field`` shells for a surface (mm).
@@ -58,7 +91,6 @@ def automatic_lattice(voxels: GridSpec, area_mm2: float, layers: int) -> NodeLat
     step = automatic_step(area_mm2, layers)
     while True:
         lattice = node_lattice(voxels, step)
-        cell = np.prod(np.asarray(voxels.voxel_mm[::-1]) * lattice.stride_zyx) ** (1 / 3)
-        if cell >= needed:
+        if lattice_cell_mm(voxels, lattice) >= needed:
             return lattice
         step = round(step + 0.01, 6)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from shellvox.errors import ResourceError
-from shellvox.offset import METHODS
+from shellvox.offset import ShellCost
 from shellvox.run import EXTRA_SLOTS
 from shellvox.voxel.colour import PROOF_MAX_SAMPLES
 from shellvox.voxel.io import SHARD_ROWS, encoded_by_slabs
@@ -83,15 +83,18 @@ class BuildEstimate:
     workers : int
         Slab processes.
     memory_bytes : int
-        Peak memory of the run: every worker's slab, the slab being written and the model
-        in every process.
+        Peak memory of the run: every worker's slab, the slab being written, the model
+        in every process and the shell meshes' (:attr:`shell_memory_bytes`).
     disk_bytes : int
         Size of the output files (estimated).
     seconds : float
         Wall time of the voxels (estimated).
     shell_seconds : float
         Time of the offset shells (estimated; 0 without them): before the voxels with
-        the ``"shells"`` layer rule, beside them in another process otherwise.
+        the ``"shells"`` layer rule, beside them otherwise.
+    shell_memory_bytes : int
+        Their memory at its peak (estimated; 0 without them or not estimated for their
+        method), counted on top of the voxels' since the two overlap.
     """
 
     shape_zyx: tuple[int, int, int]
@@ -103,6 +106,7 @@ class BuildEstimate:
     disk_bytes: int
     seconds: float
     shell_seconds: float = 0.0
+    shell_memory_bytes: int = 0
 
     def line(self) -> str:
         """One line for the user: grid, voxels, memory, disk and time."""
@@ -117,6 +121,11 @@ class BuildEstimate:
                 if self.shell_seconds > 0
                 else ""
             )
+            + (
+                f" ({_size(self.shell_memory_bytes)} of the memory)"
+                if self.shell_memory_bytes > 0
+                else ""
+            )
         )
 
 
@@ -128,8 +137,7 @@ def estimate_build(
     n_faces: int,
     slab_rows: int,
     workers: int,
-    shell_face_layers: int = 0,
-    shell_method: str = "field",
+    shells: ShellCost | None = None,
     store_rows: int = 0,
     report_samples: int = 0,
 ) -> BuildEstimate:
@@ -151,10 +159,8 @@ def estimate_build(
         Rows per slab.
     workers : int
         Slab processes.
-    shell_face_layers : int
-        Faces times layers of the offset shells to compute (0: none).
-    shell_method : {"field", "robust", "paper"}
-        Their construction.
+    shells : ShellCost, optional
+        The offset shells' cost (:attr:`shellvox.offset.Method.cost`; None: no shells).
     store_rows : int
         Rows of level 0 the OME-Zarr writer fills its shards with (0: none, or the slabs
         hold whole shards; :func:`store_buffer_rows`).
@@ -176,9 +182,19 @@ def estimate_build(
         memory += report_samples * REPORT_BYTES_PER_SAMPLE + REPORT_GATHER_BYTES
     disk = int(voxels * DISK_PER_VOXEL + band * DISK_PER_BAND_VOXEL)
     seconds = (voxels * SECONDS_PER_VOXEL + band * SECONDS_PER_BAND_VOXEL) / max(1, workers)
-    shell_seconds = shell_face_layers * METHODS[shell_method].seconds_per_face_layer
+    shells = shells or ShellCost(0.0, 0)
+    memory += shells.memory_bytes
     return BuildEstimate(
-        (z, y, x), voxels, band, slab_rows, workers, memory, disk, seconds, shell_seconds
+        (z, y, x),
+        voxels,
+        band,
+        slab_rows,
+        workers,
+        memory,
+        disk,
+        seconds,
+        shells.seconds,
+        shells.memory_bytes,
     )
 
 
@@ -228,11 +244,22 @@ def resource_shortfall(estimate: BuildEstimate, out_dir: Path) -> ResourceError 
     available = available_memory_bytes()
     if available is not None and estimate.memory_bytes > available:
         rows = estimate.slab_rows
+        shells = (
+            f", the shell meshes {_size(estimate.shell_memory_bytes)}"
+            if estimate.shell_memory_bytes > 0
+            else ""
+        )
         needs = (
             f"the build needs about {_size(estimate.memory_bytes)} of memory "
             f"({estimate.workers} workers, slabs of {rows} row{'s' if rows != 1 else ''} of "
-            f"{y:,} x {x:,} voxels) but {_size(available)} is available"
+            f"{y:,} x {x:,} voxels{shells}) but {_size(available)} is available"
         )
+        if estimate.shell_memory_bytes > available // 2:
+            return ResourceError(
+                "--shell-meshes",
+                needs,
+                "leave out --shell-meshes or use a smaller --scale (--force to try anyway)",
+            )
         if rows == 1:  # no --slab-mb makes a slab thinner than one row: the grid is too fine
             return ResourceError(
                 "--voxel-size",

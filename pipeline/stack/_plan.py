@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from shellvox.config import BuildConfig
 from shellvox.errors import InputError, ResourceError
 from shellvox.model import ColouredMesh, face_areas
+from shellvox.offset import METHODS, ShellCost, automatic_lattice, lattice_cell_mm
 from shellvox.run import resolve_workers
 from shellvox.stack._estimate import (
     BYTES_PER_VOXEL,
@@ -119,10 +120,7 @@ def plan_build(
         n_faces=mesh.n_faces,
         slab_rows=rows,
         workers=min(workers, -(-grid.shape_zyx[0] // rows)),
-        shell_face_layers=(
-            thickness.size if config.shell_meshes or config.layer_rule == "shells" else 0
-        ),
-        shell_method=config.shell_method,
+        shells=shell_cost(config, grid, mesh.n_faces, area, len(thickness)),
         store_rows=store_buffer_rows(config.formats, rows),
         report_samples=(
             report_sample_count(area, config.report_samples, config.proof_density)
@@ -132,6 +130,23 @@ def plan_build(
     )
     check_resources(estimate, out_dir, force=force)
     return BuildPlan(grid, thickness, depth, rows, workers, estimate)
+
+
+def shell_cost(
+    config: BuildConfig, grid: GridSpec, n_faces: int, area_mm2: float, layers: int
+) -> ShellCost | None:
+    """Return the estimated cost of a build's offset shells (None: it makes none).
+
+    The ``field`` shells of the distance rule are meshed from the voxels' nodes, so their
+    step is the node lattice's cell (:func:`~shellvox.offset.automatic_lattice`); with the
+    ``"shells"`` rule they are made first at the automatic step.
+    """
+    if not (config.shell_meshes or config.layer_rule == "shells"):
+        return None
+    step: float | None = None
+    if config.shell_method == "field" and config.layer_rule == "distance":
+        step = lattice_cell_mm(grid, automatic_lattice(grid, area_mm2, layers))
+    return METHODS[config.shell_method].cost(n_faces, area_mm2, layers, step)
 
 
 def grid_for(mesh: ColouredMesh, config: BuildConfig) -> GridSpec:

@@ -8,7 +8,7 @@ import trimesh
 from PIL import Image
 
 from shellvox.cli import main
-from shellvox.offset import METHODS
+from shellvox.offset.field.step import BYTES_PER_FIELD_TRIANGLE, SECONDS_PER_FIELD_TRIANGLE
 
 
 @pytest.fixture
@@ -96,11 +96,28 @@ def test_shell_meshes_only_when_asked_and_estimated(tmp_path, model, capsys):
     assert main(argv) == 0
     manifest = json.loads((out / "manifest.json").read_text())
     assert {"shells/shell_1.ply", "shells/shell_2.ply"} <= set(manifest["files"])
-    n_faces = len(trimesh.load(model, process=False).faces)
-    # the estimate counts every face of both layers at the field method's rate (the default)
-    rate = METHODS[manifest["config"]["shell_method"]].seconds_per_face_layer
+    # the estimate counts the triangles the field method (the default) marches, within the
+    # estimate's factor of two, and their memory is part of the build's
     assert manifest["config"]["shell_method"] == "field"
-    assert manifest["estimate"]["shell_seconds"] == pytest.approx(n_faces * 2 * rate)
+    estimate = manifest["estimate"]
+    triangles = estimate["shell_seconds"] / SECONDS_PER_FIELD_TRIANGLE
+    marched = sum(manifest["shell_meshes"]["marched_faces"])
+    assert 0.5 < triangles / marched < 2.0
+    assert estimate["shell_memory_bytes"] == pytest.approx(triangles * BYTES_PER_FIELD_TRIANGLE)
+    assert estimate["memory_bytes"] > estimate["shell_memory_bytes"]
     err = capsys.readouterr().err
     assert "for the shell meshes" in err  # the up-front estimate line
     assert "shell meshes:" in err  # the progress bar
+
+
+def test_shell_meshes_past_the_memory_are_refused_naming_them(tmp_path, model, capsys, monkeypatch):
+    # an 80 mm ball: its two field shells march about 36 M triangles (some 11 GB), the
+    # voxels at 0.2 mm far less; with 4 GiB available the shells are what does not fit
+    monkeypatch.setattr("shellvox.stack._estimate.available_memory_bytes", lambda: 4 << 30)
+    out = tmp_path / "out"
+    argv = ["build", str(model), "-o", str(out), "--scale", "40", "--shell-meshes"]
+    argv += ["--voxel-size", "0.2,0.2,0.15", "--colour", "200,30,30", "--no-progress"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--shell-meshes:" in err and "the shell meshes" in err and "leave out" in err
+    assert not out.exists()
