@@ -9,6 +9,8 @@ from __future__ import annotations
 import tomllib
 from pathlib import Path
 
+import pytest
+
 import shellvox
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,3 +50,17 @@ def test_the_bundled_files_are_found_through_the_package():
     assert shellvox.data.colour_target().is_file()
     assert shellvox.data.thickness_rule().is_file()
     assert SETUPTOOLS["dynamic"]["version"] == {"attr": "shellvox.__version__"}
+
+
+def test_the_optional_imports_name_an_extra_that_installs_them(monkeypatch):
+    # shellvox.testing's MeshLab checks without pymeshlab: the one-line error names the
+    # extra, and that extra (read from pyproject.toml) is what brings pymeshlab
+    from shellvox.testing import _meshlab
+
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    extras = extras["optional-dependencies"]
+    assert any(req.startswith("pymeshlab") for req in extras["testing"])
+    assert any(req.startswith("distributed") for req in extras["cluster"])
+    monkeypatch.setattr(_meshlab, "HAVE_PYMESHLAB", False)
+    with pytest.raises(ModuleNotFoundError, match=r"pip install 'shellvox\[testing\]'"):
+        _meshlab.meshlab_checks(ROOT / "pyproject.toml")

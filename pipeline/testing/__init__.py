@@ -2,8 +2,9 @@
 
 The tests and the benchmarks import these independent readers from here:
 
-- MeshLab (pymeshlab), always in a spawned process of its own (it crashes now and then):
-  :func:`meshlab_checks`, :func:`meshlab_crossing_faces`, :func:`meshlab_read`;
+- MeshLab (pymeshlab, the ``testing`` extra), always in a spawned process of its own (it
+  crashes now and then): :func:`meshlab_checks`, :func:`meshlab_crossing_faces`,
+  :func:`meshlab_read`;
 - trimesh's reading of a shell file, :func:`trimesh_checks`, and :func:`ply_header`;
 - Debian's OpenVDB (``python3-openvdb``), run by ``/usr/bin/python3`` in a subprocess
   (the project's numpy is too new for it): :func:`read_vdb`, :func:`describe_grids`,

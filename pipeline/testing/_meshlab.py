@@ -42,11 +42,11 @@ def in_own_process(function: Callable[..., T], *args: Any) -> T:
     MeshLabCrashedError
         The process died twice.
     ModuleNotFoundError
-        pymeshlab is not installed (``pip install pymeshlab``).
+        pymeshlab is not installed (``pip install 'shellvox[testing]'``).
     """
     if not HAVE_PYMESHLAB:
         raise ModuleNotFoundError(
-            "shellvox.testing's MeshLab checks need pymeshlab: pip install pymeshlab"
+            "shellvox.testing's MeshLab checks need pymeshlab: pip install 'shellvox[testing]'"
         )
     for _ in range(2):
         context = multiprocessing.get_context("spawn")
