@@ -1,16 +1,16 @@
 """Preview pictures of a build (``shellvox inspect``): sections, outer views, depths, halftone.
 
-- ``section_xy.png``, ``section_xz.png``, ``section_yz.png``: on each axis the section
-  with the most vivid colour-layer voxels among the planes that cross the part
-  (:class:`shellvox.viewer.SectionCounts`, which also picks ``shellvox view``'s opening
-  slice), drawn as its colour beside its layers, and below both a square of voxels at
-  voxel scale where the colour is densest.
+- ``section_xy.png``, ``section_xz.png``, ``section_yz.png``: on each axis a section
+  that holds every layer of the volume, plenty of core and the most vivid colour
+  (:func:`shellvox.report._planes.choose_plane`), drawn as its colour and its layers,
+  whole and zoomed to voxels where the colour is densest, with a key of the layers'
+  names and tones.
 - ``outer_views.png``: the outer colour layer seen from the six sides, orthographic,
   at one scale: for each line of sight, the colour of the first colour-layer voxel.
-- ``layer_depth_histogram.png``: the depth of each band's inner boundary in the mid
-  sections against the configured depths.
+- ``layer_depth_histogram.png``: the depth of each band's inner boundary in those three
+  sections against the configured depths, with a key of the bands.
 - ``halftone_z*.png``: with materials, the slice with the most colour voxels, target
-  colour beside the halftoned materials.
+  colour beside the halftoned materials, with a key of the materials' names and colours.
 - ``soft_proof.png``: with the build's soft proof (``proof.ply``), the six outer views
   (at :data:`PROOF_PIXELS_PER_MM` pixels per mm or more, within :data:`PROOF_MAX_PIXELS`)
   as targeted, as predicted from the voxels as written, and the CIEDE2000 between them
@@ -20,12 +20,16 @@
   samples facing the viewer); the legend states the optics (assumed or measured) and
   the sampling.
 
-One pass reads the stacks page by page (memory: a page and the view images), then the
-chosen sections are read lazily (:class:`~shellvox.viewer._stacks.TiffStack`).
+Each picture but the soft proof has a title above and its key below
+(:mod:`shellvox.report._pictures`), text at :data:`~shellvox.report._key.CAPTION_PX`
+pixels. One pass reads the stacks page by page (memory: a page, the view images and the
+per-plane layer counts), then the chosen sections are read lazily
+(:class:`~shellvox.viewer._stacks.TiffStack`).
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -38,15 +42,18 @@ from PIL.PngImagePlugin import PngInfo
 from shellvox.atomic import atomic_path
 from shellvox.errors import InputError
 from shellvox.output import PROOF_FILE, read_proof_ply
+from shellvox.report._pictures import (
+    depth_histogram_picture,
+    halftone_picture,
+    outer_views_picture,
+    section_picture,
+)
+from shellvox.report._planes import LayerCounts
 from shellvox.viewer import Axis, SectionCounts, TiffStack
 from shellvox.voxel.colour import IN_GAMUT_DE, SoftProof
 from shellvox.voxel.io import (
     ProofView,
     boundary_depths,
-    halftone_image,
-    histogram_image,
-    outer_views_image,
-    section_pair_image,
     soft_proof_image,
 )
 
@@ -75,11 +82,16 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
     vx, vy, vz = manifest["grid"]["voxel_size_mm"]
     n_bands = len(manifest["layers"]) - 2
     colour_layers = tuple(layer["index"] for layer in manifest["layers"] if layer["colour"])
+    names = {
+        int(layer["index"]): str(layer.get("name", layer["index"])) for layer in manifest["layers"]
+    }
+    layer_names = [names.get(index, str(index)) for index in range(n_bands + 2)]
     stats = _scan(folder, (n_z, n_y, n_x), colour_layers)
     preview = folder / "preview"
     preview.mkdir(exist_ok=True)
     written = []
-    chosen = stats.counts.chosen()
+    chosen = stats.planes.chosen(n_bands + 1, stats.counts.vivid)
+    sectioned: list[tuple[NDArray[np.uint8], tuple[float, float]]] = []
     samples = 4 if manifest.get("tiff", {}).get("colour.tif", {}).get("samples") == 4 else 3
     with (
         TiffStack(folder / "layers.tif", (n_z, n_y, n_x), samples=0) as layers_stack,
@@ -98,27 +110,40 @@ def write_previews(folder: Path, manifest: dict[str, Any]) -> list[Path]:
             rgb = colour_stack.region(axis, index, rows, cols)[::-1, :, :3]
             origin = manifest["grid"]["origin_mm"]["xyz".index(axis)]
             size = manifest["grid"]["voxel_size_mm"]["xyz".index(axis)]
+            in_plane = stats.planes.counts[axis][index]
+            held = [layer_names[i] for i in range(1, n_bands + 2) if in_plane[i]]
             title = (
                 f"{col_axis}{row_axis} section at {axis} = {index} ({origin + index * size:.3f} "
-                f"mm): the most vivid colour-layer voxels "
-                f"({int(stats.counts.vivid[axis][index]):,})"
+                f"mm), {row_axis} up and {col_axis} right: {', '.join(held) or 'no layer'} "
+                f"({int(in_plane[n_bands + 1]):,} core voxels, "
+                f"{int(stats.counts.vivid[axis][index]):,} vivid colour-layer voxels)"
             )
-            image = section_pair_image(
-                np.ascontiguousarray(layers),
+            layers = np.ascontiguousarray(layers)
+            sectioned.append((layers, pixel_mm))
+            image = section_picture(
+                layers,
                 np.ascontiguousarray(rgb),
                 colour_layers=colour_layers,
-                n_bands=n_bands,
+                layer_names=layer_names,
                 pixel_mm=pixel_mm,
                 title=title,
             )
+            image.info["shellvox:section"] = json.dumps({"axis": axis, "index": index})
             written.append(_save(image, preview / f"section_{col_axis}{row_axis}.png"))
     written.append(_save(_outer_views(stats, (vx, vy, vz)), preview / "outer_views.png"))
     depths: list[list[NDArray[np.float64]]] = [[] for _ in range(n_bands)]
-    for layers, pixel_mm in stats.mid_sections(vx, vy, vz):
+    for layers, pixel_mm in sectioned:
         for band, values in enumerate(boundary_depths(layers, pixel_mm, n_bands)):
             depths[band].append(values)
     expected = list(np.cumsum([float(layer["thickness_mm"]) for layer in manifest["layers"][1:-1]]))
-    image = histogram_image([np.concatenate(d) for d in depths], expected)
+    image = depth_histogram_picture(
+        [np.concatenate(d) for d in depths],
+        expected,
+        band_names=layer_names[1:-1],
+        title="Depth of each band's inner boundary in the three sections (at least the "
+        "depth in 3-D; equal where the surface is perpendicular to the section), against "
+        "the configured depths",
+    )
     written.append(_save(image, preview / "layer_depth_histogram.png"))
     if "materials.tif" in manifest["files"] and manifest.get("materials"):
         z = int(np.argmax(stats.counts.colour_voxels))
@@ -141,6 +166,7 @@ class _Scan:
     def __init__(self, shape: tuple[int, int, int], colour_layers: tuple[int, ...]) -> None:
         n_z, n_y, n_x = shape
         self.counts = SectionCounts(shape, colour_layers)
+        self.planes = LayerCounts(shape)
         # the outer colour layer seen along each axis: colour, and where it was seen
         self.top = np.zeros((n_y, n_x, 3), np.uint8)
         self.bottom = np.zeros((n_y, n_x, 3), np.uint8)
@@ -159,19 +185,10 @@ class _Scan:
         self.back_y = np.zeros((n_z, n_x), np.int32)
         self.left_x = np.zeros((n_z, n_y), np.int32)
         self.right_x = np.zeros((n_z, n_y), np.int32)
-        self.xy_mid = np.zeros((n_y, n_x), np.uint8)
-        self.xz_mid = np.zeros((n_z, n_x), np.uint8)
-        self.yz_mid = np.zeros((n_z, n_y), np.uint8)
-
-    def mid_sections(
-        self, vx: float, vy: float, vz: float
-    ) -> list[tuple[NDArray[np.uint8], tuple[float, float]]]:
-        """Return the mid-plane layer sections (for depths across bands) and their voxels."""
-        return [(self.xy_mid, (vx, vy)), (self.xz_mid, (vx, vz)), (self.yz_mid, (vy, vz))]
 
 
 def _scan(folder: Path, shape: tuple[int, int, int], colour_layers: tuple[int, ...]) -> _Scan:
-    """Read layers.tif and colour.tif page by page; gather counts, views, mid sections."""
+    """Read layers.tif and colour.tif page by page; gather counts and views."""
     n_z, n_y, n_x = shape
     with (
         tifffile.TiffFile(folder / "layers.tif") as lt,
@@ -190,6 +207,7 @@ def _scan(folder: Path, shape: tuple[int, int, int], colour_layers: tuple[int, .
             layers = lt.pages[z].asarray()
             rgb = ct.pages[z].asarray()[..., :3]
             coloured = stats.counts.add_page(z, layers, rgb)
+            stats.planes.add_page(z, layers)
             # the outer colour layer: from +z the last seen wins, from -z the first
             stats.top[coloured] = rgb[coloured]
             stats.top_z[coloured] = z
@@ -209,10 +227,6 @@ def _scan(folder: Path, shape: tuple[int, int, int], colour_layers: tuple[int, .
             stats.left[z] = rgb[rows, low]
             stats.right[z] = rgb[rows, high]
             stats.left_x[z], stats.right_x[z] = low, high
-            stats.xz_mid[z] = layers[n_y // 2]
-            stats.yz_mid[z] = layers[:, n_x // 2]
-            if z == n_z // 2:
-                stats.xy_mid = layers
     return stats
 
 
@@ -236,7 +250,13 @@ def _outer_views(stats: _Scan, voxel_mm: tuple[float, float, float]) -> Image.Im
     n_z, n_y = stats.x_hit.shape
     n_x = stats.y_hit.shape[1]
     largest_mm = max(n_x * vx, n_y * vy, n_z * vz)
-    return outer_views_image(views, pixels_per_mm=420 / largest_mm)
+    pixels_per_mm = 420 / largest_mm
+    title = (
+        "The outer colour layer from the six sides, orthographic, at one scale "
+        f"({pixels_per_mm:.1f} pixels per mm): on each line of sight the first colour-layer voxel"
+    )
+    opposite = [views[i] for i in (0, 3, 1, 4, 2, 5)]  # each row: a view and its opposite
+    return outer_views_picture(opposite, pixels_per_mm=pixels_per_mm, title=title, columns=2)
 
 
 def _soft_proof(stats: _Scan, manifest: dict[str, Any], proof: SoftProof) -> Image.Image:
@@ -337,10 +357,12 @@ def _save(image: Image.Image, path: Path) -> Path:
 
 def _halftone_preview(folder: Path, manifest: dict[str, Any], z: int) -> Path:
     """Draw slice `z` (the one with the most colour-layer voxels): target vs halftone."""
-    vx, vy, _ = manifest["grid"]["voxel_size_mm"]
+    vx, vy, vz = manifest["grid"]["voxel_size_mm"]
     display = np.zeros((256, 3), dtype=np.uint8)
+    names = {}
     for material in manifest["materials"]:
         display[int(material["index"])] = material["display_srgb"]
+        names[int(material["index"])] = str(material.get("name", material["index"]))
     with (
         tifffile.TiffFile(folder / "layers.tif") as lt,
         tifffile.TiffFile(folder / "colour.tif") as ct,
@@ -351,7 +373,14 @@ def _halftone_preview(folder: Path, manifest: dict[str, Any], z: int) -> Path:
         materials = mt.pages[z].asarray()
     colour_layers = [layer["index"] for layer in manifest["layers"] if layer["colour"]]
     target = np.where(np.isin(layers, colour_layers)[..., None], colour, display[materials])
-    image = halftone_image(
-        target[::-1].astype(np.uint8), materials[::-1], display, pixel_mm=(vx, vy)
+    z_mm = manifest["grid"]["origin_mm"][2] + z * vz
+    image = halftone_picture(
+        target[::-1].astype(np.uint8),
+        materials[::-1],
+        display,
+        material_names=names,
+        pixel_mm=(vx, vy),
+        title=f"Slice z = {z} ({z_mm:.3f} mm), the one with the most colour-layer voxels, "
+        "seen from +z (x right, y up): the target colour beside the halftoned materials",
     )
     return _save(image, folder / "preview" / f"halftone_z{z:05d}.png")

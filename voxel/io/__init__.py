@@ -34,10 +34,6 @@ from shellvox.voxel.io._preview import (
     FADE,
     OUTSIDE_RGB,
     boundary_depths,
-    halftone_image,
-    histogram_image,
-    outer_views_image,
-    section_pair_image,
 )
 from shellvox.voxel.io._proof_picture import (
     DE_RGB,
@@ -90,14 +86,10 @@ __all__ = [
     "downsample_labels",
     "encode_png",
     "encoded_by_slabs",
-    "halftone_image",
-    "histogram_image",
     "key_rgba",
     "level_factors",
     "material_table",
-    "outer_views_image",
     "pixel_bytes",
-    "section_pair_image",
     "soft_proof_image",
     "zlib_compress",
 ]
