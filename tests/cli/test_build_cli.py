@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 from PIL import Image
+from scipy import ndimage
 
 from shellvox.cli import main
 from shellvox.offset.field.step import BYTES_PER_FIELD_TRIANGLE, SECONDS_PER_FIELD_TRIANGLE
@@ -50,17 +51,16 @@ def test_build_then_inspect(tmp_path, model, capsys):
     for name in (*names, "layer_depth_histogram.png"):
         with Image.open(out / "preview" / name) as image:
             assert image.size[0] > 10
-    # sections at true aspect: a ball's section is a disc (on anisotropic voxels)
+    # sections at true aspect: a ball's section is a disc (on anisotropic voxels); its
+    # colour ring in the whole section (the leftmost red component; the zoom is right of it)
     for name in names[:3]:
         with Image.open(out / "preview" / name) as image:
-            pixels = np.asarray(image.convert("RGB"))
-        # the part: neither white nor the inset's magenta box (drawn over it)
-        box = (pixels == (255, 0, 255)).all(axis=2)
-        part = (pixels != 255).any(axis=2) & ~box
-        first = np.nonzero(part.any(axis=1))[0][0]
-        drawn = (part | box).any(axis=1)
-        last = first + np.argmin(drawn[first:])  # the full sections' rows
-        rows, cols = np.nonzero(part[first:last, : part.shape[1] // 2])  # its colour half
+            pixels = np.asarray(image.convert("RGB")).astype(int)
+        red = (np.abs(pixels - (200, 30, 30)) <= 12).all(axis=2)
+        labels, _ = ndimage.label(red, structure=np.ones((3, 3)))
+        rows, cols = np.nonzero(red)
+        leftmost = labels[rows[np.argmin(cols)], cols.min()]
+        rows, cols = np.nonzero(labels == leftmost)
         assert (np.ptp(cols) + 1) / (np.ptp(rows) + 1) == pytest.approx(1.0, abs=0.05), name
 
 
