@@ -3,9 +3,12 @@
 Every table a build with a shipped profile and the default material settings needs
 (its separation, the optical thickness rule's) is solved afresh and written to
 ``pipeline/printer/tables/<key>.npy``; the key names the inputs (materials' optics, table
-step, solver version), so the files are the same on every run. Run it after a change of a
-shipped profile's materials or optics, or of the solver; ``tests/printer/
-test_shipped_tables.py`` checks the files against a fresh solve.
+step, solver version). Another processor solves the same mixes but for the last places
+where the descent stops short (within a fraction of a CIEDE2000 unit), so a re-solve
+elsewhere need not be shipped. Run it after a change of a shipped profile's materials or
+optics, or of the solver; ``tests/printer/test_shipped_tables.py`` checks the files
+against a fresh solve by colour and by the solver's criterion. One solve takes about a
+minute of one core.
 
     .venv/bin/python scripts/make_tables.py
 """

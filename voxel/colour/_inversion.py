@@ -18,6 +18,14 @@ The solver is vectorised over all targets: the best of a grid of mixes on the si
 (its ``k`` nearest in CIELAB, then CIEDE2000), then projected descent on the simplex with
 finite-difference gradients and a per-target step that grows on success and halves on
 failure.
+
+Every choice the solver makes compares costs rounded to :data:`COST_QUANTUM`, far above
+the last-bit differences between processors (vector instructions, BLAS kernels), and
+breaks ties by a strict order: the start of least rounded cost, then of lowest row of
+the grid; a step is taken only when its rounded cost is lower. Near-equal mixes (several
+mixes reach one colour) are therefore chosen alike on every machine, and the solved
+mixes of two machines differ only where the descent stops short in a flat valley, by a
+fraction of a CIEDE2000 unit.
 """
 
 from __future__ import annotations
@@ -55,6 +63,10 @@ START_BLEND = 1e-3
 
 #: Smallest share the descent keeps (shares below ten times it end as 0).
 MIN_SHARE = 1e-9
+
+#: Costs (CIEDE2000 squared) are compared rounded to this: two mixes whose costs round
+#: alike are equally good and the tie-break decides. Float noise in a cost is about 1e-12.
+COST_QUANTUM = 1e-6
 
 
 class Inversion(NamedTuple):
@@ -120,8 +132,25 @@ def _start(deep: DeepColour, target: NDArray[np.float64], cost: Any) -> NDArray[
     _, nearest = cKDTree(grid_lab).query(target, k=min(START_CANDIDATES, len(grid)))
     rows = np.repeat(np.arange(len(target)), nearest.shape[1])
     start_cost = cost(grid[nearest.ravel()], grid_lab[nearest.ravel()], rows)
-    best = start_cost.reshape(nearest.shape).argmin(1)
+    # least rounded cost, then lowest grid row: independent of the tree's order of ties
+    best = np.lexsort((nearest, cost_rank(start_cost.reshape(nearest.shape))))[:, 0]
     return np.asarray(grid[nearest[np.arange(len(target)), best]], np.float64)
+
+
+def cost_rank(cost: ArrayLike) -> NDArray[np.float64]:
+    """Return costs rounded to whole multiples of :data:`COST_QUANTUM` (the solver compares these).
+
+    Parameters
+    ----------
+    cost : (...) float
+        Costs, CIEDE2000 squared plus the grain term.
+
+    Returns
+    -------
+    (...) float64
+        ``round(cost / COST_QUANTUM)``: equal for costs that count as equally good.
+    """
+    return np.asarray(np.round(np.asarray(cost, np.float64) / COST_QUANTUM), np.float64)
 
 
 def _softmax(z: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -216,7 +245,7 @@ def invert(
             trial = _softmax(z_trial)
             trial_lab = deep(trial)
             f_trial = cost(trial, trial_lab, every)
-            better = f_trial < f
+            better = cost_rank(f_trial) < cost_rank(f)  # a tie keeps the current mix
             z = np.where(better[:, None], z_trial, z)
             p = np.where(better[:, None], trial, p)
             lab = np.where(better[:, None], trial_lab, lab)

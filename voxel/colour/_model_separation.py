@@ -34,7 +34,7 @@ from shellvox.voxel.colour._separation import (
 )
 
 #: Bump when the inversion changes: stored tables of another version are not read.
-_TABLE_VERSION = 1
+_TABLE_VERSION = 2
 
 
 def model_separation(

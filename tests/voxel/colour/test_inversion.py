@@ -103,3 +103,35 @@ def test_no_worse_than_a_slow_optimiser_or_brute_force(deep):
         # out of gamut the minimum lies on the boundary: within 0.1 of the references'
         assert de <= colour.delta_E(brute_lab, lab, method="CIE 2000").min() + 0.1
         assert de <= _slow_minimum(deep, lab) + 0.1
+
+
+def test_starts_that_tie_within_the_quantum_go_to_the_lowest_grid_row(deep):
+    """Costs equal but for float noise pick one start: the least row among the k nearest."""
+    from shellvox.voxel.colour._inversion import (
+        COST_QUANTUM,
+        LOG_SHARES,
+        START_CANDIDATES,
+        START_DIVISIONS,
+        _start,
+        cost_rank,
+        log_grid,
+        simplex_grid,
+    )
+
+    grid = np.concatenate(
+        [simplex_grid(5, START_DIVISIONS)]
+        + [np.roll(log_grid(5, LOG_SHARES), b, axis=1) for b in range(5)]
+    )
+    grid_lab = deep(grid)
+    rng = np.random.default_rng(6)
+    target = srgb_to_lab_d50(rng.uniform(0, 1, (40, 3)), observer().white_xy)
+    distance = ((grid_lab[None] - target[:, None]) ** 2).sum(-1)
+    nearest = np.argsort(distance, axis=1, kind="stable")[:, :START_CANDIDATES]
+    expected = grid[nearest.min(1)]  # all tie: the lowest row of the k nearest
+    for noise in (0.0, 1e-3 * COST_QUANTUM):
+
+        def cost(p, lab, rows, noise=noise):
+            return 7.0 + noise * rng.standard_normal(len(p))
+
+        assert np.array_equal(cost_rank(cost(grid, grid_lab, None)), np.full(len(grid), 7e6))
+        np.testing.assert_array_equal(_start(deep, target, cost), expected)
