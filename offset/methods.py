@@ -8,7 +8,8 @@ configuration's check and the documentation read it. The methods:
   that face's cumulative depth (the voxel layers' own rule, :mod:`shellvox.voxel.slab`),
   sampled on a grid and meshed (:mod:`shellvox.offset.field.layer_field`), then simplified
   under an error bound with no crossing (:mod:`shellvox.offset.field.simplify`): closed,
-  2-manifold, nested, seconds on 100 k faces; the files need no cleaning.
+  2-manifold, nested; the files need no cleaning. Its time is estimated from the surface's
+  area over the grid step squared (``Method.cost``).
 - ``robust`` (a reference): the exact union of per-face convex pieces
   (:mod:`shellvox.offset.reference.robust`): exact creases by construction, minutes on a
   scan; its files are cleaned and jittered (:mod:`shellvox.offset.reference.for_file`).
@@ -118,9 +119,8 @@ class Method(NamedTuple):
         Its estimated cost (:data:`Cost`): the field shells' time and memory scale with
         their triangles, the area over the grid step squared
         (:func:`~shellvox.offset.field.step.field_triangles`); the reference methods' time
-        with the faces and layers (robust: 2.8-12.5 ms a face and layer on
-        bench_offset.json's real meshes, icosphere, spot, bunny, duck and airplane at
-        50-100 mm, two layers; paper: about 20 us), their memory not estimated.
+        with the faces and layers (a rate per face and layer fitted on the benchmarks:
+        the performance page), their memory not estimated.
     """
 
     name: str
@@ -357,9 +357,11 @@ def offset_shells(
         A method of :data:`shellvox.offset.METHODS` (:mod:`shellvox.offset.methods`).
         ``"field"`` (default): the zero set of each layer's field (the exact distance to
         the nearest face minus that face's depth), meshed and simplified under an error
-        bound: closed, 2-manifold, nested, free of crossings, seconds on 100 k faces.
-        ``"robust"`` (a reference): exact Booleans of per-face pieces (minutes on large
-        meshes). ``"paper"`` (a reference): Zhu and Chen's construction.
+        bound: closed, 2-manifold, nested, free of crossings; its time is estimated from
+        the surface's area over the grid step squared. ``"robust"`` (a reference): exact
+        Booleans of per-face pieces, its time with the faces times the layers (slower
+        than ``"field"`` on large meshes). ``"paper"`` (a reference): Zhu and Chen's
+        construction. Measured times: :doc:`/performance`.
     step_mm : float, mm, optional
         Grid step of ``"field"`` (default: 0.1 mm, coarser on very large surfaces).
 

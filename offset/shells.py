@@ -27,3 +27,12 @@ class Shell:
     faces: IntArray
     layer: int
     depth_mm: FloatArray
+
+    def __repr__(self) -> str:
+        """One line: the layer, its faces and vertices, its depth range (not the arrays)."""
+        depth = self.depth_mm
+        span = f"{depth.min():.4g}-{depth.max():.4g}" if len(depth) else "-"
+        return (
+            f"Shell(layer={self.layer}, {len(self.faces)} faces, {len(self.vertices)} vertices, "
+            f"depth {span} mm)"
+        )

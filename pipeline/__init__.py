@@ -11,8 +11,8 @@ voxel, and write printer jobs, image stacks, OpenVDB grids, an OME-Zarr store an
     stack.sample([[0.0, 0.0, 1.0]]).layer  # what lies at a point (mm)
 
 The names of this package are loaded on first use (``import shellvox`` imports none of
-the heavy libraries). Its parts, each importing only those below it
-(``tests/test_layout.py``):
+the heavy libraries). Its parts, each importing only those below it (a test of the
+source repository holds them to it):
 
 - :mod:`shellvox.voxel` voxel grids, the compiled kernels, colour, separation and the
   writers; :mod:`shellvox.offset` the shells of the paper's per-face offset;

@@ -2,18 +2,23 @@
 
 :class:`LoadOptions` (how a model is read, every command), :class:`ShellConfig`
 (``shellvox shells``) and :class:`BuildConfig` (``shellvox build``). Each checks its values
-once, here, and names the command-line option in the error.
+once, where it is made, and names the option in the error (:func:`shellvox.errors.opt`:
+the parameter from Python, the flag from the command line) with the allowed values.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
+from collections.abc import Hashable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, get_args
 
-from shellvox.errors import InputError
+import numpy as np
+
+from shellvox.errors import InputError, opt
 from shellvox.voxel.colour import DEFAULT_TILE, HALFTONES, Halftone
 from shellvox.voxel.slab import LayerRule
 
@@ -31,6 +36,107 @@ UNIT_MM: dict[str, float] = {
     "inch": 25.4,
     "foot": 304.8,
 }
+
+
+def check_choice(name: str, value: Any, choices: Iterable[Any]) -> None:
+    """Refuse `value` unless it is one of `choices`, naming option `name` and the choices.
+
+    Raises
+    ------
+    InputError
+        Naming the option (:func:`shellvox.errors.opt`) and the allowed values.
+    """
+    allowed = tuple(choices)
+    if not isinstance(value, Hashable) or value not in allowed:
+        raise InputError(
+            opt(name), f"got {value!r}", "choose among " + ", ".join(map(repr, allowed))
+        )
+
+
+def check_flag(name: str, value: Any, *, optional: bool = False) -> None:
+    """Refuse `value` unless it is True or False (or None when `optional`)."""
+    if not (isinstance(value, bool | np.bool_) or (optional and value is None)):
+        allowed = "True, False or None" if optional else "True or False"
+        raise InputError(opt(name), f"got {value!r}", f"give {allowed}")
+
+
+def check_number(
+    name: str,
+    value: Any,
+    *,
+    low: float = -math.inf,
+    high: float = math.inf,
+    strict: bool = False,
+    integer: bool = False,
+) -> None:
+    """Refuse `value` unless it is a finite number (an integer if asked) in a range.
+
+    Parameters
+    ----------
+    name : str
+        The option (a key of :data:`shellvox.errors.OPTIONS`).
+    value : object
+        What the user gave.
+    low, high : float
+        The range, `high` included; `low` included unless `strict`.
+    strict : bool
+        Refuse `low` itself (a positive number: ``low=0, strict=True``).
+    integer : bool
+        Refuse numbers that are not integers (booleans are never numbers here).
+    """
+    kind = numbers.Integral if integer else numbers.Real
+    above = "above" if strict else "at least"
+    wanted = ("an integer" if integer else "a number") + (
+        f" {above} {low:g}" if low > -math.inf else ""
+    )
+    if high < math.inf:
+        wanted += f" and at most {high:g}"
+    fine = not isinstance(value, bool | np.bool_) and isinstance(value, kind)
+    number = float(value) if fine else math.nan
+    if not (math.isfinite(number) and (number > low if strict else number >= low)) or not (
+        number <= high
+    ):
+        raise InputError(opt(name), f"got {value!r}", f"give {wanted}")
+
+
+def _positive(value: Any) -> bool:
+    """Whether `value` is a positive finite number (not a boolean)."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        return False
+    return math.isfinite(float(value)) and float(value) > 0
+
+
+def _byte(value: Any) -> bool:
+    """Whether `value` is an integer in 0..255 (not a boolean)."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
+        return False
+    return 0 <= int(value) <= 255
+
+
+def check_lengths(
+    name: str, value: Any, *, count: int | None = None, empty: bool = False
+) -> tuple[float, ...]:
+    """Return `value` as a tuple of positive finite lengths, refusing anything else.
+
+    A single number stands for each of `count` lengths (a cubic voxel from one size);
+    without `count` a sequence of any length is accepted, an empty one only if `empty`.
+
+    Returns
+    -------
+    tuple of float
+    """
+    items: Any = value
+    if count is not None and not isinstance(value, bool) and isinstance(value, numbers.Real):
+        items = (value,) * count
+    example = opt(name, (0.5,) * (count or 2))
+    shape = f"{count} positive lengths" if count else "positive lengths (one or more)"
+    if isinstance(items, str | bytes) or not isinstance(items, Iterable):
+        raise InputError(opt(name), f"got {value!r}", f"give {shape} in mm, e.g. {example}")
+    items = tuple(items)
+    good = all(_positive(v) for v in items)
+    if not good or not (items or empty) or (count is not None and len(items) != count):
+        raise InputError(opt(name), f"got {value!r}", f"give {shape} in mm, e.g. {example}")
+    return tuple(float(v) for v in items)
 
 
 @dataclass(frozen=True)
@@ -67,6 +173,34 @@ class LoadOptions:
     force: bool = False
     max_faces: int = 5_000_000
 
+    def __post_init__(self) -> None:
+        """Check every value once, naming the parameter and the allowed values."""
+        if self.units is not None:
+            check_choice("units", self.units, UNIT_MM)
+        check_number("scale", self.scale, low=0, strict=True)
+        if self.colour is not None:
+            colour: Any = self.colour
+            if isinstance(colour, str | bytes) or not isinstance(colour, Iterable):
+                colour = ()
+            values = tuple(colour)
+            if len(values) not in (3, 4) or not all(_byte(v) for v in values):
+                raise InputError(
+                    opt("colour"),
+                    f"got {self.colour!r}",
+                    "give 3 or 4 integers in 0-255 (red, green, blue and alpha), "
+                    f"e.g. {opt('colour', (200, 30, 30))}",
+                )
+            object.__setattr__(self, "colour", tuple(int(v) for v in (*values, 255)[:4]))
+        if self.texture is not None:
+            if not isinstance(self.texture, str | Path):
+                raise InputError(
+                    opt("texture"), f"got {self.texture!r}", "give the image file's path"
+                )
+            object.__setattr__(self, "texture", Path(self.texture))
+        check_flag("repair", self.repair)
+        check_flag("force", self.force)
+        check_number("max_faces", self.max_faces, low=1, integer=True)
+
 
 def as_json(config: Any) -> dict[str, Any]:
     """Return a JSON-serialisable dict of a frozen config dataclass (paths as strings)."""
@@ -83,18 +217,20 @@ def as_json(config: Any) -> dict[str, Any]:
     return {key: convert(value) for key, value in dataclasses.asdict(config).items()}
 
 
-def _check_method(method: str, *, closed: bool = True) -> None:
-    """Raise unless `method` is a method (:data:`shellvox.offset.METHODS`), closed if asked."""
+def _check_method(method: str, *, closed: bool = True, name: str = "method") -> None:
+    """Raise unless `method` is a method (:data:`shellvox.offset.METHODS`), closed if asked.
+
+    `name` is the option that sets it (a key of :data:`shellvox.errors.OPTIONS`).
+    """
     from shellvox.offset import METHODS
 
-    if method not in METHODS:
-        raise InputError("--method", f"got {method!r}", f"choose among {', '.join(METHODS)}")
+    check_choice(name, method, METHODS)
     if closed and not METHODS[method].closed:
-        usable = " or ".join(m.name for m in METHODS.values() if m.closed)
+        usable = " or ".join(opt(name, m.name) for m in METHODS.values() if m.closed)
         raise InputError(
-            "--method",
+            opt(name),
             f"{method}'s shells are not closed surfaces, which shell files and layers need",
-            f"use --method {usable}",
+            f"use {usable}",
         )
 
 
@@ -122,7 +258,14 @@ class ShellConfig:
     layer_height_mm: float = 0.027
 
     def __post_init__(self) -> None:
+        """Check every value once, naming the parameter and the allowed values."""
+        object.__setattr__(
+            self, "thickness_mm", check_lengths("thickness", self.thickness_mm, empty=True)
+        )
         _check_method(self.method)
+        if self.step_mm is not None:
+            check_number("shell_step", self.step_mm, low=0, strict=True)
+        check_number("layer_height", self.layer_height_mm, low=0, strict=True)
 
 
 #: Output formats ``build`` can write (``--format``).
@@ -155,12 +298,17 @@ class MaterialSettings:
     tile_size: int = DEFAULT_TILE
 
     def __post_init__(self) -> None:
-        if self.halftone not in HALFTONES:
-            raise InputError(
-                "--halftone", f"must be one of {list(HALFTONES)}, got {self.halftone!r}", "fix it"
-            )
-        if self.seed < 0:
-            raise InputError("--seed", f"must be >= 0, got {self.seed}", "give 0 or more")
+        """Check every value once, naming the parameter and the allowed values."""
+        check_choice("halftone", self.halftone, HALFTONES)
+        check_number("seed", self.seed, low=0, integer=True)
+        if self.icc is not None:
+            if not isinstance(self.icc, str | Path):
+                raise InputError(opt("icc"), f"got {self.icc!r}", "give the ICC file's path")
+            object.__setattr__(self, "icc", Path(self.icc))
+        for name, role in (("backing", self.backing_role), ("core", self.core_role)):
+            if role is not None:
+                check_choice(name, role, get_args(Role))
+        check_number("tile_size", self.tile_size, low=1, integer=True)
 
 
 @dataclass(frozen=True)
@@ -245,26 +393,22 @@ class BuildConfig:
     optical_depth_mm: float = 0.25
 
     def __post_init__(self) -> None:
-        """Check every value once, naming the command-line option that sets it."""
-        if len(self.voxel_mm) != 3 or not all(math.isfinite(v) and v > 0 for v in self.voxel_mm):
-            raise InputError(
-                "--voxel-size",
-                f"expected 3 positive lengths, got {self.voxel_mm}",
-                "pass sizes in mm such as 0.05,0.05,0.03",
-            )
+        """Check every value once, naming the option that sets it."""
+        voxel = check_lengths("voxel_size", self.voxel_mm, count=3)
+        object.__setattr__(self, "voxel_mm", voxel)
         if not self.thickness_mm or not all(t > 0 for t in self.thickness_mm):
             raise InputError(
-                "--thickness",
+                opt("thickness"),
                 f"expected positive lengths, got {self.thickness_mm}",
-                "pass lengths in mm such as 0.5,0.5",
+                f"pass lengths in mm such as {opt('thickness', (0.5, 0.5))}",
             )
         top = len(self.thickness_mm) + 1
         if not self.colour_layers or not all(1 <= k <= top for k in self.colour_layers):
             raise InputError(
-                "--colour-layers",
+                opt("colour_layers"),
                 f"expected layer numbers in 1..{top}, got "
                 f"{','.join(map(str, self.colour_layers))!r}",
-                "pass e.g. --colour-layers 1",
+                f"pass e.g. {opt('colour_layers', (1,))}",
             )
         if self.margin_mm < 0 or self.sdf_half_width_voxels < 0:
             raise InputError(
@@ -272,34 +416,25 @@ class BuildConfig:
                 f"must be >= 0, got {self.margin_mm} and {self.sdf_half_width_voxels}",
                 "pass 0 or more",
             )
-        if not 0 < self.slab_mb < math.inf:
-            raise InputError(
-                "--slab-mb", f"got {self.slab_mb}", "give a positive finite slab size in MB"
-            )
-        if self.layer_rule not in get_args(LayerRule):
-            raise InputError(
-                "--layers", f"got {self.layer_rule!r}", f"choose among {get_args(LayerRule)}"
-            )
-        _check_method(self.shell_method, closed=self.shell_meshes or self.layer_rule == "shells")
-        if self.workers < 0:
-            raise InputError("--workers", f"got {self.workers}", "give 0 (one per core) or more")
-        if self.compression_level is not None and not 1 <= self.compression_level <= 9:
-            raise InputError(
-                "--compression-level", f"got {self.compression_level}", "use a level in 1..9"
-            )
+        check_number("slab_mb", self.slab_mb, low=0, strict=True)
+        check_choice("layer_rule", self.layer_rule, get_args(LayerRule))
+        _check_method(
+            self.shell_method,
+            closed=self.shell_meshes or self.layer_rule == "shells",
+            name="shell_method",
+        )
+        check_number("workers", self.workers, low=0, integer=True)
+        if self.compression_level is not None:
+            check_number("compression_level", self.compression_level, low=1, high=9, integer=True)
         unknown = sorted(set(self.formats) - set(FORMATS))
         if unknown or not self.formats:
             raise InputError(
-                "--format",
+                opt("formats"),
                 f"unknown format(s) {unknown} in {list(self.formats)}",
-                "choose among " + ",".join(FORMATS) + ", e.g. --format tiff,gcvf",
+                "choose among " + ", ".join(FORMATS) + f", e.g. {opt('formats', ('tiff', 'gcvf'))}",
             )
-        if self.report_samples < 0:
-            raise InputError("--report-samples", f"got {self.report_samples}", "give 0 or more")
-        if not (math.isfinite(self.proof_density) and self.proof_density >= 0):
-            raise InputError(
-                "--proof-density", f"got {self.proof_density}", "give samples per mm^2, 0 or more"
-            )
+        check_number("report_samples", self.report_samples, low=0, integer=True)
+        check_number("proof_density", self.proof_density, low=0)
         if not self.optical_depth_mm > 0:
             raise InputError(
                 "optical_depth_mm", f"got {self.optical_depth_mm}", "give a positive length"

@@ -30,7 +30,7 @@ import sys
 from collections.abc import Callable, Iterator
 from types import FrameType
 
-from shellvox.errors import InputError, SlabWorkerDied
+from shellvox.errors import InputError, SlabWorkerDied, notes
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
@@ -171,10 +171,11 @@ def raise_if_interrupted() -> None:
 
 
 def describe(error: BaseException) -> tuple[int, str]:
-    """Return the exit status and the one-line message for an exception.
+    """Return the exit status and the one-line message of the command line for an exception.
 
-    Notes added to the exception (``add_note``, e.g. that finished slabs are kept for
-    ``--resume``) end the line.
+    The options the message names are worded as the command line's flags
+    (:meth:`shellvox.errors.InputError.words`). Notes added to the exception
+    (``add_note``, e.g. that finished slabs are kept for ``--resume``) end the line.
 
     Examples
     --------
@@ -184,14 +185,13 @@ def describe(error: BaseException) -> tuple[int, str]:
     3
     """
     status, line = _describe(error)
-    notes = [note.replace("\n", " ") for note in getattr(error, "__notes__", ())]
-    return status, "; ".join([line, *notes])
+    return status, "; ".join([line, *notes(error, "cli")])
 
 
 def _describe(error: BaseException) -> tuple[int, str]:
     """Return :func:`describe`'s status and line, without the exception's notes."""
     if isinstance(error, InputError):
-        return EXIT_INPUT, str(error)
+        return EXIT_INPUT, error.words("cli")
     error = interruption(error) or error
     if isinstance(error, Interrupted):
         status = EXIT_SIGINT if error.signum == signal.SIGINT else EXIT_SIGTERM
@@ -199,7 +199,7 @@ def _describe(error: BaseException) -> tuple[int, str]:
     if isinstance(error, KeyboardInterrupt):
         return EXIT_SIGINT, "interrupted (SIGINT); no partial output was kept"
     if isinstance(error, SlabWorkerDied):
-        return EXIT_MEMORY, f"{error}; no partial output was kept"
+        return EXIT_MEMORY, f"{error.words('cli')}; no partial output was kept"
     if isinstance(error, MemoryError):
         return EXIT_MEMORY, (
             "out of memory; no partial output was kept; rerun with a smaller --slab-mb, "

@@ -9,6 +9,8 @@ runs; no page, README or docstring tells the project's history (CHANGELOG.md doe
 from __future__ import annotations
 
 import ast
+import builtins
+import doctest
 import inspect
 import re
 from pathlib import Path
@@ -104,3 +106,126 @@ def test_the_readme_python_example_runs(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     exec(compile(example, "README.md", "exec"), {})
     assert (tmp_path / "out" / "python" / "manifest.json").is_file()
+
+
+#: A path of the source repository or of the files beside it, which an installed package
+#: does not have: ``../shared/...``, or a file under the folders ``pipeline/``,
+#: ``offset/`` or ``voxel/`` (the package names them ``shellvox``, ``shellvox.offset`` and
+#: ``shellvox.voxel``; ``shellvox/printer/...`` or ``docs/x.md`` of another project pass).
+REPO_PATH = re.compile(r"\.\./shared\b|(?<![\w./-])(?:pipeline|offset|voxel)/[\w*.]")
+#: A private name used in an example: ``_name`` or ``module._name`` (not ``__dunder__``).
+PRIVATE = re.compile(r"(?<![\w.])_[A-Za-z]\w*|\._[A-Za-z]\w*")
+
+
+def _shipped_texts() -> dict[str, str]:
+    """The pages, the docstrings, the ``#:`` comments autodoc renders, the shipped TOML files."""
+    texts = {k: v for k, v in _texts().items() if k != "README.md"}  # the README: the repo's
+    for name, path in MODULES.items():
+        lines = path.read_text(encoding="utf-8").splitlines()
+        texts[f"{name} #:"] = "\n".join(s for s in lines if s.lstrip().startswith("#:"))
+    for path in sorted({*ROOT.glob("pipeline/**/*.toml"), *ROOT.glob("data/**/*.toml")}):
+        texts[str(path.relative_to(ROOT))] = path.read_text(encoding="utf-8")
+    return texts
+
+
+def test_no_page_docstring_or_shipped_file_names_a_path_outside_the_package():
+    named = {
+        where: match.group(0)
+        for where, text in _shipped_texts().items()
+        if (match := REPO_PATH.search(text)) is not None
+    }
+    assert named == {}
+
+
+def test_the_path_check_catches_repository_paths():
+    for text in (
+        "see ../shared/printing/voxel-print-facts.md",
+        "Copy pipeline/printer/profiles/generic-cmykw.toml",
+        "(`voxel/colour/_optics.py`)",
+        "in ``offset/methods.py``",
+        "the folder pipeline/printer/profiles",
+    ):
+        assert REPO_PATH.search(text), text
+    for text in (
+        "shellvox.voxel.colour and :mod:`shellvox.offset`",
+        "resources of shellvox/printer/profiles",
+        "iwaag/vdbmat-utils docs/print-slices.md",
+        "https://example.org/voxel/",
+    ):
+        assert not REPO_PATH.search(text), text
+
+
+def _documented() -> dict[str, object]:
+    """Every public name of ``shellvox`` and ``shellvox.data``, and their classes' members."""
+    found: dict[str, object] = {}
+    names = [(f"shellvox.{n}", getattr(shellvox, n)) for n in shellvox.__all__ if n != "data"]
+    names += [(f"shellvox.data.{n}", getattr(shellvox.data, n)) for n in shellvox.data.__all__]
+    for name, value in names:
+        found[name] = value
+        if inspect.isclass(value):
+            for member, attr in vars(value).items():
+                if not member.startswith("_"):
+                    found[f"{name}.{member}"] = attr
+    return found
+
+
+def _example_code(obj: object) -> list[str]:
+    doc = inspect.getdoc(obj) if not isinstance(obj, str | int | float | tuple) else None
+    if not doc or ">>>" not in doc:
+        return []
+    examples = doctest.DocTestParser().get_examples(doc)
+    return [e.source for e in examples if not e.options.get(doctest.SKIP)]
+
+
+def _undefined(sources: list[str]) -> set[str]:
+    """Return the names `sources` (one example's statements) use without defining them."""
+    defined: set[str] = set(dir(builtins))
+    used: set[str] = set()
+    for source in sources:
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.Name):
+                (used if isinstance(node.ctx, ast.Load) else defined).add(node.id)
+            elif isinstance(node, ast.Import | ast.ImportFrom):
+                defined |= {(a.asname or a.name).split(".")[0] for a in node.names}
+            elif isinstance(node, ast.FunctionDef | ast.ClassDef):
+                defined.add(node.name)
+            elif isinstance(node, ast.arg):
+                defined.add(node.arg)
+    return used - defined
+
+
+def test_the_public_examples_are_self_contained_and_public():
+    # what `help()` and the API reference show: each example imports what it uses (a
+    # user copies it into a fresh interpreter) and calls no private name
+    documented = _documented()
+    assert len(documented) > 50
+    undefined, private = {}, {}
+    for name, obj in documented.items():
+        code = _example_code(obj)
+        if missing := _undefined(code):
+            undefined[name] = sorted(missing)
+        if used := sorted({m.group(0) for s in code for m in PRIVATE.finditer(s)}):
+            private[name] = used
+    assert undefined == {}
+    assert private == {}
+
+
+def test_no_example_of_a_public_name_anywhere_calls_a_private_name():
+    private = {}
+    for module, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef):
+                if getattr(node, "name", "").startswith("_"):
+                    continue  # a private function's own example may call it
+                doc = ast.get_docstring(node) or ""
+                code = [e.source for e in doctest.DocTestParser().get_examples(doc)]
+                if used := sorted({m.group(0) for s in code for m in PRIVATE.finditer(s)}):
+                    private[f"{module}:{getattr(node, 'name', '')}"] = used
+    assert private == {}
+
+
+def test_the_example_checks_catch_what_they_look_for():
+    assert _undefined(["mesh = load(path)\n", "np.ptp(mesh.vertices)\n"]) == {"load", "path", "np"}
+    assert _undefined(["import numpy as np\n", "[np.sqrt(x) for x in range(3)]\n"]) == set()
+    found = {m.group(0) for m in PRIVATE.finditer("from a._b import _demo; x._c(); f(__name__)")}
+    assert found == {"._b", "_demo", "._c"}

@@ -56,8 +56,8 @@ def kernel(
 
     Examples
     --------
-    >>> from shellvox.voxel.sampler import _positions  # a kernel of the project
-    >>> _positions.targetoptions["nogil"], _positions.targetoptions["error_model"]
+    >>> from shellvox.offset.field.crease_geometry import plane_labels  # a kernel
+    >>> plane_labels.targetoptions["nogil"], plane_labels.targetoptions["error_model"]
     (True, 'numpy')
     """
     options = dict(KERNEL_OPTIONS)

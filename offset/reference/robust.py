@@ -75,7 +75,7 @@ order:
 The input must be a closed, consistently oriented surface without self-intersections; a
 self-intersecting input (e.g. the Khronos duck's bill) bounds no well-defined solid and
 gives local defects there. The cost is that of the union, one pairwise Boolean per
-piece, about 1 ms each on two cores; see ``benchmarks/bench_offset.py``.
+piece (measured times: the documentation's performance page, ``bench_offset``).
 
 References
 ----------
@@ -89,13 +89,13 @@ References
 
 from __future__ import annotations
 
-import warnings
 from typing import NamedTuple
 
 import manifold3d as m3d
 import numpy as np
 import numpy.typing as npt
 
+from shellvox.errors import warn
 from shellvox.offset._validate import FloatArray, IntArray
 from shellvox.offset.reference.band import features, layer_pieces
 from shellvox.offset.reference.core_cut import cut_core, patch_core, uncross
@@ -154,11 +154,10 @@ def robust_offset(
         shell = _layer_shell(base, layer_pieces(feat, d), surface, d)
         crossing, deep = shell.defects
         if crossing or deep:
-            warnings.warn(
+            warn(
                 f"robust shell of layer {k + 1}: {crossing} crossing triangle pairs and "
                 f"{deep} triangles deeper than asked remain after every union order",
                 ShellDefectWarning,
-                stacklevel=3,
             )
         out.append((shell.vert, shell.tri))
         base = to_manifold(shell.vert, shell.tri).as_original()

@@ -10,20 +10,31 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 
 from shellvox.api._thickness import ThicknessChoice, layer_thickness
-from shellvox.config import BuildConfig, LoadOptions, MaterialSettings
-from shellvox.errors import InputError
+from shellvox.config import (
+    FORMATS,
+    BuildConfig,
+    LoadOptions,
+    MaterialSettings,
+    check_choice,
+    check_flag,
+    check_lengths,
+    check_number,
+)
+from shellvox.errors import InputError, opt
 from shellvox.loading import load_model
 from shellvox.model import ColouredMesh
 from shellvox.offset import MethodName
+from shellvox.output import manifest_line
 from shellvox.printer import PrinterProfile, load_profile
 from shellvox.run import RunSettings
 from shellvox.stack import build_stack
@@ -52,8 +63,9 @@ class BuildOptions:
     printer : str or Path
         Printer profile: a shipped name (``"j750"``, ``"j850"``, ``"j850-hq"``,
         ``"generic-cmykw"``) or a TOML file (``--printer``).
-    voxel_size_mm : (3,) float, mm, optional
-        Voxel size ``(x, y, z)`` instead of the printer's grid (then no printer job).
+    voxel_size_mm : (3,) float or float, mm, optional
+        Voxel size ``(x, y, z)`` instead of the printer's grid (then no printer job); one
+        number is a cubic voxel (stored as the three sizes).
     formats : tuple of str, optional
         Files to write, among ``tiff``, ``vdb``, ``gcvf``, ``png``, ``zarr``; None: tiff,
         zarr, vdb and the printer's job format when the grid is the printer's.
@@ -105,6 +117,66 @@ class BuildOptions:
     slab_mb: float = 1024.0
     compression_level: int | None = None
     workers: int = 0
+
+    def __post_init__(self) -> None:
+        """Check every value once, naming the parameter and the allowed values.
+
+        A single voxel size is a cubic voxel (stored as the three sizes).
+        """
+        if not isinstance(self.printer, str | Path) or not str(self.printer):
+            raise InputError(
+                opt("printer"), f"got {self.printer!r}", "give a profile name or a .toml path"
+            )
+        if self.voxel_size_mm is not None:
+            voxel = check_lengths("voxel_size", self.voxel_size_mm, count=3)
+            object.__setattr__(self, "voxel_size_mm", voxel)
+        if self.formats is not None:
+            given: Any = self.formats
+            chosen = (given,) if isinstance(given, str) else given
+            if not isinstance(chosen, Iterable) or not chosen:
+                chosen = (given,)
+            for name in chosen:
+                check_choice("formats", name, FORMATS)
+            object.__setattr__(self, "formats", tuple(chosen))
+        if self.thickness_mm is not None:
+            object.__setattr__(self, "thickness_mm", check_lengths("thickness", self.thickness_mm))
+        if not isinstance(self.thickness_rule, ThicknessRule | str | Path | None):
+            raise InputError(
+                opt("thickness_rule"),
+                f"got {self.thickness_rule!r}",
+                "give a ThicknessRule, the path of a rule file, or None (the default rule)",
+            )
+        if self.max_edge_mm is not None:
+            check_number("max_edge", self.max_edge_mm, low=0, strict=True)
+        if self.colour_layers is not None:
+            layers: Any = self.colour_layers
+            if isinstance(layers, numbers.Integral):
+                layers = (layers,)
+            if not isinstance(layers, Iterable) or not (layers := tuple(layers)):
+                raise InputError(
+                    opt("colour_layers"),
+                    f"got {self.colour_layers!r}",
+                    "give layer numbers from 1 (the outermost), e.g. (1,)",
+                )
+            for layer in layers:
+                check_number("colour_layers", layer, low=1, integer=True)
+            object.__setattr__(self, "colour_layers", tuple(int(k) for k in layers))
+        check_choice("layer_rule", self.layer_rule, get_args(LayerRule))
+        check_flag("shell_meshes", self.shell_meshes)
+        check_choice("shell_method", self.shell_method, get_args(MethodName))
+        check_flag("alpha", self.alpha)
+        if not isinstance(self.materials, MaterialSettings | None):
+            raise InputError(
+                opt("materials"),
+                f"got {self.materials!r}",
+                "give MaterialSettings(...) or None (no materials)",
+            )
+        check_number("report_samples", self.report_samples, low=0, integer=True)
+        check_number("proof_density", self.proof_density, low=0)
+        check_number("slab_mb", self.slab_mb, low=0, strict=True)
+        if self.compression_level is not None:
+            check_number("compression_level", self.compression_level, low=1, high=9, integer=True)
+        check_number("workers", self.workers, low=0, integer=True)
 
     def config(self, profile: PrinterProfile, choice: ThicknessChoice | None) -> BuildConfig:
         """Return the build's :class:`BuildConfig` for `profile` and the chosen thickness.
@@ -159,13 +231,17 @@ class BuildOptions:
             return tuple(chosen)
         if "gcvf" in self.formats and not on_grid:
             raise InputError(
-                "--format gcvf",
+                opt("formats"),
                 f"a .gcvf job needs the printer's grid {profile.voxel_mm} mm, got "
-                f"--voxel-size {voxel}",
-                "drop --voxel-size or the gcvf format",
+                f"{opt('voxel_size', tuple(voxel))}",
+                f"drop {opt('voxel_size')} or the gcvf format",
             )
         if self.materials is None and {"gcvf", "png"} & set(self.formats):
-            raise InputError("--format", "printer slices need materials", "drop --no-materials")
+            raise InputError(
+                opt("formats"),
+                "printer slices (gcvf, png) need materials",
+                f"drop {opt('no_materials')} or those formats",
+            )
         return tuple(dict.fromkeys(self.formats))  # unknown names: refused by BuildConfig
 
 
@@ -184,6 +260,10 @@ class BuildResult:
 
     folder: Path
     manifest: dict[str, Any]
+
+    def __repr__(self) -> str:
+        """One line: the folder, grid, voxel size, printer and files (not the manifest)."""
+        return f"BuildResult({str(self.folder)!r}, {manifest_line(self.manifest)})"
 
     @property
     def files(self) -> tuple[Path, ...]:
@@ -205,7 +285,7 @@ def build(
     *,
     load: LoadOptions | None = None,
     running: RunSettings | None = None,
-    progress: bool | None = False,
+    progress: bool | None = None,
     force: bool = False,
     say: Callable[[str], None] | None = None,
 ) -> BuildResult:
@@ -224,7 +304,9 @@ def build(
     running : RunSettings, optional
         Where the slabs run (a Dask scheduler), checkpoints and resume.
     progress : bool or None
-        Show a progress bar (None: only on a terminal).
+        Show progress bars. None (the default): where a person is watching, when stderr
+        is a terminal or in a Jupyter notebook (drawn by :mod:`tqdm.auto`); False: never;
+        True: always.
     force : bool
         Build even when the estimate says memory or disk will not suffice.
     say : callable, optional
@@ -308,6 +390,15 @@ class TrayRequest:
     load: LoadOptions
     seconds: float
 
+    def __repr__(self) -> str:
+        """One line: the models, the grid, voxel size and printer (not the plan's tables)."""
+        grid = self.plan.grid
+        voxel = tuple(float(f"{v:.4g}") for v in grid.voxel_mm)
+        return (
+            f"TrayRequest({len(self.plan.placements)} models, shape_zyx={grid.shape_zyx}, "
+            f"voxel_mm={voxel}, printer={self.profile.name!r})"
+        )
+
 
 def plan_tray_build(
     models: Sequence[str | Path] | str | Path,
@@ -361,16 +452,16 @@ def plan_tray_build(
     profile = load_profile(options.printer)
     tray_file = isinstance(models, str | Path)
     if tray_file and copies != 1:
-        raise InputError("--copies", "is for model files", "set copies in the tray file")
+        raise InputError(opt("copies"), "is for model files", "set copies in the tray file")
     if options.layer_rule == "shells" or options.shell_meshes:
         raise InputError(
-            "--layers shells" if options.layer_rule == "shells" else "--shell-meshes",
+            opt("layer_rule", "shells") if options.layer_rule == "shells" else opt("shell_meshes"),
             "a tray is built with distance layers and without shell meshes",
             "drop it; run `shellvox shells` on each model for its shells",
         )
     if options.thickness_mm is not None and options.thickness_rule is not None:
         raise InputError(
-            "--thickness-rule", "cannot be combined with --thickness", "drop one of them"
+            opt("thickness_rule"), f"cannot be combined with {opt('thickness')}", "drop one of them"
         )
     rule_path = options.thickness_rule
     if isinstance(rule_path, ThicknessRule):
@@ -410,7 +501,7 @@ def build_tray(
     out_dir: str | Path,
     *,
     running: RunSettings | None = None,
-    progress: bool | None = False,
+    progress: bool | None = None,
     force: bool = False,
     say: Callable[[str], None] | None = None,
 ) -> BuildResult:
@@ -472,5 +563,5 @@ def _folder(out_dir: str | Path) -> Path:
     """Return `out_dir` as a Path, refusing a file that is not a folder."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
-        raise InputError(out, "exists and is not a folder", "choose another -o DIR")
+        raise InputError(out, "exists and is not a folder", f"choose another {opt('out')}")
     return out

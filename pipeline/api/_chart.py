@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.atomic import atomic_path, write_text_atomic
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.output import OutputFolder, gcvf_writer
 from shellvox.printer import (
     ChartFile,
@@ -65,6 +65,14 @@ class ChartResult:
     layout: ChartLayout
     printer: str
 
+    def __repr__(self) -> str:
+        """One line: the folder, the patches, the grid, the printer and the files."""
+        return (
+            f"ChartResult({str(self.folder)!r}, {len(self.layout.patches)} patches, "
+            f"shape_zyx={self.layout.grid.shape_zyx}, printer={self.printer!r}, "
+            f"files={tuple(p.name for p in self.files)})"
+        )
+
 
 def make_chart(out_dir: str | Path, *, printer: str | Path = "j750") -> ChartResult:
     """Write a printable calibration chart for `printer` into `out_dir`.
@@ -83,7 +91,9 @@ def make_chart(out_dir: str | Path, *, printer: str | Path = "j750") -> ChartRes
     try:
         layout = chart_layout(profile)
     except ValueError as error:
-        raise InputError(f"--printer {printer}", str(error), "use a profile with both") from None
+        raise InputError(
+            opt("printer", str(printer)), str(error), "use a profile with both"
+        ) from None
     content = chart_json(layout, profile, profile_text(printer))
     with OutputFolder(out, CHART_OUTPUTS, marker="chart.json") as folder:
         if profile.slice_format == "gcvf":
@@ -153,6 +163,15 @@ class Calibration:
     fit_delta_e: NDArray[np.float64]
     cross_validated: dict[str, Any]
 
+    def __repr__(self) -> str:
+        """One line: the profile written, the materials and patches, the fit's CIEDE2000."""
+        fit = float(np.median(self.fit_delta_e)) if len(self.fit_delta_e) else float("nan")
+        return (
+            f"Calibration({str(self.profile)!r}, {len(self.optics.names)} materials, "
+            f"{len(self.chart.patches)} patches, fit CIEDE2000 median {fit:.2f}, "
+            f"cross-validated median {self.cross_validated.get('median', float('nan')):.2f})"
+        )
+
 
 def calibrate(
     chart: str | Path, measured: str | Path, out_profile: str | Path, *, folds: int = 5
@@ -197,11 +216,11 @@ def calibrate(
     if out.is_dir():
         raise InputError(out, "is a folder", "give the path of a .toml file")
     if folds < 2:
-        raise InputError(f"--folds {folds}", "must be at least 2", "use e.g. 5")
+        raise InputError(opt("folds", folds), "must be at least 2", "use e.g. 5")
     read = read_chart(chart)
     readings = chart_readings(read, measured)
     if folds > len(read.patches):
-        raise InputError(f"--folds {folds}", "exceeds the patches", "use fewer folds")
+        raise InputError(opt("folds", folds), "exceeds the patches", "use fewer folds")
     fitted, residual = fit_optics(read.optics, read.patches, readings)
     checked = cross_validate(read.optics, read.patches, readings, folds=folds)
     header = (

@@ -12,7 +12,7 @@ from shellvox import __version__
 from shellvox.api._thickness import layer_thickness
 from shellvox.atomic import write_text_atomic
 from shellvox.config import LoadOptions, as_json
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.fdm import (
     SLICERS,
     FdmProject,
@@ -48,6 +48,13 @@ class FdmResult:
     files: tuple[Path, ...]
     project: FdmProject
     manifest: dict[str, Any]
+
+    def __repr__(self) -> str:
+        """One line: the faces, the filaments and the files (not the project's arrays)."""
+        return (
+            f"FdmResult({len(self.project.face_filament)} faces, filaments "
+            f"{','.join(self.project.filaments.hex)}, files={tuple(p.name for p in self.files)})"
+        )
 
 
 def fdm_projects(
@@ -110,7 +117,7 @@ def fdm_projects(
     check_filament_count(chosen, slicers)  # refused before any work
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
-        raise InputError(out, "exists and is not a folder", "choose another -o DIR")
+        raise InputError(out, "exists and is not a folder", f"choose another {opt('out')}")
     load = load or LoadOptions()
     path = Path(model)
     mesh = load_model(path, load)

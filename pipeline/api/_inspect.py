@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from shellvox.errors import InputError
-from shellvox.output import OutputFolder, file_summary, read_manifest, verify_files
+from shellvox.output import OutputFolder, file_summary, manifest_line, read_manifest, verify_files
 
 
 @dataclass(frozen=True)
@@ -28,6 +28,10 @@ class Inspection:
     manifest: dict[str, Any]
     rows: tuple[tuple[str, str], ...]
     previews: tuple[Path, ...]
+
+    def __repr__(self) -> str:
+        """One line: the build's grid, voxel size, printer and files, and the previews."""
+        return f"Inspection({manifest_line(self.manifest)}, previews={len(self.previews)})"
 
 
 def inspect_build(folder: str | Path, *, previews: bool = True) -> Inspection:
@@ -61,7 +65,7 @@ def inspect_build(folder: str | Path, *, previews: bool = True) -> Inspection:
     """
     root = Path(folder)
     if not root.is_dir():
-        raise InputError(root, "is not a folder", "give the -o DIR of a shellvox build")
+        raise InputError(root, "is not a folder", "give the output folder of a shellvox build")
     if not previews:  # reads only: no lock, so a build on a read-only medium verifies
         manifest = _verified(root)
         return Inspection(manifest, summary_rows(manifest, root), ())

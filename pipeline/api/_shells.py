@@ -17,7 +17,7 @@ from shellvox import __version__
 from shellvox.api._thickness import layer_thickness
 from shellvox.atomic import write_text_atomic
 from shellvox.config import LoadOptions, ShellConfig, as_json
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.loading import load_model
 from shellvox.offset import Shell, method_shells, ready_for_file, shell_report
 from shellvox.output import (
@@ -50,6 +50,16 @@ class ShellsResult:
     files: tuple[Path, ...]
     report: dict[str, Any]
     shells: tuple[Shell, ...]
+
+    def __repr__(self) -> str:
+        """One line: the folder, the method, the shells and the files (not the report)."""
+        method = self.report.get("method")
+        if isinstance(method, dict):  # the method's record: its name and how it ran
+            method = method.get("method")
+        return (
+            f"ShellsResult({str(self.folder)!r}, method={method!r}, "
+            f"{len(self.shells)} shells, files={tuple(p.name for p in self.files)})"
+        )
 
 
 def write_shells(
@@ -106,7 +116,7 @@ def write_shells(
     config = config or ShellConfig(thickness_mm=())
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
-        raise InputError(out, "exists and is not a folder", "choose another -o DIR")
+        raise InputError(out, "exists and is not a folder", f"choose another {opt('out')}")
     load = load or LoadOptions()
     mesh = load_model(model, load)
     choice = layer_thickness(

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import MaterialSettings
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.model import ColouredMesh
 from shellvox.printer import PrinterProfile, build_material_plan, layer_model, load_profile
 from shellvox.thickness import (
@@ -48,6 +48,15 @@ class ThicknessChoice:
     thickness_mm: NDArray[np.float64]
     faces: FaceThickness | None
     source: str
+
+    def __repr__(self) -> str:
+        """One line: the layers, the faces, the outer layer's range and the source."""
+        layers, faces = self.thickness_mm.shape
+        outer = self.thickness_mm[0] if layers and faces else np.zeros(1)
+        return (
+            f"ThicknessChoice({layers} layers on {faces} faces, layer 1 "
+            f"{outer.min():.3g}-{outer.max():.3g} mm, source={self.source!r})"
+        )
 
 
 def layer_thickness(
@@ -104,12 +113,13 @@ def layer_thickness(
     True
     """
     if thickness_mm is not None:
-        for option, value in (("--thickness-rule", rule), ("--max-edge", max_edge_mm)):
+        for option, value in (("thickness_rule", rule), ("max_edge", max_edge_mm)):
             if value is not None:
                 raise InputError(
-                    option,
-                    "cannot be combined with --thickness (the same thickness on every face)",
-                    f"drop --thickness to use a thickness rule, or drop {option}",
+                    opt(option),
+                    f"cannot be combined with {opt('thickness')} (the same thickness on every "
+                    "face)",
+                    f"drop {opt('thickness')} to use a thickness rule, or drop {opt(option)}",
                 )
         constant = np.asarray(thickness_mm, np.float64)
         if (
@@ -118,9 +128,9 @@ def layer_thickness(
             or not np.all(np.isfinite(constant) & (constant > 0))
         ):
             raise InputError(
-                "--thickness",
+                opt("thickness"),
                 f"expected positive lengths, got {list(np.atleast_1d(constant))}",
-                "pass lengths in mm such as 0.5,0.5",
+                f"pass lengths in mm such as {opt('thickness', (0.5, 0.5))}",
             )
         rows = np.repeat(constant[:, None], mesh.n_faces, axis=1)
         return ThicknessChoice(mesh, rows, None, "--thickness")
@@ -135,7 +145,9 @@ def layer_thickness(
     if max_edge_mm is not None:
         if not (np.isfinite(max_edge_mm) and max_edge_mm > 0):
             raise InputError(
-                "--max-edge", f"expected a positive length, got {max_edge_mm}", "pass e.g. 0.5"
+                opt("max_edge"),
+                f"expected a positive length, got {max_edge_mm}",
+                f"pass e.g. {opt('max_edge', 0.5)}",
             )
         colour = face_colour(mesh)
         split = split_for_thickness(mesh, chosen, max_edge_mm, colour=colour, max_faces=max_faces)

@@ -71,7 +71,10 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:  # type: ignore[no-untyped-def]
-    print(f"shellvox: warning: {message}", file=sys.stderr)
+    """Print a warning as one line, the options it names as the command line's flags."""
+    words = getattr(message, "words", None)
+    text = words("cli") if callable(words) else str(message)
+    print(f"shellvox: warning: {text}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -94,12 +97,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             # Our own warnings are shown as one line each; library chatter is not.
             warnings.simplefilter("ignore")
             warnings.simplefilter("always", ShellvoxWarning)
-            # offset's own warning class (offset cannot import pipeline); imported here, not
-            # at the top: importing this package must stay light (signals are held back
-            # from the first line of `python -m shellvox.cli`, which imports it first)
-            from shellvox.offset.reference.robust import ShellDefectWarning
-
-            warnings.simplefilter("always", ShellDefectWarning)
             warnings.showwarning = _show_warning
             status = _run(argv)
             if program and status in (EXIT_SIGINT, EXIT_SIGTERM) and "--debug" not in argv:
@@ -119,6 +116,11 @@ def _run(argv: list[str]) -> int:
                 arguments = parser()
             unblock_signals()  # blocked since the start by python -m shellvox.cli
             args = arguments.parse_args(argv)
+            # offset's own warning class (offset cannot import pipeline), shown as ours are;
+            # imported once the arguments are read: the parser and --help stay light
+            from shellvox.offset.reference.robust import ShellDefectWarning
+
+            warnings.simplefilter("always", ShellDefectWarning)
             status: int = args.handler(args)
             return status
         except (SystemExit, GeneratorExit):

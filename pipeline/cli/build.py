@@ -9,13 +9,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from shellvox.api import build, build_tray, plan_tray_build
 from shellvox.cli.buildargs import add_build_arguments, options_from_args
 from shellvox.cli.loadargs import load_options
 from shellvox.cli.runargs import running_from_args
 from shellvox.errors import InputError
-from shellvox.output import file_summary
-from shellvox.stack import report_line, resource_shortfall
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -25,6 +22,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Load the model(s), build the stack and print where the files are."""
+    from shellvox.api import build
+
     if args.tray is not None and args.model:
         raise InputError("--tray", "was given with model files", "give model files or --tray")
     if args.tray is None and not args.model:
@@ -51,6 +50,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _report(out: Path, manifest: dict[str, Any], wall_seconds: float) -> None:
     """Print where the files are, the voxel counts, the colour report and the times."""
+    from shellvox.output import file_summary
+    from shellvox.stack import report_line
+
     shape = " x ".join(str(n) for n in manifest["grid"]["shape_zyx"])
     print(f"{out}: grid {shape} (z, y, x) voxels")
     for name, n_files, n_bytes in file_summary(manifest["files"]):
@@ -66,6 +68,9 @@ def _report(out: Path, manifest: dict[str, Any], wall_seconds: float) -> None:
 
 def run_tray(args: argparse.Namespace) -> int:
     """Plan a tray (several models, copies, a layout, or a dry run), then build it."""
+    from shellvox.api import build_tray, plan_tray_build
+    from shellvox.stack import resource_shortfall
+
     options = options_from_args(args)
     models = args.tray if args.tray is not None else args.model
     started = time.perf_counter()

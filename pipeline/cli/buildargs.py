@@ -5,19 +5,18 @@ from __future__ import annotations
 import argparse
 import dataclasses
 from pathlib import Path
-from typing import get_args
+from typing import TYPE_CHECKING
 
-from shellvox.api import BuildOptions
+from shellvox.cli.choices import FORMATS, HALFTONES, LAYER_RULES, printers
 from shellvox.cli.loadargs import add_load_arguments
 from shellvox.cli.methodargs import add_method_argument
 from shellvox.cli.runargs import add_running_arguments
 from shellvox.cli.thicknessargs import add_rule_arguments
 from shellvox.cli.values import optional_length, parse_lengths, parse_voxel_size
-from shellvox.config import FORMATS, MaterialSettings
 from shellvox.errors import InputError
-from shellvox.printer import load_profile, shipped_profiles
-from shellvox.voxel.colour import HALFTONES
-from shellvox.voxel.slab import LayerRule
+
+if TYPE_CHECKING:
+    from shellvox.api import BuildOptions
 
 
 def add_build_arguments(parser: argparse.ArgumentParser) -> None:
@@ -61,7 +60,7 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
         "--printer",
         default="j750",
         metavar="NAME|FILE.toml",
-        help=f"printer profile: grid, materials, job format; one of {shipped_profiles()} "
+        help=f"printer profile: grid, materials, job format; one of {printers()} "
         "or your own TOML file (default j750: 600 x 300 dpi, 27 um layers)",
     )
     parser.add_argument(
@@ -135,7 +134,7 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--layers",
-        choices=get_args(LayerRule),
+        choices=LAYER_RULES,
         default="distance",
         help="layer of a voxel from its exact distance to the surface (default), "
         "or from the offset shells holding it",
@@ -183,6 +182,10 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
 
 def options_from_args(args: argparse.Namespace) -> BuildOptions:
     """Turn parsed arguments into :class:`~shellvox.api.BuildOptions` (bad values refused)."""
+    from shellvox.api import BuildOptions
+    from shellvox.config import MaterialSettings
+    from shellvox.printer import load_profile
+
     formats = None
     if args.format != "auto":
         formats = tuple(part.strip() for part in args.format.split(",") if part.strip())

@@ -5,10 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
-from shellvox.api import calibrate
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``calibrate``'s arguments."""
@@ -34,6 +30,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Read, match, fit, cross-validate, print the residuals and write the profile."""
+    import numpy as np
+
+    from shellvox.api import calibrate
+
     fit = calibrate(args.chart, args.measured, args.output, folds=args.folds)
     residual, patches = fit.residual, fit.chart.patches
     rms = np.sqrt((residual**2).mean(axis=1))

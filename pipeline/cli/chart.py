@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from shellvox.api import make_chart
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``chart``'s arguments."""
@@ -18,6 +16,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write DIR/job.gcvf (or DIR/slices/), DIR/preview/chart.png and DIR/chart.json."""
+    from shellvox.api import make_chart
+
     out: Path = args.output
     chart = make_chart(out, printer=args.printer)
     layout = chart.layout

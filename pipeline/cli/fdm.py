@@ -6,15 +6,11 @@ import argparse
 import time
 from pathlib import Path
 
-import numpy as np
-
-from shellvox.api import fdm_projects
+from shellvox.cli.choices import SLICERS
 from shellvox.cli.loadargs import add_load_arguments, load_options
 from shellvox.cli.methodargs import add_method_argument
 from shellvox.cli.thicknessargs import add_rule_arguments
 from shellvox.cli.values import optional_length, parse_lengths
-from shellvox.fdm import SLICERS, FdmSettings, check_slicers, parse_filaments
-from shellvox.fdm._project import check_filament_count
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -61,6 +57,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write the projects and print a summary."""
+    import numpy as np
+
+    from shellvox.api import fdm_projects
+    from shellvox.fdm import FdmSettings, check_slicers, parse_filaments
+    from shellvox.fdm._project import check_filament_count
+
     started = time.perf_counter()
     filaments = parse_filaments(args.filaments)
     slicers = check_slicers(args.slicer.replace(" ", "").split(","))

@@ -6,8 +6,6 @@ import argparse
 import json
 
 from shellvox.cli.loadargs import add_load_arguments, load_options
-from shellvox.loading import load_model
-from shellvox.model import summarise
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -18,6 +16,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the summary of a model."""
+    from shellvox.loading import load_model
+    from shellvox.model import summarise
+
     summary = summarise(load_model(args.model, load_options(args)))
     if args.json:
         print(json.dumps(summary))

@@ -12,8 +12,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from shellvox.api import inspect_build
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``inspect``'s arguments."""
@@ -23,6 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Verify the build against its manifest, print the summary, write DIR/preview/*.png."""
+    from shellvox.api import inspect_build
+
     checked = inspect_build(args.folder, previews=not args.no_preview)
     for label, value in checked.rows:
         print(f"{label:<24} {value}")

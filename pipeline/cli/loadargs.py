@@ -4,9 +4,13 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from shellvox.config import UNIT_MM, LoadOptions
+from shellvox.cli.choices import MAX_FACES, UNITS
 from shellvox.errors import InputError
+
+if TYPE_CHECKING:
+    from shellvox.config import LoadOptions
 
 
 def add_load_arguments(parser: argparse.ArgumentParser, *, many: bool = False) -> None:
@@ -25,7 +29,7 @@ def add_load_arguments(parser: argparse.ArgumentParser, *, many: bool = False) -
     group = parser.add_argument_group("model loading")
     group.add_argument(
         "--units",
-        choices=sorted(UNIT_MM),
+        choices=UNITS,
         help="unit of the file's coordinates (default mm; 3MF declares its own)",
     )
     group.add_argument(
@@ -62,9 +66,9 @@ def add_load_arguments(parser: argparse.ArgumentParser, *, many: bool = False) -
     group.add_argument(
         "--max-faces",
         type=int,
-        default=LoadOptions.max_faces,
+        default=MAX_FACES,
         metavar="N",
-        help=f"the sane face limit (default {LoadOptions.max_faces:,})",
+        help=f"the sane face limit (default {MAX_FACES:,})",
     )
 
 
@@ -87,6 +91,8 @@ def parse_colour(text: str) -> tuple[int, int, int, int]:
 
 def load_options(args: argparse.Namespace) -> LoadOptions:
     """Build :class:`LoadOptions` from parsed arguments."""
+    from shellvox.config import LoadOptions
+
     return LoadOptions(
         units=args.units,
         scale=args.scale,

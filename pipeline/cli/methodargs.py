@@ -1,15 +1,15 @@
-"""The ``--method`` option of every command that offsets shells, read from the registry."""
+"""The ``--method`` option of every command that offsets shells (:mod:`shellvox.cli.choices`)."""
 
 from __future__ import annotations
 
 import argparse
 
-from shellvox.offset import DEFAULT_METHOD, METHODS
+from shellvox.cli.choices import DEFAULT_METHOD, METHODS
 
 
 def add_method_argument(parser: argparse.ArgumentParser, what: str) -> None:
-    """Add ``--method`` (choices and help from :data:`shellvox.offset.METHODS`)."""
-    described = "; ".join(f"{m.name}: {m.summary}" for m in METHODS.values())
+    """Add ``--method`` (the methods of :data:`shellvox.offset.METHODS` and their summaries)."""
+    described = "; ".join(f"{name}: {summary}" for name, summary in METHODS.items())
     parser.add_argument(
         "--method",
         choices=tuple(METHODS),

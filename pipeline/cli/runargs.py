@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from shellvox.errors import InputError
-from shellvox.run import RunSettings
+
+if TYPE_CHECKING:
+    from shellvox.run import RunSettings
 
 
 def add_running_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,6 +39,8 @@ def add_running_arguments(parser: argparse.ArgumentParser) -> None:
 
 def running_from_args(args: argparse.Namespace) -> RunSettings:
     """Return the run settings of ``--scheduler``, ``--resume`` and ``--checkpoint``."""
+    from shellvox.run import RunSettings
+
     scheduler = args.scheduler
     if scheduler is not None and not scheduler.strip():
         raise InputError("--scheduler", "got an empty address", "pass tcp://HOST:PORT or local")

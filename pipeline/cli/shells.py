@@ -6,13 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from shellvox.api import write_shells
+from shellvox.cli.choices import MAX_FIELD_TRIANGLES, SHELL_STEP_MM
 from shellvox.cli.loadargs import add_load_arguments, load_options
 from shellvox.cli.methodargs import add_method_argument
 from shellvox.cli.thicknessargs import add_rule_arguments
 from shellvox.cli.values import optional_length, parse_lengths
-from shellvox.config import ShellConfig
-from shellvox.offset import MAX_FIELD_TRIANGLES, SHELL_STEP_MM
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -61,6 +59,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write the shells and their quality report."""
+    from shellvox.api import write_shells
+    from shellvox.config import ShellConfig
+
     constant = None if args.thickness is None else parse_lengths("--thickness", args.thickness)
     config = ShellConfig(
         thickness_mm=constant or (),

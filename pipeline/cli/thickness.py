@@ -7,16 +7,11 @@ import json
 from pathlib import Path
 from typing import Any
 
-from shellvox.api import layer_thickness
 from shellvox.atomic import atomic_path, write_text_atomic
 from shellvox.cli.loadargs import add_load_arguments, load_options
 from shellvox.cli.thicknessargs import add_rule_arguments
 from shellvox.cli.values import optional_length
 from shellvox.errors import InputError
-from shellvox.loading import load_model
-from shellvox.output import write_thickness_ply
-from shellvox.report import thickness_image
-from shellvox.thickness import thickness_summary
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,6 +31,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the thickness table; write the picture, PLY and summary when asked."""
+    from shellvox.api import layer_thickness
+    from shellvox.loading import load_model
+    from shellvox.output import write_thickness_ply
+    from shellvox.report import thickness_image
+    from shellvox.thickness import thickness_summary
+
     out: Path | None = args.output
     if out is not None and out.exists() and not out.is_dir():
         raise InputError(out, "exists and is not a folder", "choose another -o DIR")

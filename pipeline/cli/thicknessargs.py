@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from shellvox.printer import shipped_profiles
+from shellvox.cli.choices import printers
 
 
 def add_rule_arguments(parser: argparse.ArgumentParser, *, printer: bool = False) -> None:
@@ -23,7 +23,7 @@ def add_rule_arguments(parser: argparse.ArgumentParser, *, printer: bool = False
             default="j750",
             metavar="NAME|FILE.toml",
             help=f"printer profile whose optics the optical rule uses; one of "
-            f"{shipped_profiles()} or a .toml file (default j750)",
+            f"{printers()} or a .toml file (default j750)",
         )
     group.add_argument(
         "--thickness-rule",

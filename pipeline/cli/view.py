@@ -15,7 +15,6 @@ from pathlib import Path
 
 from shellvox.errors import InputError
 from shellvox.faults import Interrupted
-from shellvox.viewer import BuildFolder, ViewerServer
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -29,6 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Open the build, serve it until interrupted; return 0."""
+    from shellvox.viewer import BuildFolder, ViewerServer
+
     if not 0 <= args.port <= 65535:
         raise InputError("--port", f"must be 0..65535, got {args.port}", "give a port number")
     folder = BuildFolder.open(args.folder)

@@ -15,7 +15,7 @@ import colour
 import numpy as np
 from numpy.typing import NDArray
 
-from shellvox.errors import FdmError
+from shellvox.errors import FdmError, opt
 from shellvox.voxel._compiled import kernel
 from shellvox.voxel.colour import srgb8_to_lab
 
@@ -46,7 +46,7 @@ class Filaments:
         return int(self.rgb.shape[0])
 
 
-def parse_filaments(text: str | Sequence[str], *, option: str = "--filaments") -> Filaments:
+def parse_filaments(text: str | Sequence[str], *, option: str = "filaments") -> Filaments:
     """Parse ``#RRGGBB,#RRGGBB,...`` (at least two; the first is the core's).
 
     Raises
@@ -62,16 +62,16 @@ def parse_filaments(text: str | Sequence[str], *, option: str = "--filaments") -
     parts = text.replace(" ", "").split(",") if isinstance(text, str) else list(text)
     if len(parts) < 2:
         raise FdmError(
-            option,
+            opt(option),
             f"needs at least two filaments (the core's and a skin colour), got {len(parts)}",
-            "pass e.g. --filaments '#FFFFFF,#FF0000'",
+            f"pass e.g. {opt('filaments', '#FFFFFF,#FF0000')}",
         )
     rgb = np.empty((len(parts), 3), np.uint8)
     for i, part in enumerate(parts):
         match = _HEX.fullmatch(part)
         if match is None:
             raise FdmError(
-                option,
+                opt(option),
                 f"filament {i + 1} is not a colour #RRGGBB, got {part!r}",
                 "pass sRGB colours as #RRGGBB, e.g. #FF8000",
             )

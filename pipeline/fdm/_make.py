@@ -9,7 +9,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from shellvox.errors import FdmError
+from shellvox.errors import FdmError, opt
 from shellvox.fdm._bambu import write_bambu_3mf
 from shellvox.fdm._filaments import Filaments, nearest_filament
 from shellvox.fdm._project import (
@@ -37,9 +37,9 @@ def check_slicers(slicers: Sequence[str]) -> tuple[str, ...]:
     unknown = [s for s in chosen if s not in SLICERS]
     if unknown or not chosen:
         raise FdmError(
-            "--slicer",
+            opt("slicer"),
             f"expected some of {', '.join(SLICERS)}, got {','.join(slicers) or 'nothing'}",
-            "pass e.g. --slicer prusa,bambu",
+            f"pass e.g. {opt('slicer', ('prusa', 'bambu'))}",
         )
     return chosen
 

@@ -19,13 +19,15 @@ Depth rules (documented in the README):
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from shellvox.errors import FdmError
+from shellvox.config import check_lengths, check_number
+from shellvox.errors import FdmError, InputError, opt
 from shellvox.fdm._filaments import Filaments
 from shellvox.fdm._parts import FdmPart, face_normals, plan_parts
 
@@ -58,6 +60,23 @@ class FdmSettings:
     nozzle_mm: float = 0.4
     bed_mm: tuple[float, float] = (250.0, 210.0)
     wipe_tower_mm: tuple[float, float] = (20.0, 170.0)
+
+    def __post_init__(self) -> None:
+        """Check every value once, naming the parameter and the allowed values."""
+        check_number("fdm_layer_height", self.layer_height_mm, low=0, strict=True)
+        check_number("nozzle", self.nozzle_mm, low=0, strict=True)
+        object.__setattr__(self, "bed_mm", check_lengths("bed", self.bed_mm, count=2))
+        corner: Any = self.wipe_tower_mm
+        if isinstance(corner, str | bytes) or not isinstance(corner, Iterable):
+            corner = ()
+        corner = tuple(corner)
+        if len(corner) != 2:
+            raise InputError(
+                opt("wipe_tower"), f"got {self.wipe_tower_mm!r}", "give (x, y) in mm on the bed"
+            )
+        for value in corner:
+            check_number("wipe_tower", value, low=0)
+        object.__setattr__(self, "wipe_tower_mm", tuple(float(v) for v in corner))
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,10 +112,10 @@ def check_filament_count(filaments: Filaments, slicers: tuple[str, ...]) -> None
     for slicer in slicers:
         if len(filaments) > MAX_FILAMENTS[slicer]:
             raise FdmError(
-                "--filaments",
+                opt("filaments"),
                 f"{len(filaments)} filaments, but a {slicer} project takes at most "
                 f"{MAX_FILAMENTS[slicer]}",
-                "merge similar colours or leave that slicer out of --slicer",
+                f"merge similar colours or leave that slicer out of {opt('slicer')}",
             )
 
 
@@ -138,10 +157,10 @@ def skin_depth(
     width = WIDTH_PER_NOZZLE * settings.nozzle_mm
     if not lift and depth.min() < settings.nozzle_mm:
         raise FdmError(
-            "--thickness",
+            opt("thickness"),
             f"a skin depth of {depth.min():.3g} mm is below the nozzle width "
             f"({settings.nozzle_mm:g} mm)",
-            f"pass at least --thickness {width:g} (one extrusion width)",
+            f"pass at least {opt('thickness', float(f'{width:g}'))} (one extrusion width)",
         )
     depth = np.maximum(depth, width)
     flat = np.abs(face_normals(vertices, faces)[:, 2]) >= FLAT_NZ

@@ -10,6 +10,10 @@ Every problem ends in a correct load, an :class:`~shellvox.errors.InputError` (o
 file, problem, fix), or a :class:`~shellvox.errors.ShellvoxWarning` saying what was
 changed. In particular:
 
+- A file whose first bytes are plainly not its suffix's format (an image, an archive,
+  binary data where text is expected, another model format) is refused before its reader
+  runs, naming what it is and, for another model format, the suffix to give it
+  (:mod:`shellvox.loading._sniff`).
 - Referenced files (MTL, textures, glTF buffers and images, PLY ``TextureFile``) must lie
   in the model's folder or below it (:mod:`shellvox.loading._references`); a reference
   outside is refused unless ``--force`` (then read with a warning).
@@ -27,7 +31,6 @@ changed. In particular:
 from __future__ import annotations
 
 import dataclasses
-import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from types import MappingProxyType
@@ -37,8 +40,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import UNIT_MM, LoadOptions
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, opt, warn
 from shellvox.loading._images import MAX_TEXTURE_PIXELS
+from shellvox.loading._sniff import check_content
 from shellvox.loading._trimesh_formats import read_with_trimesh
 from shellvox.loading.gltf import read_gltf
 from shellvox.loading.obj import read_obj
@@ -125,6 +129,7 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
 
     Examples
     --------
+    >>> import numpy as np
     >>> import shellvox
     >>> mesh = shellvox.load_model(shellvox.data.colour_target())
     >>> mesh.faces.shape, np.ptp(mesh.vertices, axis=0).round(2).tolist()  # mm
@@ -148,28 +153,29 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         )
     if path.stat().st_size == 0:
         raise InputError(path, "is empty (0 bytes)", "export the model again")
+    check_content(path, found.name)
     if options.scale <= 0 or not np.isfinite(options.scale):
         raise InputError(
-            "--scale", f"must be a positive number, got {options.scale}", "pass e.g. --scale 25.4"
+            opt("scale"),
+            f"must be a positive number, got {options.scale}",
+            f"pass e.g. {opt('scale', 25.4)}",
         )
     if options.texture is not None and not Path(options.texture).is_file():
-        raise InputError(options.texture, "texture file not found", "check the --texture path")
+        raise InputError(
+            options.texture, "texture file not found", f"check the path of {opt('texture')}"
+        )
     if options.texture is not None and found.name != "obj":
-        warnings.warn(
-            f"--texture applies to OBJ files only; {path.name} is read without it",
-            ShellvoxWarning,
-            stacklevel=2,
+        warn(
+            f"{opt('texture')} applies to OBJ files only; {path.name} is read without it",
         )
 
     mm_per_unit = UNIT_MM[options.units or "mm"]
     mesh, declared = found.read(path, options)
     if declared is not None:
         if options.units is not None and UNIT_MM[options.units] != declared:
-            warnings.warn(
-                f"{path}: the {found.name.upper()} declares its own unit; --units "
-                f"{options.units} is ignored (use --scale to resize)",
-                ShellvoxWarning,
-                stacklevel=2,
+            warn(
+                f"{path}: the {found.name.upper()} declares its own unit; "
+                f"{opt('units', options.units)} is ignored (use {opt('scale')} to resize)",
             )
         mm_per_unit = declared
 
@@ -177,7 +183,7 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         raise InputError(
             path,
             f"has {len(mesh.faces):,} faces, more than the limit of {options.max_faces:,}",
-            "decimate it, or pass --force",
+            f"decimate it, or pass {opt('force')}",
         )
     if not np.isfinite(mesh.vertices).all():
         bad = int((~np.isfinite(mesh.vertices)).any(axis=1).sum())
@@ -218,15 +224,15 @@ def _checked_mm(
         largest = float(np.abs(scaled).max()) if scaled.size else 0.0
     if not np.isfinite(scaled).all():
         raise InputError(
-            "--scale",
+            opt("scale"),
             f"{path}: coordinates of up to {float(np.abs(vertices).max()):.3g} file units times "
             f"{factor:g} mm per unit overflow to infinity",
-            "pass a smaller --scale or the right --units",
+            f"pass a smaller {opt('scale')} or the right {opt('units')}",
         )
     limit = MAX_COORDINATE_MM_FORCED if options.force else MAX_COORDINATE_MM
     if largest > limit:
-        fix = "check --units and --scale (or the file)" + (
-            "" if options.force else ", or pass --force"
+        fix = f"check {opt('units')} and {opt('scale')} (or the file)" + (
+            "" if options.force else f", or pass {opt('force')}"
         )
         raise InputError(
             path,

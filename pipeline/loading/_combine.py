@@ -10,7 +10,6 @@ parts index a shared table of materials, joins its own with the two helpers.
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -18,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, warn
 from shellvox.model import ColouredMesh, Material
 from shellvox.voxel.colour import decode_uint8
 
@@ -107,11 +106,9 @@ def combine_parts(path: Path, parts: list[dict[str, Any]]) -> ColouredMesh:
             else:
                 rgba = p.get("rgba", white)
                 if not (rgba == rgba.reshape(-1, 4)[0]).all():
-                    warnings.warn(
+                    warn(
                         f"{path}: a primitive's vertex or face colours are replaced "
                         "by its mean colour next to textured primitives",
-                        ShellvoxWarning,
-                        stacklevel=3,
                     )
                 material = Material("plain", factor=decode_uint8(rgba).reshape(-1, 4).mean(0))
                 uv.append(np.zeros((n, 3, 2)))

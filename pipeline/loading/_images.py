@@ -16,7 +16,6 @@ voxels, or the user is told.
 from __future__ import annotations
 
 import io
-import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -26,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image, UnidentifiedImageError
 
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, opt, warn
 from shellvox.loading._references import is_file
 
 #: Most texture pixels accepted over all textures of one model without ``--force``.
@@ -36,7 +35,7 @@ MAX_TEXTURE_PIXELS = 8192 * 8192
 STRIP_PIXELS = 1 << 22
 
 #: The usual fix for a texture that cannot be used.
-COLOUR_FIX = "or pass --colour R,G,B to print its faces in that colour instead"
+COLOUR_FIX = f"or pass {opt('colour')} to print its faces in that colour instead"
 
 
 @dataclass(frozen=True)
@@ -107,7 +106,7 @@ def read_textures(
             first.declared_in,
             f"its textures ({listed}) hold {total:,} pixels, more than the limit of "
             f"{MAX_TEXTURE_PIXELS:,} (8192 x 8192; about {9 * total / 1e9:.1f} GB to decode)",
-            "downscale the textures, or pass --force",
+            f"downscale the textures, or pass {opt('force')}",
         )
     images: list[NDArray[np.uint8] | None] = []
     for ref, size in zip(refs, sizes, strict=True):
@@ -129,11 +128,9 @@ class _Unusable(Exception):
 def _fall_back(ref: TextureRef, problem: str, colour: tuple[int, int, int, int] | None) -> None:
     if colour is None:
         raise InputError(ref.declared_in, f"{ref.label} {problem}", f"{ref.fix}, {COLOUR_FIX}")
-    warnings.warn(
-        f"{ref.declared_in}: {ref.label} {problem}; its faces get --colour "
-        f"{','.join(str(c) for c in colour)} instead",
-        ShellvoxWarning,
-        stacklevel=4,
+    warn(
+        f"{ref.declared_in}: {ref.label} {problem}; its faces get "
+        f"{opt('colour', tuple(colour))} instead",
     )
 
 

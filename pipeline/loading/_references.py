@@ -12,10 +12,9 @@ colours) an arbitrary file of the user's, such as ``map_Kd ../../secret/x.png``.
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, opt, warn
 
 
 def is_file(candidate: Path) -> bool:
@@ -75,12 +74,11 @@ def check_inside(
             f"{what} is outside the model's folder ({shown})",
             "copy it into the model's folder and refer to it by a relative name, "
             + (f"{alternative}, " if alternative else "")
-            + "or pass --force to read it anyway",
+            + f"or pass {opt('force')} to read it anyway",
         )
-    warnings.warn(
-        f"{model}: reading {what} from outside the model's folder ({shown}) because of --force",
-        ShellvoxWarning,
-        stacklevel=3,
+    warn(
+        f"{model}: reading {what} from outside the model's folder ({shown}) because of "
+        f"{opt('force')}",
     )
     return candidate
 

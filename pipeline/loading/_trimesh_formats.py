@@ -21,7 +21,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from shellvox.config import LoadOptions
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, warn
 from shellvox.loading._combine import checked_faces, combine_parts
 from shellvox.loading._images import TextureRef, read_textures
 from shellvox.loading._references import check_inside, is_file
@@ -128,11 +128,9 @@ def _ply_header(path: Path, options: LoadOptions) -> tuple[str | None, NDArray[n
     for element, names in properties.items():
         odd = sorted(names & PLY_COLOURISH)
         if odd and not {"red", "green", "blue"} <= names:
-            warnings.warn(
+            warn(
                 f"{path}: {element} properties {', '.join(odd)} are not read as colour "
                 "(shellvox reads red, green, blue and alpha)",
-                ShellvoxWarning,
-                stacklevel=3,
             )
     if texture_name is None:
         return None, None
@@ -144,10 +142,8 @@ def _ply_header(path: Path, options: LoadOptions) -> tuple[str | None, NDArray[n
         or {"texture_u", "texture_v"} <= vertex
         or "texcoord" in face
     ):
-        warnings.warn(
+        warn(
             f"{path}: TextureFile {texture_name!r} is ignored: the PLY has no texture coordinates",
-            ShellvoxWarning,
-            stacklevel=3,
         )
         return None, None
     what = f"TextureFile {texture_name!r}"

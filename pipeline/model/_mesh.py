@@ -96,6 +96,15 @@ class ColouredMesh:
                     f"face_material indexes {len(self.materials)} materials, got index {top}"
                 )
 
+    def __repr__(self) -> str:
+        """One line: faces, vertices, colour, size and source (not the arrays)."""
+        size = np.ptp(self.vertices, axis=0) if len(self.vertices) else np.zeros(3)
+        return (
+            f"ColouredMesh({len(self.faces)} faces, {len(self.vertices)} vertices, "
+            f"colour_kind={self.colour_kind!r}, size_mm=({', '.join(f'{s:.4g}' for s in size)}), "
+            f"source={self.source!r})"
+        )
+
     @property
     def n_faces(self) -> int:
         """Number of faces."""
@@ -129,6 +138,7 @@ class ColouredMesh:
         Examples
         --------
         >>> import numpy as np
+        >>> from shellvox import ColouredMesh
         >>> mesh = ColouredMesh(
         ...     np.eye(3),
         ...     np.array([[0, 1, 2]]),

@@ -9,14 +9,19 @@ non-manifold meshes are refused with the number and a location of the bad edges,
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import dataclasses
-import warnings
+import os
+import sys
+import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, opt, warn
 from shellvox.model._mesh import ColouredMesh
 
 CORNER_FIELDS = ("corner_rgba", "corner_uv")
@@ -151,10 +156,8 @@ def prepare(mesh: ColouredMesh, *, repair: bool = False) -> ColouredMesh:
     if degenerate.all():
         raise InputError(path, "has only zero-area faces", "export a mesh that encloses a volume")
     if degenerate.any():
-        warnings.warn(
+        warn(
             f"{path}: dropped {int(degenerate.sum())} zero-area faces",
-            ShellvoxWarning,
-            stacklevel=2,
         )
         mesh = select_faces(mesh, ~degenerate)
     report = edge_report(mesh.faces)
@@ -175,7 +178,7 @@ def prepare(mesh: ColouredMesh, *, repair: bool = False) -> ColouredMesh:
         raise InputError(
             path,
             "; ".join(problems),
-            "close the mesh in a modeller, or pass --repair to fill small holes",
+            f"close the mesh in a modeller, or pass {opt('repair')} to fill small holes",
         )
     if not report.oriented:
         where = mesh.vertices[report.misoriented[0]].mean(axis=0)
@@ -183,7 +186,7 @@ def prepare(mesh: ColouredMesh, *, repair: bool = False) -> ColouredMesh:
             path,
             f"inconsistently oriented: {len(report.misoriented)} edges have both faces "
             f"running the same way, e.g. at ({where[0]:.4g}, {where[1]:.4g}, {where[2]:.4g}) mm",
-            "fix the normals in a modeller, or pass --repair",
+            f"fix the normals in a modeller, or pass {opt('repair')}",
         )
     volume = signed_volume(mesh.vertices, mesh.faces)
     if abs(volume) <= (extent * 1e-6) ** 3 or extent == 0.0:
@@ -193,10 +196,8 @@ def prepare(mesh: ColouredMesh, *, repair: bool = False) -> ColouredMesh:
             "export a solid model, not a sheet or a point",
         )
     if volume < 0:
-        warnings.warn(
+        warn(
             f"{path}: the mesh is inside out (negative volume); flipped all faces",
-            ShellvoxWarning,
-            stacklevel=2,
         )
         mesh = flip(mesh)
     return mesh
@@ -209,10 +210,8 @@ def _repair(mesh: ColouredMesh, report: EdgeReport) -> ColouredMesh:
     candidate = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     if len(report.misoriented) and not len(report.boundary) and not len(report.non_manifold):
         trimesh.repair.fix_winding(candidate)  # type: ignore[no-untyped-call]
-        warnings.warn(
-            f"{mesh.source}: --repair re-oriented faces to a consistent winding",
-            ShellvoxWarning,
-            stacklevel=3,
+        warn(
+            f"{mesh.source}: {opt('repair')} re-oriented faces to a consistent winding",
         )
         return _with_geometry(mesh, np.asarray(candidate.vertices), np.asarray(candidate.faces))
     trimesh.repair.fill_holes(candidate)
@@ -220,19 +219,57 @@ def _repair(mesh: ColouredMesh, report: EdgeReport) -> ColouredMesh:
     if not candidate.is_watertight:
         import pymeshfix
 
-        vertices, faces = pymeshfix.clean_from_arrays(
-            np.ascontiguousarray(mesh.vertices, np.float64),
-            np.ascontiguousarray(mesh.faces, np.int32),
-        )
+        # MeshFix prints its own lines ("could not fix everything") from C++; they are
+        # not shellvox's words: the checks after the repair say what is still wrong.
+        with _library_prints():
+            vertices, faces = pymeshfix.clean_from_arrays(
+                np.ascontiguousarray(mesh.vertices, np.float64),
+                np.ascontiguousarray(mesh.faces, np.int32),
+            )
         candidate = trimesh.Trimesh(vertices, faces, process=False)
-    warnings.warn(
-        f"{mesh.source}: --repair closed {len(report.boundary)} boundary edges "
+    warn(
+        f"{mesh.source}: {opt('repair')} closed {len(report.boundary)} boundary edges "
         f"({len(mesh.faces)} -> {len(candidate.faces)} faces); colour of new faces is "
         "taken from the nearest original face",
-        ShellvoxWarning,
-        stacklevel=3,
     )
     return _with_geometry(mesh, np.asarray(candidate.vertices), np.asarray(candidate.faces))
+
+
+@contextlib.contextmanager
+def _library_prints() -> Iterator[list[str]]:
+    """Catch what a library prints on stdout and stderr, at the file descriptors.
+
+    A compiled library writes to descriptors 1 and 2 past Python's ``sys.stdout``; for
+    the block both point at a temporary file, and C's buffers are flushed before they
+    are put back. Yields a list that holds the caught text (one string) after the block.
+    """
+    caught: list[str] = []
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    saved = (os.dup(1), os.dup(2))
+    try:
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 1)
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield caught
+            finally:
+                for stream in (sys.stdout, sys.stderr):
+                    stream.flush()
+                _flush_c_streams()
+                os.dup2(saved[0], 1)
+                os.dup2(saved[1], 2)
+                sink.seek(0)
+                caught.append(sink.read().decode("utf-8", "replace"))
+    finally:
+        for fd in saved:
+            os.close(fd)
+
+
+def _flush_c_streams() -> None:
+    """Flush the C library's stdio buffers (``fflush(NULL)``), where there is one."""
+    with contextlib.suppress(OSError, AttributeError, TypeError):  # none (e.g. Windows)
+        ctypes.CDLL(None).fflush(None)
 
 
 def _with_geometry(

@@ -12,7 +12,13 @@
 
 from __future__ import annotations
 
-from shellvox.output._checks import check_files, file_summary, read_manifest, verify_files
+from shellvox.output._checks import (
+    check_files,
+    file_summary,
+    manifest_line,
+    read_manifest,
+    verify_files,
+)
 from shellvox.output._folder import BuildFolder
 from shellvox.output._manifest import Tally, stack_manifest
 from shellvox.output._outdir import LOCK_NAME, SHELL_OUTPUTS, OutputFolder, remove_leftovers, sha256
@@ -33,6 +39,7 @@ __all__ = [
     "file_summary",
     "gcvf_slices",
     "gcvf_writer",
+    "manifest_line",
     "read_face_ply",
     "read_manifest",
     "read_ply",

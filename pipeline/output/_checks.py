@@ -127,3 +127,44 @@ def file_summary(files: dict[str, Any]) -> list[tuple[str, int, int]]:
         else:
             rows.append((name, 1, int(record["bytes"])))
     return rows + [(name, len(sizes), sum(sizes)) for name, sizes in stores.items()]
+
+
+def manifest_line(manifest: dict[str, Any]) -> str:
+    """Return a build in one short line: its grid, voxel size, printer and files.
+
+    The ``repr`` of the objects that hold a manifest (a build's result, the opened build,
+    its inspection). A folder of files (``slices/``, ``stack.ome.zarr/``) is one name.
+
+    Parameters
+    ----------
+    manifest : dict
+        A build's ``manifest.json``.
+
+    Returns
+    -------
+    str
+        ``shape_zyx=(Z, Y, X), voxel_mm=(vx, vy, vz), printer='NAME', files=(...)``; a
+        value the manifest lacks is ``None``.
+
+    Examples
+    --------
+    >>> grid = {"shape_zyx": [3, 7, 10], "voxel_size_mm": [0.5, 0.5, 0.1]}
+    >>> files = {"a.tif": {}, "slices/0.png": {}, "slices/1.png": {}}
+    >>> print(manifest_line({"grid": grid, "printer": "j750", "files": files}))
+    shape_zyx=(3, 7, 10), voxel_mm=(0.5, 0.5, 0.1), printer='j750', files=('a.tif', 'slices/')
+    """
+    grid = manifest.get("grid") or {}
+    shape = grid.get("shape_zyx")
+    voxel = grid.get("voxel_size_mm")
+    printer = manifest.get("printer")
+    if isinstance(printer, dict):
+        printer = printer.get("name")
+    names = []
+    for name in manifest.get("files") or {}:
+        top, slash, _ = name.partition("/")
+        names.append(top + slash)
+    return (
+        f"shape_zyx={None if shape is None else tuple(int(n) for n in shape)}, "
+        f"voxel_mm={None if voxel is None else tuple(float(f'{v:.4g}') for v in voxel)}, "
+        f"printer={printer!r}, files={tuple(dict.fromkeys(names))}"
+    )

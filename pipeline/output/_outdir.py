@@ -34,7 +34,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from shellvox.errors import InputError, OutputBusy
+from shellvox.errors import InputError, OutputBusy, opt
 from shellvox.faults import DeferredSignals
 
 LOCK_NAME = ".shellvox.lock"
@@ -98,7 +98,9 @@ class OutputFolder:
 
     def __enter__(self) -> OutputFolder:
         if self.path.exists() and not self.path.is_dir():
-            raise InputError(self.path, "exists and is not a folder", "choose another -o DIR")
+            raise InputError(
+                self.path, "exists and is not a folder", f"choose another {opt('out')}"
+            )
         self.path.mkdir(parents=True, exist_ok=True)
         try:
             # the lock file is made and its removal registered as one; a signal that arrived
@@ -190,7 +192,7 @@ def _acquire(lock_path: Path) -> int:
                 raise OutputBusy(
                     lock_path.parent,
                     f"another shellvox run (pid {owner}) is writing to this folder",
-                    "wait for it to finish or choose another -o DIR",
+                    f"wait for it to finish or choose another {opt('out')}",
                 ) from None
             raise
         try:

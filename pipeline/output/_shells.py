@@ -10,7 +10,6 @@ so what is reported is what the file holds.
 from __future__ import annotations
 
 import contextlib
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +21,7 @@ import trimesh
 
 from shellvox import __version__
 from shellvox.atomic import atomic_path
-from shellvox.errors import ShellvoxWarning
+from shellvox.errors import warn
 from shellvox.offset.quality.measures import mesh_checks
 from shellvox.offset.shells import Shell
 from shellvox.output._ply import write_ply
@@ -156,11 +155,9 @@ def write_shell(
         if bad
     ]
     if problems:
-        warnings.warn(
+        warn(
             f"{name}: the shell mesh is {', '.join(problems)}; it is written as computed, "
             "but a slicer may reject it (the voxel layers do not depend on it)",
-            ShellvoxWarning,
-            stacklevel=2,
         )
     return WrittenShell(
         shell=Shell(vertices=vertices, faces=faces, layer=shell.layer, depth_mm=shell.depth_mm),

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from shellvox import __version__
 from shellvox.config import BuildConfig
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.output._folder import BuildFolder
 from shellvox.printer import PrinterProfile
 from shellvox.voxel.colour import MaterialPlan
@@ -352,5 +352,7 @@ def gcvf_writer(
         )
     except GcvfJobError as error:
         raise InputError(
-            f"--printer {profile.name}", f"cannot make a .gcvf job: {error.problem}", error.fix
+            opt("printer", profile.name),
+            f"cannot make a .gcvf job: {error.problem}",
+            error.fix,
         ) from None

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from shellvox.config import MaterialSettings, Role
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.printer._profile import PrinterProfile
 from shellvox.printer._table_cache import DiskTables
 from shellvox.voxel.colour import (
@@ -58,10 +58,10 @@ def build_material_plan(
     roles: dict[str, int] = {m.role: m.index for m in profile.materials}
     backing = settings.backing_role or profile.backing_role
     core = settings.core_role or profile.core_role
-    for option, role in (("--backing", backing), ("--core", core)):
+    for option, role in (("backing", backing), ("core", core)):
         if role == "void" or role not in roles:
             raise InputError(
-                option,
+                opt(option),
                 f"printer profile {profile.name!r} has no {role!r} material",
                 f"use one of {sorted(r for r in roles if r != 'void')}",
             )
@@ -80,7 +80,9 @@ def build_material_plan(
             tile_size=settings.tile_size,
         )
     except ValueError as error:
-        raise InputError(None, str(error), "check --colour-layers and --tile-size") from None
+        raise InputError(
+            None, str(error), f"check {opt('colour_layers')} and {opt('tile_size')}"
+        ) from None
 
 
 def _separation(
@@ -98,7 +100,7 @@ def _separation(
                 settings.icc,
                 f"an ICC separation needs cyan, magenta, yellow, black and white; printer "
                 f"profile {profile.name!r} lacks {missing}",
-                "drop --icc or use a profile with those materials",
+                f"drop {opt('icc')} or use a profile with those materials",
             )
         try:
             return icc_separation(settings.icc, with_clear=clear is not None)

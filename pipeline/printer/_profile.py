@@ -4,8 +4,10 @@ A profile gives the printer's voxel grid (dpi and slice thickness), tray, slice 
 limits, and its materials: each with an index (its position in the file; 0 is the void,
 the slices' background), a name, a role, the RGBA key that stands for it in the slices,
 the display sRGB colour a prediction of the printed colour uses, and optional optical
-data. Shipped profiles live in ``pipeline/printer/profiles/*.toml`` (their comments cite the
-sources); ``load_profile`` takes a shipped name or a path to a user's own file.
+data. Shipped profiles are the package's resource files ``NAME.toml`` in
+``shellvox.printer.profiles`` (``importlib.resources.files("shellvox.printer.profiles")``;
+their comments cite the sources); ``load_profile`` takes a shipped name or a path to a
+user's own file.
 
 Examples
 --------
@@ -179,8 +181,17 @@ class PrinterProfile:
         return any(material.role == role for material in self.materials)
 
 
+def profiles_folder() -> str:
+    """Return where the shipped profiles are installed (``shellvox/printer/profiles``).
+
+    The folder of the installed package (:func:`importlib.resources.files`), for
+    messages that point at the shipped profiles as examples.
+    """
+    return str(resources.files("shellvox.printer") / "profiles")
+
+
 def shipped_profiles() -> list[str]:
-    """Return the names of the profiles shipped in ``pipeline/printer/profiles``."""
+    """Return the names of the shipped profiles (resources of ``shellvox.printer.profiles``)."""
     folder = resources.files("shellvox.printer") / "profiles"
     return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
 
@@ -225,7 +236,7 @@ def load_profile(name_or_path: str | Path) -> PrinterProfile:
         raise InputError(
             text_name,
             "unknown printer profile",
-            f"use one of {shipped_profiles()} or a .toml file (see pipeline/printer/profiles)",
+            f"use one of {shipped_profiles()} or a .toml file (see {profiles_folder()})",
         )
     return parse_profile(shipped.read_text(encoding="utf-8"), source=f"profiles/{shipped.name}")
 
@@ -286,9 +297,7 @@ class _Reader:
         if key not in table:
             if default is not None:
                 return default
-            self.fail(
-                prefix + key, "is missing", f"add {key} = ... (see pipeline/printer/profiles)"
-            )
+            self.fail(prefix + key, "is missing", f"add {key} = ... (see {profiles_folder()})")
         return table[key]
 
     def string(self, table: dict[str, Any], key: str, prefix: str = "") -> str:

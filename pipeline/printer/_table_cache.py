@@ -1,7 +1,7 @@
 """Solved separation tables: shipped with the package, and kept between runs.
 
 A separation table (:mod:`shellvox.voxel.colour._model_separation`) is solved once per set
-of materials and optics: about half a minute. The tables of the shipped printer profiles
+of materials and optics, which takes a while. The tables of the shipped printer profiles
 ship with the package (``shellvox/printer/tables/``, made by ``scripts/make_tables.py``
 and checked against a fresh solve by ``tests/printer/test_shipped_tables.py``); any other
 (a user's profile, a calibrated one) is solved on first use and kept in

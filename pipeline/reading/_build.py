@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.voxel.grid import GridSpec
 
 if TYPE_CHECKING:
@@ -124,6 +124,13 @@ class Build:
     layer_names: tuple[str, ...]
     material_names: dict[int, str]
     source: str
+
+    def __repr__(self) -> str:
+        """One line: the folder, grid, voxel size, printer and files (not the manifest)."""
+        from shellvox.output import manifest_line
+
+        line = manifest_line(self.manifest)
+        return f"Build({str(self.folder)!r}, {line}, source={self.source!r})"
 
     @property
     def voxel_mm(self) -> tuple[float, float, float]:
@@ -236,7 +243,7 @@ class Build:
             raise InputError(
                 self.folder,
                 "has no soft proof (proof.ply)",
-                "rebuild it with materials and report samples (the defaults with --printer)",
+                f"rebuild it with materials and {opt('report_samples')} above 0 (the defaults)",
             )
         try:
             proof = read_proof_ply(path)
@@ -336,7 +343,7 @@ def open_build(folder: str | Path) -> Build:
         materials = {int(m["index"]): str(m["name"]) for m in manifest.get("materials", [])}
     except FileNotFoundError:
         raise InputError(
-            root, "has no manifest.json", "give the -o DIR of a shellvox build"
+            root, "has no manifest.json", "give the output folder of a shellvox build"
         ) from None
     except (OSError, ValueError, KeyError, TypeError) as error:
         raise InputError(
@@ -351,7 +358,9 @@ def open_build(folder: str | Path) -> Build:
         source = "tiff"
     else:
         raise InputError(
-            root, "holds neither stack.ome.zarr nor the TIFF stacks", "build with --format zarr"
+            root,
+            "holds neither stack.ome.zarr nor the TIFF stacks",
+            f"build with {opt('formats', ('zarr',))}",
         )
     for name, array in (("layers", layers), ("colour", colour)):
         if tuple(array.shape[:3]) != spec.shape_zyx:

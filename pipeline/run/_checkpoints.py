@@ -40,8 +40,8 @@ import numpy as np
 
 from shellvox import __version__
 from shellvox.atomic import write_text_atomic
-from shellvox.config import BuildConfig, as_json
-from shellvox.errors import ClusterError, InputError, SlabWorkerDied
+from shellvox.config import BuildConfig, as_json, check_flag
+from shellvox.errors import ClusterError, InputError, SlabWorkerDied, add_note, opt
 from shellvox.faults import interruption, os_error
 from shellvox.model import ColouredMesh
 from shellvox.output import sha256
@@ -69,13 +69,26 @@ class RunSettings:
     checkpoint : bool or None
         Keep every finished slab in the run folder, so that a killed run can resume;
         None: when the estimate says the build takes longer than
-        :data:`CHECKPOINT_AFTER_S` (compressing the chunks cost about a quarter of the
-        slab time in a first measurement, so short builds go without).
+        :data:`CHECKPOINT_AFTER_S` (compressing the chunks adds to every slab's time, so
+        short builds go without).
     """
 
     scheduler: str | None = None
     resume: bool = False
     checkpoint: bool | None = None
+
+    def __post_init__(self) -> None:
+        """Check every value once, naming the parameter and the allowed values."""
+        if self.scheduler is not None and not (
+            isinstance(self.scheduler, str) and self.scheduler.strip()
+        ):
+            raise InputError(
+                opt("scheduler"),
+                f"got {self.scheduler!r}",
+                "give a Dask scheduler's address (tcp://host:8786), 'local' or None",
+            )
+        check_flag("resume", self.resume)
+        check_flag("checkpoint", self.checkpoint, optional=True)
 
 
 #: Builds estimated to take longer than this (s) checkpoint by default.
@@ -196,7 +209,7 @@ _NAMES = {
     "thickness": "the thickness per face",
     "config": "the build options",
     "printer": "the printer profile or material options",
-    "grid": "the grid or --slab-mb",
+    "grid": f"the grid or {opt('slab_mb')}",
 }
 
 
@@ -217,9 +230,9 @@ def check_resumable(out_dir: Path, key: dict[str, str]) -> bool:
         return True
     if (Path(out_dir) / "manifest.json").is_file():
         raise InputError(
-            "--resume",
+            opt("resume"),
             f"{out_dir} holds a finished build (manifest.json) and nothing to resume",
-            "rerun without --resume to build it again",
+            f"rerun without {opt('resume')} to build it again",
         )
     return False
 
@@ -254,9 +267,10 @@ def checkpoints(
         if n_chunks == 0 or not _resumable_failure(error):
             run.remove()
             raise
-        error.add_note(
-            f"{n_chunks} finished slab(s) are kept in {path}; the same command with --resume "
-            "continues from them"
+        add_note(
+            error,
+            f"{n_chunks} finished slab(s) are kept in {path}; the same run with "
+            f"{opt('resume')} continues from them",
         )
         raise
     run.remove()
@@ -286,8 +300,8 @@ def _check_key(journal: Path, key: dict[str, str]) -> None:
     changed = [_NAMES.get(part, part) for part in key if earlier.get(part) != key[part]]
     if changed:
         raise InputError(
-            "--resume",
+            opt("resume"),
             f"the unfinished build in {journal.parent.parent} was made with other inputs: "
             f"{', '.join(changed)} differ",
-            "rerun with the same model and options, or without --resume to start afresh",
+            f"rerun with the same model and options, or without {opt('resume')} to start afresh",
         )

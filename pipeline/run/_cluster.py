@@ -25,7 +25,7 @@ import uuid
 from concurrent.futures import CancelledError
 from typing import TYPE_CHECKING
 
-from shellvox.errors import ClusterError, SlabWorkerDied
+from shellvox.errors import ClusterError, SlabWorkerDied, opt
 from shellvox.faults import raise_if_interrupted
 from shellvox.run._chunks import decode_chunk, encode_chunk
 from shellvox.run._task import Rows, SlabJob, StackSlab
@@ -65,7 +65,7 @@ class DaskPool:
             from distributed import Client, LocalCluster
         except ImportError:
             raise ClusterError(
-                "--scheduler",
+                opt("scheduler"),
                 "needs Dask's distributed, which is not installed",
                 "install the cluster extra: pip install 'shellvox[cluster]'",
             ) from None
@@ -90,7 +90,7 @@ class DaskPool:
         except (OSError, TimeoutError) as error:
             self.close(failed=True)
             raise ClusterError(
-                "--scheduler",
+                opt("scheduler"),
                 f"cannot use the Dask scheduler at {scheduler} ({type(error).__name__}: "
                 f"{error})".replace("\n", " "),
                 "start it and its workers (dask scheduler; dask worker ADDRESS --nthreads 1) "
@@ -122,7 +122,7 @@ class DaskPool:
             except KilledWorker as error:
                 raise SlabWorkerDied(
                     f"Dask workers died computing a slab ({error}; often: out of memory); "
-                    "rerun with a smaller --slab-mb or on workers with more memory"
+                    f"rerun with a smaller {opt('slab_mb')} or on workers with more memory"
                 ) from None
             except CancelledError:
                 future = self._again(rows)
@@ -176,9 +176,9 @@ class DaskPool:
 
     def _lost(self, why: str) -> ClusterError:
         return ClusterError(
-            "--scheduler",
+            opt("scheduler"),
             f"lost the Dask cluster at {self.scheduler} mid-build ({why})",
-            "restart the scheduler and its workers, then rerun with --resume",
+            f"restart the scheduler and its workers, then rerun with {opt('resume')}",
         )
 
     def close(self, failed: bool) -> None:

@@ -16,7 +16,7 @@ from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
 from typing import TYPE_CHECKING
 
-from shellvox.errors import SlabWorkerDied
+from shellvox.errors import SlabWorkerDied, opt
 from shellvox.run._children import ChildPool
 from shellvox.run._slots import EXTRA_SLOTS, SlabInSlot, SlabSlots
 from shellvox.run._task import Rows, SlabJob, StackSlab
@@ -28,8 +28,8 @@ if TYPE_CHECKING:
 _WORKER: tuple[SlabJob, SlabSlots, RunFolder | None] | None = None
 
 _DIED = (
-    "a slab worker process died (often: out of memory); rerun with a smaller --slab-mb or "
-    "fewer --workers"
+    "a slab worker process died (often: out of memory); rerun with a smaller "
+    f"{opt('slab_mb')} or fewer {opt('workers')}"
 )
 
 

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from shellvox.errors import ResourceError
+from shellvox.errors import ResourceError, opt
 from shellvox.offset import ShellCost
 from shellvox.run import EXTRA_SLOTS
 from shellvox.voxel.colour import PROOF_MAX_SAMPLES
@@ -41,7 +41,7 @@ SLOT_BYTES_PER_VOXEL = 11
 MAX_SIDE = 2**31 - 1
 
 #: The fix for a grid past the index range.
-GRID_RANGE_FIX = "use a larger --voxel-size or a smaller --scale"
+GRID_RANGE_FIX = f"use a larger {opt('voxel_size')} or a smaller {opt('scale')}"
 
 #: Model bytes per face held by every process (vertices, faces, AABB tree, colours).
 BYTES_PER_FACE = 600
@@ -222,7 +222,7 @@ def check_resources(estimate: BuildEstimate, out_dir: Path, *, force: bool) -> N
     if max(z, y, x) > MAX_SIDE:
         # Not even --force: the files cannot index such a grid.
         raise ResourceError(
-            "--voxel-size",
+            opt("voxel_size"),
             f"the grid would be {z:,} x {y:,} x {x:,} voxels, past the 2^31 voxels per side "
             "that TIFF and OpenVDB can index",
             GRID_RANGE_FIX,
@@ -256,21 +256,23 @@ def resource_shortfall(estimate: BuildEstimate, out_dir: Path) -> ResourceError 
         )
         if estimate.shell_memory_bytes > available // 2:
             return ResourceError(
-                "--shell-meshes",
+                opt("shell_meshes"),
                 needs,
-                "leave out --shell-meshes or use a smaller --scale (--force to try anyway)",
+                f"leave out {opt('shell_meshes')} or use a smaller {opt('scale')} "
+                f"({opt('force_run')} to try anyway)",
             )
         if rows == 1:  # no --slab-mb makes a slab thinner than one row: the grid is too fine
             return ResourceError(
-                "--voxel-size",
+                opt("voxel_size"),
                 needs,
-                "use a larger --voxel-size (or a smaller --scale); --force to try anyway",
+                f"use a larger {opt('voxel_size')} (or a smaller {opt('scale')}); "
+                f"{opt('force_run')} to try anyway",
             )
         return ResourceError(
-            "--slab-mb",
+            opt("slab_mb"),
             needs,
-            "use a smaller --slab-mb, fewer --workers or a larger --voxel-size "
-            "(--force to try anyway)",
+            f"use a smaller {opt('slab_mb')}, fewer {opt('workers')} or a larger "
+            f"{opt('voxel_size')} ({opt('force_run')} to try anyway)",
         )
     free = shutil.disk_usage(_existing(out_dir)).free
     if estimate.disk_bytes > free:
@@ -278,8 +280,8 @@ def resource_shortfall(estimate: BuildEstimate, out_dir: Path) -> ResourceError 
             out_dir,
             f"the outputs need about {_size(estimate.disk_bytes)} but the disk has "
             f"{_size(free)} free",
-            "free some space, choose another -o DIR, use a larger --voxel-size or --no-vdb "
-            "(--force to try anyway)",
+            f"free some space, choose another {opt('out')}, use a larger {opt('voxel_size')} "
+            f"or {opt('no_vdb')} ({opt('force_run')} to try anyway)",
         )
     return None
 

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import BuildConfig
-from shellvox.errors import InputError, ResourceError
+from shellvox.errors import InputError, ResourceError, opt
 from shellvox.model import ColouredMesh, face_areas
 from shellvox.offset import METHODS, ShellCost, automatic_lattice, lattice_cell_mm
 from shellvox.run import resolve_workers
@@ -160,7 +160,10 @@ def grid_for(mesh: ColouredMesh, config: BuildConfig) -> GridSpec:
         )
     except GridRangeError as error:
         raise ResourceError(
-            "--voxel-size", str(error), "pass sizes in mm such as 0.05,0.05,0.03; check --scale"
+            opt("voxel_size"),
+            str(error),
+            f"pass sizes in mm such as {opt('voxel_size', (0.05, 0.05, 0.03))}; check "
+            f"{opt('scale')}",
         ) from None
 
 
@@ -184,14 +187,17 @@ def check_depth(
     limit = 0.5 * float(extent.min())
     total = float(depth[-1].min())
     if total >= limit and not force:
-        option = "--thickness" if source == "--thickness" else f"--thickness-rule ({source})"
+        option = (
+            opt("thickness") if source == "--thickness" else f"{opt('thickness_rule')} ({source})"
+        )
+        each = float(f"{limit / 3:.2g}")
         raise InputError(
             option,
             f"the layers reach at least {total:g} mm deep but {mesh.source or 'the model'} is "
             f"only {2 * limit:g} mm thick at its thinnest extent, so every voxel would be in "
             "a layer and none in the core",
-            f"use layers thinner than {limit:g} mm in all (e.g. --thickness "
-            f"{limit / 3:.2g},{limit / 3:.2g}), or --force",
+            f"use layers thinner than {limit:g} mm in all (e.g. "
+            f"{opt('thickness', (each, each))}), or {opt('force_run')}",
         )
 
 

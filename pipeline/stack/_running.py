@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import warnings
 from pathlib import Path
 from typing import Any, Protocol, cast
 
-from shellvox.errors import ShellvoxWarning
+from shellvox.errors import warn
 from shellvox.output import BuildFolder, OutputFolder
 from shellvox.run import (
     CHECKPOINT_AFTER_S,
@@ -57,11 +56,9 @@ def run_job(job: Job, out_dir: Path, key: dict[str, str], started: float) -> dic
     so the folder is left as it is.
     """
     if job.running.resume and not check_resumable(out_dir, key):
-        warnings.warn(
+        warn(
             f"{out_dir}: no checkpoints to resume (no {RUN_FOLDER}/{JOURNAL}: the killed "
             "run wrote none, or this is a new folder); building from the start",
-            ShellvoxWarning,
-            stacklevel=2,
         )
         running = dataclasses.replace(job.running, resume=False, checkpoint=True)
         job = cast(Job, dataclasses.replace(cast(Any, job), running=running))

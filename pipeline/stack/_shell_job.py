@@ -18,17 +18,15 @@ from __future__ import annotations
 import contextlib
 import threading
 import time
-import warnings
 from collections.abc import Iterator, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
-from tqdm import tqdm
 
 from shellvox.config import BuildConfig
-from shellvox.errors import ShellvoxWarning
+from shellvox.errors import opt, warn
 from shellvox.model import ColouredMesh
 from shellvox.offset import (
     automatic_lattice,
@@ -40,6 +38,7 @@ from shellvox.offset.field.layer_field import LatticeMesher
 from shellvox.offset.methods import surface_area
 from shellvox.offset.shells import Shell
 from shellvox.run import ChildCall
+from shellvox.stack._progress import progress_bar
 from shellvox.voxel.geometry import FieldNodes, NodeLattice
 from shellvox.voxel.grid import GridSpec
 from shellvox.voxel.slab import SlabResult
@@ -75,7 +74,8 @@ class ShellJob:
         Their estimated time (:attr:`shellvox.estimate.BuildEstimate.shell_seconds`),
         the length of their progress bar.
     progress : bool or None
-        Show the progress bar; ``None``: only on a terminal.
+        Show the progress bar; ``None``: where a person is watching
+        (:func:`shellvox.stack._progress.watched`).
     grid : GridSpec, optional
         The voxel grid, whose scan gives the ``field`` shells their nodes (the distance
         rule with shell meshes).
@@ -204,11 +204,10 @@ class ShellJob:
             with self._bar(self._started):
                 self.shells, seconds["shells"] = self._pending.result()
         except Exception as error:  # the voxels do not depend on the shell meshes
-            warnings.warn(
+            warn(
                 f"{self.mesh.source}: the shell meshes failed ({error}); the voxel stack "
-                "is complete without shells/; rerun with --layers shells to see the error",
-                ShellvoxWarning,
-                stacklevel=3,
+                f"is complete without shells/; rerun with {opt('layer_rule', 'shells')} to see the "
+                "error",
             )
         seconds["shells_wait"] = time.perf_counter() - tick
         self._pending = None
@@ -240,11 +239,9 @@ class ShellJob:
             self.shells = [ready_for_file(shell, "field").shell for shell in made.shells]
             self.record = {**made.record, "layer_field_scans": 1 + self._nodes_missing}
         except Exception as error:  # the voxels do not depend on the shell meshes
-            warnings.warn(
+            warn(
                 f"{mesh.source}: the shell meshes failed ({error}); the voxel stack is "
                 "complete without shells/; run `shellvox shells` on the model for its shells",
-                ShellvoxWarning,
-                stacklevel=3,
             )
             self.shells = None
         seconds = time.perf_counter() - tick
@@ -253,13 +250,12 @@ class ShellJob:
     @contextlib.contextmanager
     def _bar(self, started: float) -> Iterator[None]:
         """Show the seconds spent on the shells since `started` against their estimate."""
-        disable = None if self.progress is None else not self.progress
         done = threading.Event()
-        bar = tqdm(
+        bar = progress_bar(
+            self.progress,
             total=max(self.estimate_s, 1.0),
             desc="shell meshes",
             unit="s",
-            disable=disable,
             bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f} of about {total:.0f} s",
         )
 

@@ -20,17 +20,15 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
 from shellvox.config import BuildConfig
-from shellvox.errors import ShellvoxWarning
+from shellvox.errors import opt, warn
 from shellvox.faults import DeferredSignals
 from shellvox.model import ColouredMesh
 from shellvox.offset.shells import Shell
@@ -46,6 +44,7 @@ from shellvox.printer import PrinterProfile, build_material_plan
 from shellvox.run import SLAB_ARRAYS, RunFolder, RunSettings, SlabRunner, material_tally, run_key
 from shellvox.stack._colour_check import ColourCheck
 from shellvox.stack._plan import BuildPlan, plan_build
+from shellvox.stack._progress import progress_bar
 from shellvox.stack._running import run_job, settle_running
 from shellvox.stack._shell_job import ShellJob
 from shellvox.thickness import FaceThickness
@@ -91,7 +90,8 @@ def build_stack(
         With ``config.material``: one material per voxel (``materials.tif``, the job and
         the colour report).
     progress : bool or None
-        Show a progress bar; ``None``: only on a terminal.
+        Show the progress bars; ``None``: where a person is watching
+        (:func:`shellvox.stack._progress.watched`).
     force : bool
         Build even when the estimate says it will not fit, or the layers leave no core.
     say : callable, optional
@@ -361,11 +361,10 @@ class _Job:
         The layer field the slabs kept for the shell meshes is marched meanwhile.
         """
         n_bands = tally.n_layers - 2
-        disable = None if self.progress is None else not self.progress
         tick = time.perf_counter()
         carry = None
         n_z = self.plan.grid.shape_zyx[0]
-        with tqdm(total=n_z, unit="z", desc="voxels", disable=disable) as bar:
+        with progress_bar(self.progress, total=n_z, unit="z", desc="voxels") as bar:
             for slab, materials, counts, encoded, pages in slabs:
                 if self.materials is not None and materials is None:  # error diffusion, z order
                     diffused = materials_for_slab(
@@ -401,12 +400,10 @@ class _Job:
 
     def _warn_if_no_core(self, tally: Tally) -> None:
         if tally.counts[-1] == 0 and int(tally.counts[1:].sum()) > 0:
-            warnings.warn(
+            warn(
                 f"{self.mesh.source}: no voxel lies deeper than {float(self.plan.depth.max()):g}"
-                " mm, so the part has no core; use a smaller --thickness if that is not what "
-                "you want",
-                ShellvoxWarning,
-                stacklevel=4,
+                f" mm, so the part has no core; use a smaller {opt('thickness')} if that is not "
+                "what you want",
             )
 
     def _colour_check(self) -> ColourCheck | None:

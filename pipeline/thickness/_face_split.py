@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.model import ColouredMesh
 from shellvox.thickness._face_colour import FaceColour, face_colour
 from shellvox.thickness._rule import ThicknessRule
@@ -123,9 +123,9 @@ def split_faces(
         vertices, faces, source, local = step
         if len(faces) > max_faces:
             raise InputError(
-                "--max-edge",
+                opt("max_edge"),
                 f"splitting to {max_edge_mm:g} mm edges makes more than {max_faces:,} faces",
-                "choose a larger --max-edge",
+                f"choose a larger {opt('max_edge')}",
             )
         refine = refine[source]
         barycentric = np.einsum("fpk,fkc->fpc", local, barycentric[source])

@@ -116,7 +116,7 @@ def face_thickness(
     >>> import trimesh
     >>> box = trimesh.creation.box((10.0, 10.0, 10.0))
     >>> mesh = ColouredMesh(np.asarray(box.vertices), np.asarray(box.faces, np.int64))
-    >>> from shellvox.thickness._rule import LIGHTNESS_RULE
+    >>> from shellvox.thickness import LIGHTNESS_RULE
     >>> result = face_thickness(mesh, LIGHTNESS_RULE)  # white and opaque
     >>> result.thickness_mm.shape
     (2, 12)

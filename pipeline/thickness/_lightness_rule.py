@@ -70,7 +70,7 @@ def lightness_thickness(
 
     Examples
     --------
-    >>> from shellvox.thickness._rule import LIGHTNESS_RULE
+    >>> from shellvox.thickness import LIGHTNESS_RULE
     >>> one = np.ones(1)
     >>> white = lightness_thickness(100 * one, 0 * one, one, LIGHTNESS_RULE)
     >>> round(float(white[0]), 6)

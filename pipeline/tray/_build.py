@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import BuildConfig
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.model import ColouredMesh
 from shellvox.offset.shells import Shell
 from shellvox.printer import PrinterProfile
@@ -82,9 +82,10 @@ def build_tray(
     started = time.perf_counter()
     if config.layer_rule != "distance" or config.shell_meshes:
         raise InputError(
-            "--layers shells / --shell-meshes",
+            f"{opt('layer_rule', 'shells')} / {opt('shell_meshes')}",
             "a tray is built with distance layers and without shell meshes",
-            "drop --layers shells and --shell-meshes; run `shellvox shells` on each model",
+            f"drop {opt('layer_rule', 'shells')} and {opt('shell_meshes')}; make each model's "
+            "shells on its own",
         )
     if say is not None:
         say(plan.estimate.line())

@@ -20,7 +20,7 @@ import numpy as np
 import rectpack
 from numpy.typing import NDArray
 
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 
 #: How a tray is laid out: packed, as the tray file says, or each model where it is
 #: (one model, no layout asked).
@@ -29,7 +29,7 @@ LayoutMode = Literal["auto", "given", "keep"]
 #: Packing unit: footprints are packed in whole micrometres.
 _UNITS_PER_MM = 1000
 
-_FIX = "use a smaller scale, fewer copies, or a printer with a larger tray (--printer)"
+_FIX = f"use a smaller scale, fewer copies, or a printer with a larger tray ({opt('printer')})"
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,7 @@ def lay_out(
     tray_mm: tuple[float, float, float],
     gap_mm: float,
     min_gap_mm: float,
-    source: str = "--tray",
+    source: str = opt("tray"),
 ) -> Layout:
     """Return the positions of the models, or refuse a tray that does not fit.
 
@@ -98,7 +98,7 @@ def lay_out(
         raise InputError(
             source,
             f"no position for {', '.join(missing)}",
-            "give each [[model]] a position = [x, y], or use --layout auto",
+            f"give each [[model]] a position = [x, y], or use {opt('layout', 'auto')}",
         )
     positions = np.array(requested_mm, dtype=np.float64).reshape(-1, 3)
     if mode == "keep":
@@ -117,7 +117,7 @@ def _pack(
     tall = [name for name, e in zip(names, extents, strict=True) if e[2] > tray_mm[2]]
     if tall:
         raise InputError(
-            "--layout auto",
+            opt("layout", "auto"),
             f"{', '.join(tall)} {'is' if len(tall) == 1 else 'are'} taller than the "
             f"tray's {tray_mm[2]:g} mm",
             _FIX,
@@ -140,7 +140,7 @@ def _pack(
     left = [name for name, p in zip(names, positions, strict=True) if np.isnan(p[0])]
     if left:
         raise InputError(
-            "--layout auto",
+            opt("layout", "auto"),
             f"the {tray_mm[0]:g} x {tray_mm[1]:g} mm tray holds {len(names) - len(left)} of "
             f"the {len(names)} models with a {gap:g} mm gap; these do not fit: "
             f"{', '.join(left)}",

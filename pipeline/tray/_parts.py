@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from shellvox.config import BuildConfig
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.model import ColouredMesh, face_areas
 from shellvox.stack import grid_for
 from shellvox.thickness import ThicknessRule, load_rule
@@ -144,7 +144,7 @@ def check_same_layers(parts: list[TrayPart], source: str) -> None:
                 source,
                 f"{part.spec.name} colours layers {list(part.colour_layers)} but "
                 f"{first.spec.name} colours {list(first.colour_layers)}",
-                "use rules with the same colour layers, or pass --colour-layers",
+                f"use rules with the same colour layers, or pass {opt('colour_layers')}",
             )
 
 

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import BuildConfig, LoadOptions
-from shellvox.errors import ResourceError
+from shellvox.errors import ResourceError, opt
 from shellvox.loading import load_model
 from shellvox.model import ColouredMesh
 from shellvox.output import sha256
@@ -234,7 +234,7 @@ def plan_tray(
         tray_mm=tray_mm,
         gap_mm=gap_mm,
         min_gap_mm=min_gap,
-        source=f"--tray {spec.source}" if spec.source else "--layout",
+        source=opt("tray", str(spec.source)) if spec.source else opt("layout"),
     )
     placements, grid = _snap(parts, part_of, copies, names, layout.positions_mm, voxel)
     workers = resolve_workers(config.workers)
@@ -260,9 +260,8 @@ def plan_tray(
     try:
         check_resources(estimate, out_dir, force=force)
     except ResourceError as error:  # the whole estimate, as --dry-run would print it
-        raise ResourceError(
-            error.path, f"{error.problem} (estimate: {estimate.line()})", error.fix
-        ) from None
+        path, problem, fix = error.parts
+        raise ResourceError(path, f"{problem} (estimate: {estimate.line()})", fix) from None
     return TrayPlan(
         spec, tuple(parts), placements, layout, min_gap, tray_mm, grid, rows, workers, estimate
     )

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 
 #: Keys of a ``[[model]]`` table.
 MODEL_KEYS = ("file", "position", "rotation", "scale", "thickness", "thickness_rule", "copies")
@@ -94,7 +94,7 @@ class TraySpec:
 def tray_from_inputs(files: list[Path], copies: int = 1) -> TraySpec:
     """Return the tray of model files given on the command line, ``copies`` of each."""
     if copies < 1:
-        raise InputError("--copies", f"got {copies}", "give 1 or more copies of each model")
+        raise InputError(opt("copies"), f"got {copies}", "give 1 or more copies of each model")
     return TraySpec(tuple(TrayModel(Path(f), copies=copies) for f in files))
 
 
@@ -111,7 +111,9 @@ def load_tray(path: str | Path) -> TraySpec:
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except OSError as error:
-        raise InputError(path, f"cannot be read ({error.strerror})", "check --tray") from None
+        raise InputError(
+            path, f"cannot be read ({error.strerror})", "check the path of the tray file"
+        ) from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
         raise InputError(path, f"is not valid TOML ({error})", "fix the syntax") from None
     unknown = sorted(set(data) - {"model"})
@@ -184,7 +186,7 @@ def _model(path: Path, number: int, entry: dict[str, Any]) -> TrayModel:
             where,
             f"gives a position and copies = {copies}",
             "give each copy its own [[model]] with a position, or drop the "
-            "position and use --layout auto",
+            f"position and use {opt('layout', 'auto')}",
         )
     folder = path.parent
     return TrayModel(

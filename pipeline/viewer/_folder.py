@@ -119,9 +119,11 @@ class BuildFolder:
         build has one) or the TIFF stacks (``"tiff"``).
         """
         folder = Path(folder)
-        fix = f"give the -o DIR of a finished shellvox build, or rebuild with -o {folder}"
+        fix = f"give the output folder of a finished shellvox build, or build into {folder}"
         if not folder.is_dir():
-            raise InputError(folder, "is not a folder", "give the -o DIR of a shellvox build")
+            raise InputError(
+                folder, "is not a folder", "give the output folder of a shellvox build"
+            )
         manifest = read_manifest(folder)
         check_files(folder, manifest)
         try:

@@ -90,9 +90,26 @@ def face_proof(proof: SoftProof, triangles_mm: NDArray[np.floating]) -> FaceProo
 
     Examples
     --------
-    >>> from shellvox.voxel.colour._proof import _demo_proof
+    A proof of one sample at the origin, facing +z, and a face beside it:
+
+    >>> import numpy as np
+    >>> from shellvox.voxel.colour import SoftProof
+    >>> lab, one = np.array([[50.0, 0.0, 0.0]]), np.ones(1)
+    >>> proof = SoftProof(
+    ...     points_mm=np.zeros((1, 3)),
+    ...     normals=np.array([[0.0, 0.0, 1.0]]),
+    ...     target_lab=lab,
+    ...     aim_lab=lab,
+    ...     predicted_lab=lab,
+    ...     total_de=one,
+    ...     gamut_de=0 * one,
+    ...     reproduction_de=one,
+    ...     spacing_mm=0.1,
+    ...     white_xy=np.array([0.3457, 0.3585]),
+    ...     optics="assumed",
+    ... )
     >>> face = np.array([[[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.0]]])
-    >>> out = face_proof(_demo_proof(), face)
+    >>> out = face_proof(proof, face)
     >>> out.predicted_srgb.shape, float(out.total_de[0]), out.optics
     ((1, 3), 1.0, 'assumed')
     """

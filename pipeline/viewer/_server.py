@@ -2,8 +2,8 @@
 
 Routes (GET and HEAD only; anything else is 404 or 405):
 
-- ``/`` and ``/static/NAME``: the page (HTML, JavaScript, CSS shipped in
-  ``pipeline/viewer/static``, read once at start; nothing is fetched from elsewhere).
+- ``/`` and ``/static/NAME``: the page (HTML, JavaScript, CSS shipped as the resources of
+  ``shellvox.viewer.static``, read once at start; nothing is fetched from elsewhere).
 - ``/api/build``: the grid, layers, materials and stacks, and the ΔE mode's scale under
   ``de_scale`` (:func:`~shellvox.viewer._proof.de_scale`) (JSON).
 - ``/api/slice?kind=K&axis=A&index=I&r0=&r1=&rs=&c0=&c1=&cs=``: a slice region

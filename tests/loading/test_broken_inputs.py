@@ -2,12 +2,15 @@
 
 For every case of :data:`corpus.CASES` the API raises an ``InputError`` (or emits exactly
 one ``ShellvoxWarning`` and loads), and ``shellvox info`` prints exactly one line on
-stderr, exits 2 (or 0) and shows no traceback.
+stderr, exits 2 (or 0) and shows no traceback. The API's message names the options in
+Python's words (no ``--flag``), the same message worded for the command line has the
+case's needles.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 
 import pytest
 from corpus import CASES, Case
@@ -15,7 +18,7 @@ from PIL import Image
 
 from shellvox.cli import main
 from shellvox.cli.loadargs import add_load_arguments, load_options
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import OPTIONS, InputError, ShellvoxWarning, options_in
 from shellvox.loading import load_model
 
 
@@ -32,15 +35,22 @@ def test_api(case, tmp_path):
     if case.outcome == "error":
         with pytest.raises(InputError) as caught:
             load_model(path, options)
-        message = str(caught.value)
+        message, cli = str(caught.value), caught.value.words("cli")
+        named = caught.value.options
     else:
         with pytest.warns(ShellvoxWarning) as record:
             load_model(path, options)
         assert len(record) == 1, [str(w.message) for w in record]
-        message = str(record[0].message)
+        warning = record[0].message
+        assert isinstance(warning, ShellvoxWarning)
+        message, cli = str(warning), warning.words("cli")
+        named = options_in(str(warning.args[0]))
     assert "\n" not in message
+    assert not re.search(r"(^|[\s(])--[a-z]", message), message
+    for name in named:
+        assert OPTIONS[name].python.split("{")[0] in message, message
     for needle in case.needles:
-        assert needle in message, message
+        assert needle in cli, cli
 
 
 @pytest.mark.parametrize("case", CASES, ids=[case.name for case in CASES])

@@ -45,7 +45,7 @@ def test_repair_closes_a_hole_with_a_warning():
     raw = ColouredMesh(np.asarray(box.vertices), np.asarray(box.faces[1:]), source="box")
     with pytest.raises(InputError, match="boundary edges"):
         prepare(raw)
-    with pytest.warns(UserWarning, match="--repair closed"):
+    with pytest.warns(UserWarning, match=r"LoadOptions\(repair=True\) closed"):
         mesh = prepare(raw, repair=True)
     assert edge_report(mesh.faces).oriented
     assert signed_volume(mesh.vertices, mesh.faces) == pytest.approx(6000.0)

@@ -149,8 +149,9 @@ def test_a_dead_worker_fails_the_build_instead_of_hanging(tmp_path, monkeypatch)
 
     monkeypatch.setattr(slab_task, "compute_slab", die)  # only forked workers call it
     config = BuildConfig(voxel_mm=(0.2, 0.2, 0.2), thickness_mm=(0.5,), slab_mb=0.5, workers=2)
-    with pytest.raises(SlabWorkerDied, match="smaller --slab-mb"):
+    with pytest.raises(SlabWorkerDied, match=r"smaller BuildOptions\(slab_mb=") as died:
         build_stack(_ball(), config, tmp_path, progress=False)
+    assert "smaller --slab-mb" in died.value.words("cli")
     assert [p for p in tmp_path.rglob("*") if p.is_file()] == []
 
 

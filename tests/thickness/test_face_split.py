@@ -151,7 +151,7 @@ def test_split_for_thickness_splits_only_faces_of_mixed_colour():
 
 def test_too_many_faces_is_refused_naming_max_edge():
     mesh = _coloured("face", trimesh.creation.box((10.0, 10.0, 10.0)))
-    with pytest.raises(InputError, match="--max-edge"):
+    with pytest.raises(InputError, match="max_edge_mm="):
         split_faces(mesh, 0.01, max_faces=10_000)
 
 

@@ -31,6 +31,7 @@ from shellvox.voxel.colour._kubelka_munk import (
     K1_DEFAULT,
     K2_DEFAULT,
     WAVELENGTHS_NM,
+    lab_d50_to_srgb8,
     layer,
     mix,
     observer,

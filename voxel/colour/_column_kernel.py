@@ -15,7 +15,7 @@ keeps the steps off the boundaries between voxels on faces that lie on a plane o
 centres or of voxel faces (the axis-aligned faces of a model whose grid starts a whole
 number of voxels from them): steps at half-steps would fall on those boundaries, where
 rounding picks either voxel, reading some layers twice and others not at all. (A face a
-quarter voxel off such a plane is the steps' worst case now; it needs a coordinate that
+quarter voxel off such a plane is these steps' worst case; it needs a coordinate that
 no grid placement or model scale makes common.)
 
 A slab of rows ``z0 .. z1 - 1`` visits only the steps that can fall in those rows

@@ -104,6 +104,15 @@ class SoftProof:
     def __len__(self) -> int:
         return len(self.points_mm)
 
+    def __repr__(self) -> str:
+        """One line: the samples, how many were predicted, the median CIEDE2000, the optics."""
+        found = self.predicted
+        median = float(np.median(self.total_de[found])) if found.any() else float("nan")
+        return (
+            f"SoftProof({len(self)} points, {int(found.sum())} predicted, median total_de "
+            f"{median:.2f}, spacing_mm={self.spacing_mm:.3g}, optics={self.optics!r})"
+        )
+
     @property
     def predicted(self) -> NDArray[np.bool_]:
         """``(N,) bool``: a prediction exists (material voxels were read under the point)."""
@@ -155,9 +164,29 @@ class SoftProof:
 
         Examples
         --------
+        A proof on the plane ``z = 0``, samples 0.1 mm apart, predicted ``L* = 51`` and
+        ``a* = 20 x``:
+
         >>> import numpy as np
-        >>> proof = _demo_proof()
-        >>> near = proof.at([[0.0, 0.0, 0.01]], [0.0, 0.0, 1.0])  # L* 51, a* 20 x: near 0
+        >>> from shellvox.voxel.colour import SoftProof
+        >>> ticks = np.arange(-1.0, 1.05, 0.1)
+        >>> xy = np.stack(np.meshgrid(ticks, ticks), -1).reshape(-1, 2)
+        >>> n = len(xy)
+        >>> lab = np.column_stack([np.full(n, 50.0), 20.0 * xy[:, 0], np.zeros(n)])
+        >>> proof = SoftProof(
+        ...     points_mm=np.column_stack([xy, np.zeros(n)]),
+        ...     normals=np.tile([0.0, 0.0, 1.0], (n, 1)),
+        ...     target_lab=lab,
+        ...     aim_lab=lab,
+        ...     predicted_lab=lab + [1.0, 0.0, 0.0],
+        ...     total_de=np.ones(n),
+        ...     gamut_de=np.zeros(n),
+        ...     reproduction_de=np.ones(n),
+        ...     spacing_mm=0.1,
+        ...     white_xy=np.array([0.3457, 0.3585]),
+        ...     optics="assumed",
+        ... )
+        >>> near = proof.at([[0.0, 0.0, 0.01]], [0.0, 0.0, 1.0])  # near x = 0: a* near 0
         >>> near.predicted_lab[0].round(1).tolist(), float(near.total_de[0])
         ([51.0, 0.0, 0.0], 1.0)
         >>> bool(np.isnan(proof.at([[9.0, 9.0, 9.0]], [0.0, 0.0, 1.0]).total_de[0]))
@@ -227,7 +256,7 @@ class SoftProof:
 
 
 def _demo_proof() -> SoftProof:
-    """Return a small proof on the plane ``z = 0`` (samples 0.1 mm apart; for examples)."""
+    """Return a small proof on the plane ``z = 0`` (samples 0.1 mm apart; for the tests)."""
     grid = np.stack(np.meshgrid(np.arange(-1.0, 1.05, 0.1), np.arange(-1.0, 1.05, 0.1)), -1)
     points = np.concatenate([grid.reshape(-1, 2), np.zeros((grid.size // 2, 1))], axis=1)
     n = len(points)

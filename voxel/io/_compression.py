@@ -5,8 +5,8 @@ A *level* throughout shellvox is ``None`` for the fast setting, or zlib's level 
 stream is an ordinary zlib stream that any inflater reads.
 
 The fast setting is zlib-ng's level 2 (python-zlib-ng, which releases the GIL as Python's
-zlib does): on a build's own pages 3 to 4 times zlib level 1's speed and a fifth to a
-quarter smaller (``benchmarks/bench_compress.py``). The given levels are Python's zlib.
+zlib does): on a build's own pages faster than zlib's level 1 and smaller (measured: the
+documentation's performance page, ``bench_compress``). The given levels are Python's zlib.
 
 Equal builds must be byte-equal (resume, Dask, the VDB content id), so equal input must
 give equal bytes whatever the encoder compressed before and however the input is fed to

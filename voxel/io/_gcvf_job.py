@@ -1,8 +1,8 @@
 """What a GrabCAD Voxel Print job holds besides its slices (:mod:`~shellvox.voxel.io._gcvf_writer`).
 
 No specification is public. *Known* below means two or more public writers or readers do
-it; *inferred* means one writer does it, or none states it and this module chose
-(``../shared/printing/voxel-print-facts.md`` gathers the sources).
+it; *inferred* means one writer does it, or none states it and this module chose (the
+sources are those of :mod:`~shellvox.voxel.io._gcvf_writer`).
 
 ``ConfigFile.xml`` (written last, once every VoxelCount is known)
 -----------------------------------------------------------------
@@ -243,7 +243,7 @@ def check_grid(
         raise GcvfJobError(
             f"the voxel size ({got}) mm is not the job's {dpi[0]} x {dpi[1]} dpi and "
             f"{slice_thickness_nm} nm slices ({want}) mm",
-            "build on the printer's grid (--printer) to write a .gcvf job",
+            "build on the printer's grid to write a .gcvf job",
         )
     if tray_mm is not None:
         n_z, n_y, n_x = grid.shape_zyx

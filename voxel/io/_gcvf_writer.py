@@ -4,10 +4,10 @@ A job is a zip of one PNG per slice, a box, a height map and a surface mesh, and
 ``ConfigFile.xml``. No specification is public; what follows is what public writers and
 readers do (jackcrane/slice2vox ``buildGCVF.js`` and OpenVCAD 3.1 write jobs,
 jackcrane/voxelprint-preview ``parseGCVF.js`` reads them, iwaag/vdbmat-utils
-``docs/print-slices.md`` cites Stratasys's *Guide to Voxel Printing*; see
-``../shared/printing/voxel-print-facts.md``). *Inferred* marks what none of them states
-and this writer chose. Every entry has one fixed timestamp: equal builds give equal jobs,
-byte for byte.
+``docs/print-slices.md`` cites Stratasys's *Guide to Voxel Printing*; owner/name is a
+GitHub repository, OpenVCAD the PyPI package ``openvcad``). *Inferred* marks what none of
+them states and this writer chose. Every entry has one fixed timestamp: equal builds give
+equal jobs, byte for byte.
 
 Slices
 ------

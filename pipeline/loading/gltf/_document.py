@@ -20,7 +20,7 @@ from typing import Any
 from urllib.parse import unquote
 
 from shellvox.config import LoadOptions
-from shellvox.errors import InputError
+from shellvox.errors import InputError, opt
 from shellvox.loading._references import check_inside, is_file
 
 COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
@@ -157,8 +157,8 @@ def _check_accessor(
             raise InputError(
                 path,
                 f"accessor {index} declares {count:,} items without data, more than "
-                f"3 x --max-faces ({3 * options.max_faces:,})",
-                "export it again, or pass --force",
+                f"3 x {opt('max_faces')} ({3 * options.max_faces:,})",
+                f"export it again, or pass {opt('force')}",
             )
         return
     if not isinstance(view_index, int) or not 0 <= view_index < len(views):

@@ -40,7 +40,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from shellvox.config import LoadOptions
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, warn
 from shellvox.loading._combine import checked_faces, combine_parts
 from shellvox.loading._images import TextureRef, read_textures
 from shellvox.loading.gltf._document import (
@@ -351,11 +351,9 @@ def _part(
         )
         if uv is not None:
             if vertex_colour is not None and not np.allclose(vertex_colour, 1.0):
-                warnings.warn(
+                warn(
                     f"{path}: material {colour.name!r}: COLOR_0 vertex colours beside its "
                     "texture are ignored (texture x factor is used)",
-                    ShellvoxWarning,
-                    stacklevel=4,
                 )
             part["uv"] = uv[faces]  # v up: the bottom-left origin used throughout shellvox
             part["material"] = Material(
@@ -366,11 +364,9 @@ def _part(
                 filter=colour.filter,
             )
             return part
-        warnings.warn(
+        warn(
             f"{path}: the texture of material {colour.name!r} {problem}, which shellvox "
             "does not read; its baseColorFactor is used instead",
-            ShellvoxWarning,
-            stacklevel=4,
         )
     linear = colour.factor if vertex_colour is None else vertex_colour * colour.factor
     part["rgba"] = np.broadcast_to(encode_uint8(linear), (len(geometry.vertices), 4))[faces]

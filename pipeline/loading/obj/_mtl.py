@@ -10,7 +10,6 @@ under one pixel budget (:mod:`shellvox.loading._images`).
 from __future__ import annotations
 
 import re
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,14 +17,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import LoadOptions
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, opt, warn
 from shellvox.loading._images import TextureRef, read_textures
 from shellvox.loading._references import check_inside, is_file, is_inside
 from shellvox.model import Material, WrapMode
 from shellvox.voxel.colour import srgb_to_linear
 
 #: Fix for an OBJ texture that cannot be used.
-TEXTURE_FIX = "put the image beside the MTL, or pass --texture FILE"
+TEXTURE_FIX = f"put the image beside the MTL, or pass {opt('texture', cli='FILE')}"
 
 
 @dataclass(frozen=True)
@@ -89,25 +88,21 @@ def read_materials(path: Path, mtllibs: list[str], options: LoadOptions) -> dict
         else:
             found.append(mtl)
     if missing and found:
-        warnings.warn(
+        warn(
             f"{path}: material library {missing[0]!r} is missing; the materials of "
             f"{', '.join(repr(f.name) for f in found)} are used",
-            ShellvoxWarning,
-            stacklevel=3,
         )
     elif missing:
         if options.texture is not None or options.colour is not None:
-            warnings.warn(
+            warn(
                 f"{path}: MTL file {missing[0]!r} not found; using the "
-                "--texture/--colour given instead",
-                ShellvoxWarning,
-                stacklevel=3,
+                f"{opt('texture')} or {opt('colour')} given instead",
             )
             return {}
         raise InputError(
             path,
             f"its material library {missing[0]!r} is missing",
-            "put the MTL beside the OBJ, or pass --texture FILE or --colour R,G,B",
+            f"put the MTL beside the OBJ, or pass {opt('texture', cli='FILE')} or {opt('colour')}",
         )
     entries: dict[str, MtlEntry] = {}
     for mtl in found:
@@ -160,11 +155,9 @@ def _kd(mtl: Path, material: str, value: str) -> NDArray[np.float64]:
     """``Kd r [g b]`` as three numbers; ``Kd spectral``/``Kd xyz`` give white, with a warning."""
     tokens = value.split()
     if tokens and tokens[0].lower() in ("spectral", "xyz"):
-        warnings.warn(
+        warn(
             f"{mtl}: material {material!r} gives its Kd as '{tokens[0]}', which shellvox "
             "does not read; its faces are white",
-            ShellvoxWarning,
-            stacklevel=4,
         )
         return np.ones(3)
     if len(tokens) == 1:  # "Kd r" means a grey r r r
@@ -220,12 +213,10 @@ def _map_statement(
         if option in _IDENTITY and any(
             not _is_number(a) or float(a) != _IDENTITY[option] for a in arguments
         ):
-            warnings.warn(
+            warn(
                 f"{mtl}: material {material!r}: map_Kd option {option} "
                 f"{' '.join(arguments)} is not applied (the texture is used unshifted and "
                 "unscaled); bake it into the UVs to keep it",
-                ShellvoxWarning,
-                stacklevel=4,
             )
     return rest.strip() or None, wrap
 
@@ -261,7 +252,7 @@ def texture_materials(
     refs: list[TextureRef] = []
     if not entries:  # no MTL: --texture on every face
         assert options.texture is not None
-        refs.append(TextureRef(path, f"--texture {options.texture}", options.texture))
+        refs.append(TextureRef(path, opt("texture", str(options.texture)), options.texture))
         images = read_textures(refs, colour=options.colour, force=options.force)
         image = images[0]
         if image is None:
@@ -277,7 +268,7 @@ def texture_materials(
             entry.texture,
             what,
             force=options.force,
-            alternative="pass --texture FILE",
+            alternative=f"pass {opt('texture', cli='FILE')}",
         )
         if source is None and options.texture is not None:
             source = options.texture

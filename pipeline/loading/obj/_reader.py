@@ -22,7 +22,6 @@ used instead.
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 from typing import NamedTuple
 
@@ -30,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import LoadOptions
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, opt, warn
 from shellvox.loading.obj._mtl import MtlEntry, fallback_factor, read_materials, texture_materials
 from shellvox.model import ColouredMesh
 from shellvox.voxel.colour import encode_uint8
@@ -140,15 +139,14 @@ def _textured(
     if options.texture is not None:
         raise InputError(
             path,
-            "has no texture coordinates ('vt' on every face), so --texture cannot be applied",
-            "export the OBJ with UVs, or pass --colour R,G,B instead of --texture",
+            f"has no texture coordinates ('vt' on every face), so {opt('texture')} cannot be "
+            "applied",
+            f"export the OBJ with UVs, or pass {opt('colour')} instead of {opt('texture')}",
         )
     if textured:
-        warnings.warn(
+        warn(
             f"{path}: material(s) {', '.join(map(repr, textured))} have a texture but "
             "not every face has texture coordinates ('vt'); their Kd colour is used",
-            ShellvoxWarning,
-            stacklevel=4,
         )
     return []
 
@@ -165,15 +163,11 @@ def _textured_mesh(
     assert geometry.uv_index is not None
     table, texture_used = texture_materials(path, entries, textured, used, options)
     if options.texture is not None and not texture_used:
-        _warn_texture_unused(
-            path, options.texture, "the MTL's textures were all found", stacklevel=5
-        )
+        _warn_texture_unused(path, options.texture, "the MTL's textures were all found")
     if geometry.vertex_rgb is not None:
-        warnings.warn(
+        warn(
             f"{path}: its vertex colours ('v x y z r g b') are ignored: "
             "the materials' textures colour the faces",
-            ShellvoxWarning,
-            stacklevel=4,
         )
     if not entries:
         names = np.full(len(faces), "", dtype=object)
@@ -202,11 +196,9 @@ def _untextured_mesh(
     coloured = [n for n in used if n in entries]
     if geometry.vertex_rgb is not None:
         if coloured:
-            warnings.warn(
+            warn(
                 f"{path}: the Kd colours of material(s) {', '.join(map(repr, coloured))} "
                 "are ignored: its vertex colours ('v x y z r g b') colour the faces",
-                ShellvoxWarning,
-                stacklevel=4,
             )
         vertex_rgb = geometry.vertex_rgb
         rgb = vertex_rgb if vertex_rgb.max() > 1.0 + 1e-9 else vertex_rgb * 255.0
@@ -226,11 +218,9 @@ def _untextured_mesh(
     return ColouredMesh(xyz, faces, "none", source=str(path))
 
 
-def _warn_texture_unused(path: Path, texture: Path, reason: str, *, stacklevel: int = 4) -> None:
-    warnings.warn(
-        f"{path}: --texture {texture} is not used: {reason}",
-        ShellvoxWarning,
-        stacklevel=stacklevel,
+def _warn_texture_unused(path: Path, texture: Path, reason: str) -> None:
+    warn(
+        f"{path}: {opt('texture', str(texture))} is not used: {reason}",
     )
 
 
@@ -247,12 +237,10 @@ def _warn_undefined(
     missing = [n for n in used if n and n not in entries]
     if missing:
         count = int(np.isin(names, missing).sum())
-        fallback = "white" if options.colour is None else "the --colour"
-        warnings.warn(
+        fallback = "white" if options.colour is None else f"the {opt('colour')}"
+        warn(
             f"{path}: material(s) {', '.join(map(repr, missing))} used by {count} faces are "
             f"not defined in its MTL; those faces are {fallback}",
-            ShellvoxWarning,
-            stacklevel=3,
         )
 
 

@@ -15,7 +15,6 @@ that colour is used, and the user is told so in a warning.
 
 from __future__ import annotations
 
-import warnings
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import LoadOptions
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, warn
 from shellvox.loading._images import TextureRef, read_textures
 from shellvox.loading.threemf._multi import Layered, blend_methods, colour_table
 from shellvox.loading.threemf._package import read_entry
@@ -143,12 +142,10 @@ def read_properties(
     for group in composites:
         colours[group.get("id", "")] = _composite_colours(path, group, colours, bases)
     if composites:
-        warnings.warn(
+        warn(
             f"{path}: <compositematerials> mixing ratios are printed as their display colour "
             "(the base materials' display colours mixed in those ratios); shellvox keeps no "
             "per-face material ratios",
-            ShellvoxWarning,
-            stacklevel=4,
         )
     uv = _texture_groups(path, archive, resources, options, materials)
     properties = Properties(colours, uv, {}, materials)
@@ -260,12 +257,10 @@ def _multiproperties(
             "give each layer combination a <m:multi pindices=...> entry; " + FIX,
         )
     if any(child.tag == f"{CORE}multi" for child in entries):
-        warnings.warn(
+        warn(
             f"{path}: multiproperties {name!r} write their entries as <multi> in the core "
             "namespace, not the Materials extension's <m:multi>; shellvox reads them as "
             "<m:multi> (lib3mf reads the group as empty)",
-            ShellvoxWarning,
-            stacklevel=5,
         )
     rows = []
     for multi in entries:
@@ -282,11 +277,9 @@ def _multiproperties(
         raise InputError(path, f"multiproperties {name!r} have an index out of range", FIX)
     textured = [k for k, p in enumerate(pids) if p in properties.uv]
     if len(textured) > 1:
-        warnings.warn(
+        warn(
             f"{path}: multiproperties {name!r} layer {len(textured)} textures; shellvox "
             f"reads the first (group {pids[textured[0]]!r}) and leaves out the others",
-            ShellvoxWarning,
-            stacklevel=5,
         )
         keep = [k for k in range(len(pids)) if k not in textured[1:]]
         methods = tuple(methods[k - 1] for k in keep[1:])

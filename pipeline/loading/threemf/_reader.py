@@ -19,7 +19,6 @@ Production Extension 1.2.
 
 from __future__ import annotations
 
-import warnings
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import UNIT_MM, LoadOptions
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, opt, warn
 from shellvox.loading._combine import corner_colour_mesh, stack_parts
 from shellvox.loading._images import MAX_TEXTURE_PIXELS
 from shellvox.loading.threemf._attributes import check_index, transform_matrix, triangle_properties
@@ -121,7 +120,7 @@ class _Package:
                     self.path,
                     f"multiproperties {group!r} need {self.baked_pixels:,} texture pixels "
                     f"baked, more than the limit of {MAX_TEXTURE_PIXELS:,}",
-                    "pass --force",
+                    f"pass {opt('force')}",
                 )
             image = bake(
                 source.image,
@@ -206,11 +205,9 @@ def _read_3mf(path: Path, options: LoadOptions) -> tuple[ColouredMesh, float]:
             transform = transform_matrix(path, item.get("transform"))
             parts += _object_meshes(package, name, item.get("objectid", ""), transform, (), 0)
     if package.averaged:
-        warnings.warn(
+        warn(
             f"{path}: {package.averaged} textured multiproperties triangles have different "
             "colours under the texture at their corners; each gets their mean",
-            ShellvoxWarning,
-            stacklevel=3,
         )
     parts = paint_parts(path, parts, project)
     if not parts:

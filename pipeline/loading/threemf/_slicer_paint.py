@@ -17,7 +17,6 @@ enforcers) are not geometry: their faces are left out, with a warning.
 from __future__ import annotations
 
 import json
-import warnings
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,7 +26,7 @@ from xml.etree import ElementTree
 import numpy as np
 from numpy.typing import NDArray
 
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, warn
 from shellvox.loading.threemf._package import read_entry
 from shellvox.loading.threemf._paint_tree import split_painted
 
@@ -159,11 +158,9 @@ def paint_parts(
     colours = project.colours if project is not None else _none()
     if painted and len(colours) == 0:
         colours = np.concatenate([PALETTE, np.full((len(PALETTE), 1), 255, np.uint8)], axis=1)
-        warnings.warn(
+        warn(
             f"{path}: is painted in a slicer but names no filament colours; extruders 1-8 "
             "get white, red, green, blue, yellow, black, orange, purple",
-            ShellvoxWarning,
-            stacklevel=3,
         )
     out, dropped, missing = [], 0, set()
     for part in parts:
@@ -197,18 +194,14 @@ def paint_parts(
             }
         )
     if dropped:
-        warnings.warn(
+        warn(
             f"{path}: left out {dropped} faces of modifier, negative or support volumes "
             "(they are slicer settings, not geometry)",
-            ShellvoxWarning,
-            stacklevel=3,
         )
     if missing:
-        warnings.warn(
+        warn(
             f"{path}: extruders {sorted(missing)} have no colour in the project; their "
             "faces are white",
-            ShellvoxWarning,
-            stacklevel=3,
         )
     return [p for p in out if len(p["faces"])]
 

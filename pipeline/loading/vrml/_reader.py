@@ -29,7 +29,6 @@ warning.
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shellvox.config import LoadOptions
-from shellvox.errors import InputError, ShellvoxWarning
+from shellvox.errors import InputError, warn
 from shellvox.loading._combine import combine_parts
 from shellvox.loading._images import TextureRef, read_textures
 from shellvox.loading._references import check_inside, is_file
@@ -101,10 +100,8 @@ def _read_vrml(path: Path, options: LoadOptions) -> ColouredMesh:
         walk.node(node, np.eye(4), 0)
     unread = sorted(walk.unread | {s for s in scene.skipped if s != "ROUTE"})
     if unread:
-        warnings.warn(
+        warn(
             f"{path}: {', '.join(unread)} are not read (no geometry or colour taken from them)",
-            ShellvoxWarning,
-            stacklevel=3,
         )
     if not walk.parts:
         raise InputError(path, "has no IndexedFaceSet with faces", "export the model as meshes")
