@@ -6,6 +6,8 @@
   :mod:`~shellvox.voxel.geometry._closest_point` the compiled point-triangle test;
 - :mod:`~shellvox.voxel.geometry._nearest` exact nearest points and generalised winding numbers of
   points (libigl);
+- :mod:`~shellvox.voxel.geometry._fast_winding` fast generalised winding numbers of points for any
+  triangle soup (open, overlapping, inside out), compiled (Barill et al.'s tree of expansions);
 - :mod:`~shellvox.voxel.geometry._layer_kernel` the per-voxel pass: layers, SDF band, colour voxels;
 - :mod:`~shellvox.voxel.geometry._field_nodes` the voxel centres where a slab keeps the layer
   field for the shell meshes.
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 from shellvox.voxel.geometry._closest_point import barycentric
 from shellvox.voxel.geometry._distance_scan import nearest_in_reach, nearest_within
+from shellvox.voxel.geometry._fast_winding import WindingTree, fast_winding_numbers
 from shellvox.voxel.geometry._field_nodes import FieldNodes, NodeLattice, node_lattice
 from shellvox.voxel.geometry._layer_kernel import (
     LayerInputs,
@@ -46,11 +49,13 @@ __all__ = [
     "Nearest",
     "NodeLattice",
     "SurfaceIndex",
+    "WindingTree",
     "assign_layers",
     "barycentric",
     "closest_barycentric",
     "colour_voxels",
     "distance_to_surface",
+    "fast_winding_numbers",
     "inside_slab",
     "layer_material_counts",
     "nearest_faces",
