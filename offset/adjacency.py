@@ -70,13 +70,17 @@ def smallest_angles(triangles: FloatArray) -> FloatArray:
     return angles
 
 
-def edge_adjacency(faces: IntArray) -> EdgeAdjacency:
+def edge_adjacency(faces: IntArray, *, open_ok: bool = False) -> EdgeAdjacency:
     """Pair every directed edge with its reverse.
 
     Parameters
     ----------
     faces : (F, 3) int64
         Closed, consistently oriented, edge-manifold triangles.
+    open_ok : bool
+        Pair only the edges that have one unique reverse, leaving out the others
+        (holes' rims, non-manifold and misoriented edges; their ``face_edges`` are -1),
+        instead of raising.
 
     Returns
     -------
@@ -96,21 +100,27 @@ def edge_adjacency(faces: IntArray) -> EdgeAdjacency:
     key_rev = b * n_vert + a
     order = np.argsort(key_fwd, kind="stable")
     sorted_keys = key_fwd[order]
-    if np.any(sorted_keys[1:] == sorted_keys[:-1]):
+    repeated = sorted_keys[1:] == sorted_keys[:-1]
+    if np.any(repeated) and not open_ok:
         raise ValueError(
             "faces must be edge-manifold and consistently oriented, got a repeated directed edge"
         )
     pos = np.searchsorted(sorted_keys, key_rev)
     pos = np.minimum(pos, len(sorted_keys) - 1)
     found = sorted_keys[pos] == key_rev
-    if not np.all(found):
+    if not np.all(found) and not open_ok:
         raise ValueError(
             f"faces must form a closed surface, got {int((~found).sum())} boundary edges"
         )
     partner = order[pos]
     half = np.arange(a.size)
     keep = a < b
-    edge_of_half = np.empty(a.size, dtype=np.int64)
+    if open_ok:  # pair only halves whose key and whose reverse's key are unique
+        unique = np.ones(a.size, dtype=bool)
+        twice = np.flatnonzero(repeated)
+        unique[order[twice]] = unique[order[twice + 1]] = False
+        keep &= found & unique & unique[partner]
+    edge_of_half = np.full(a.size, -1, dtype=np.int64)
     first = half[keep]
     edge_of_half[first] = np.arange(first.size)
     edge_of_half[partner[keep]] = np.arange(first.size)

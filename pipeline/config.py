@@ -27,6 +27,11 @@ Role = Literal["cyan", "magenta", "yellow", "black", "white", "clear", "support"
 
 Unit = Literal["micron", "mm", "cm", "m", "inch", "foot"]
 
+#: An axis of the file that points up (``--up``): it is turned to +Z.
+Up = Literal["x", "y", "z", "-x", "-y", "-z"]
+#: The up axes, in the order the command line offers them.
+UP_AXES: tuple[Up, ...] = get_args(Up)
+
 #: Millimetres per unit.
 UNIT_MM: dict[str, float] = {
     "micron": 1e-3,
@@ -147,9 +152,16 @@ class LoadOptions:
     ----------
     units : Unit or None
         Unit of the file's coordinates when the format does not declare one
-        (default millimetres). A 3MF declares its own unit.
+        (default millimetres). 3MF declares its own unit, glTF is in metres.
     scale : float
         Extra factor applied after unit conversion (``--scale``).
+    size_mm : float or None, mm
+        Scale the model uniformly so that the longest side of its bounding box is this
+        long (``--size``, a slicer's scale-to-fit), whatever the file's unit; it cannot
+        be combined with a `scale` other than 1. None: the file's size in its unit.
+    up : {"x", "y", "z", "-x", "-y", "-z"} or None
+        The file's axis that points up, turned to +Z by a rotation (``--up``). None: the
+        format's (+Y for glTF, as its specification says; +Z for the others).
     colour : tuple of 4 int or None
         sRGB + alpha for a model without colour (``--colour``), or the fallback colour
         when a texture is missing (then with a warning).
@@ -167,6 +179,8 @@ class LoadOptions:
 
     units: Unit | None = None
     scale: float = 1.0
+    size_mm: float | None = None
+    up: Up | None = None
     colour: tuple[int, int, int, int] | None = None
     texture: Path | None = None
     repair: bool = False
@@ -178,6 +192,16 @@ class LoadOptions:
         if self.units is not None:
             check_choice("units", self.units, UNIT_MM)
         check_number("scale", self.scale, low=0, strict=True)
+        if self.size_mm is not None:
+            check_number("size", self.size_mm, low=0, strict=True)
+            if self.scale != 1:
+                raise InputError(
+                    opt("size"),
+                    f"sets the model's size, and {opt('scale', self.scale)} would change it again",
+                    f"pass one of {opt('size')} and {opt('scale')}",
+                )
+        if self.up is not None:
+            check_choice("up", self.up, UP_AXES)
         if self.colour is not None:
             colour: Any = self.colour
             if isinstance(colour, str | bytes) or not isinstance(colour, Iterable):

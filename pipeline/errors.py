@@ -59,6 +59,8 @@ OPTIONS: dict[str, Option] = {
     "repair": Option("--repair", "LoadOptions(repair=True)"),
     "force": Option("--force", "LoadOptions(force=True)"),
     "max_faces": Option("--max-faces", "LoadOptions(max_faces={})"),
+    "size": Option("--size", "LoadOptions(size_mm={})", "MM"),
+    "up": Option("--up", "LoadOptions(up={})"),
     # the output folder and the run
     "out": Option("-o", "out_dir={}", "DIR"),
     "force_run": Option("--force", "force=True"),

@@ -104,7 +104,11 @@ def gltf_parts(
     :data:`CORNER_UV` flipped); ``colour_linear`` ``(12, 4)`` gives ``COLOR_0`` instead of
     UVs and no material.
     """
-    positions = TET_VERTICES[TET_FACES].reshape(-1, 3).astype(np.float32)
+    corners_mm = TET_VERTICES[TET_FACES].reshape(-1, 3)
+    # glTF is in metres with +Y up: the tetrahedron (mm, +Z up) turned by the inverse of
+    # Blender's import (x, y, z) -> (x, -z, y), so the loader gives TET_VERTICES back
+    x, y, z = corners_mm.T
+    positions = (np.column_stack([x, z, -y]) / 1000.0).astype(np.float32)
     if uv_gltf is None:
         uv_gltf = CORNER_UV.reshape(-1, 2).copy()
         uv_gltf[:, 1] = 1.0 - uv_gltf[:, 1]  # glTF: v grows down from the top-left

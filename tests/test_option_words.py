@@ -56,14 +56,14 @@ def _cli_error(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
     return err[0]
 
 
-def test_an_open_mesh_is_refused_in_each_front_ends_words(open_box, capsys):
+def test_an_open_mesh_is_refused_in_each_front_ends_words(open_box, capsys, tmp_path):
     with pytest.raises(InputError) as caught:
         load_model(open_box)
     message = str(caught.value)
     assert "boundary edges" in message and "LoadOptions(repair=True)" in message, message
     assert not FLAG.search(message), message
     assert caught.value.options == ("repair",)
-    line = _cli_error(["info", str(open_box)], capsys)
+    line = _cli_error(["thickness", str(open_box), "-o", str(tmp_path / "out")], capsys)
     assert "boundary edges" in line and "pass --repair" in line, line
     assert "LoadOptions" not in line
 

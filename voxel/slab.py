@@ -15,6 +15,14 @@ Two layer realisations:
 * **shells** (``layer_rule == "shells"``, no ``depth_mm``): a voxel's layer is how many
   of the nested closed surfaces ``surfaces`` contain its centre (exact winding numbers).
 
+A model whose faces are not one closed, oriented surface (open, non-manifold, parts
+pushed into each other) carries its :class:`SoupSolid`: the inside is where the soup's
+generalised winding number is at least 1/2 (:func:`shellvox.voxel.geometry.solid_slab`),
+``surfaces[0]`` holds its visible faces only (those between inside and outside), and a
+voxel's distance is the smaller of its exact distance to them and its distance to the
+nearest voxel centre outside (where the winding number closes a hole there is no face:
+the cap's distance is within a voxel of the true one).
+
 With a :class:`NodeLattice` (distance layers whose shells are meshed too), a slab also
 returns what the scan found at every ``stride``-th voxel centre (:class:`FieldNodes`): the
 layer field there, which :class:`shellvox.offset.field.layer_field.FieldMesher` meshes, so
@@ -37,6 +45,7 @@ from shellvox.voxel.geometry import (
     LayerInputs,
     LayerOutputs,
     NodeLattice,
+    SoupSolid,
     SurfaceIndex,
     assign_layers,
     colour_voxels,
@@ -45,6 +54,7 @@ from shellvox.voxel.geometry import (
     nearest_in_reach,
     nearest_within,
     on_faces,
+    solid_slab,
 )
 from shellvox.voxel.grid import GridSpec
 
@@ -83,6 +93,17 @@ class StackModel:
         How voxels get their layer (see the module).
     field_nodes : NodeLattice, optional
         Keep the layer field at these voxel centres (distance layers only).
+    solid : SoupSolid, optional
+        All the faces of a model as it comes, where ``surface`` holds its visible faces
+        only: their winding number decides the inside (or, with `solid_closed`, the
+        exact crossings of ``surfaces[0]``, the same faces), and a voxel's distance is
+        also measured to the outside (see the module); distance layers only.
+    solid_closed : bool
+        The solid's faces are closed and oriented (parts pushed into each other): the
+        inside is ``surfaces[0]``'s exact crossings.
+    partly : (F,) bool, optional
+        Faces of ``surface`` visible only in part: where a voxel's nearest point lies on
+        their buried piece, its distance is to the outside instead.
     """
 
     surfaces: tuple[Surface, ...]
@@ -94,10 +115,15 @@ class StackModel:
     surface_colour: SurfaceColour | None = None
     layer_rule: LayerRule = "shells"
     field_nodes: NodeLattice | None = None
+    solid: SoupSolid | None = None
+    solid_closed: bool = False
+    partly: NDArray[np.bool_] | None = None
 
     def __post_init__(self) -> None:
         if not self.surfaces:
             raise ValueError("surfaces must hold at least the original surface, got none")
+        if self.solid is not None and self.layer_rule != "distance":
+            raise ValueError("a soup's solid needs the 'distance' layer rule")
         if self.layer_rule not in ("distance", "shells"):
             raise ValueError(f"layer_rule must be 'distance' or 'shells', got {self.layer_rule!r}")
         if (self.depth_mm is None) != (self.layer_rule == "shells"):
@@ -108,7 +134,7 @@ class StackModel:
             )
         if self.depth_mm is not None:
             depth = self.depth_mm
-            n_faces = len(self.surfaces[0][1])
+            n_faces = len(self.surface.faces)
             if depth.ndim != 2 or depth.shape[1] != n_faces or depth.shape[0] < 1:
                 raise ValueError(f"depth_mm must be (K, {n_faces}), got shape {depth.shape}")
             if not (np.all(np.isfinite(depth)) and np.all(depth > 0)) or np.any(
@@ -225,7 +251,11 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
             f"slab rows must satisfy 0 <= z_start < z_stop <= {n_z}, got {z_start}, {z_stop}"
         )
     vertices, faces = model.surfaces[0]
-    inside, unbalanced = inside_slab(vertices, faces, grid, z_start, z_stop)
+    outside_mm = None
+    if model.solid is None:
+        inside, unbalanced = inside_slab(vertices, faces, grid, z_start, z_stop)
+    else:
+        inside, outside_mm, unbalanced = _soup_inside(model, grid, z_start, z_stop)
     shape = (inside.shape[0], inside.shape[1], inside.shape[2])
     half_width = model.sdf_half_width_mm
     violations = 0
@@ -251,6 +281,11 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
             regions=model.surface.regions,
         )
         squared, face, n_tests = near
+        if outside_mm is not None:
+            _cap_distances(model.surface, grid, z_start, inside, outside_mm, reach, squared, face)
+            if model.solid is not None and model.partly is not None and model.partly.any():
+                surface_distances = SurfaceDistances(squared, face, inside, outside_mm)
+                _buried_nearest(model, grid, z_start, surface_distances)
     else:
         squared = np.zeros(shape)
         face = np.full(shape, -1, dtype=np.int32)
@@ -300,6 +335,104 @@ def compute_slab(model: StackModel, grid: GridSpec, z_start: int, z_stop: int) -
         layer_counts[: model.n_bands + 2],
         nodes,
     )
+
+
+class SurfaceDistances(NamedTuple):
+    """A slab's distances as the scan found them, corrected in place for a soup."""
+
+    squared: NDArray[np.float64]
+    face: NDArray[np.int32]
+    inside: NDArray[np.bool_]
+    outside_mm: NDArray[np.float64]
+
+
+def _soup_inside(
+    model: StackModel, grid: GridSpec, z_start: int, z_stop: int
+) -> tuple[NDArray[np.bool_], NDArray[np.float64], int]:
+    """Return a soup's inside, each voxel's distance (mm) to the outside, unbalanced rows.
+
+    The distance is to the nearest voxel centre outside. The inside is computed over the
+    slab and the rows within the reach of it, so the distance (exact on the voxel
+    centres, :func:`scipy.ndimage.distance_transform_edt` at the grid's spacing) is that
+    of the whole grid within the reach; farther it is at least the reach.
+    """
+    from scipy import ndimage
+
+    assert model.solid is not None
+    reach = reach_mm(model)
+    n_z = grid.shape_zyx[0]
+    halo = int(np.ceil(reach / grid.voxel_mm[2])) + 1 if reach > 0 else 0
+    low, high = max(0, z_start - halo), min(n_z, z_stop + halo)
+    unbalanced = 0
+    if model.solid_closed:
+        vertices, faces = model.surfaces[0]
+        inside, unbalanced = inside_slab(vertices, faces, grid, low, high)
+    else:
+        inside = solid_slab(model.solid, grid, low, high).inside
+    spacing = (grid.voxel_mm[2], grid.voxel_mm[1], grid.voxel_mm[0])
+    distance = ndimage.distance_transform_edt(inside, sampling=spacing)
+    rows = slice(z_start - low, z_stop - low)
+    return (
+        np.ascontiguousarray(inside[rows]),
+        np.asarray(distance[rows], dtype=np.float64),
+        unbalanced,
+    )
+
+
+def _buried_nearest(
+    model: StackModel, grid: GridSpec, z_start: int, slab: SurfaceDistances
+) -> None:
+    """Give voxels nearest to a buried piece of a face their distance to the outside.
+
+    The face is kept, for its depth and colour. A point of a face is buried where the
+    winding number just off it, on its outer side, is at least 1/2 (the solid lies on
+    both sides).
+    """
+    assert model.solid is not None and model.partly is not None
+    face = slab.face.reshape(-1)
+    reached = (slab.inside.reshape(-1)) & (face >= 0)
+    flat = np.flatnonzero(reached)
+    flat = flat[model.partly[face[flat]]]
+    if not len(flat):
+        return
+    index = np.stack(np.unravel_index(flat, slab.inside.shape), axis=1)
+    index[:, 0] += z_start
+    ids = face[flat].astype(np.int64)
+    near = on_faces(model.surface, grid.index_to_world(index), ids)
+    triangles = model.surface.vertices[model.surface.faces[ids]]
+    point = np.einsum("nc,nck->nk", near.barycentric, triangles)
+    normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    side = 1e-3 * float(min(grid.voxel_mm))
+    buried = model.solid.tree.evaluate(point + side * normal) >= 0.5
+    chosen = flat[buried]
+    slab.squared.reshape(-1)[chosen] = np.square(slab.outside_mm.reshape(-1)[chosen])
+
+
+def _cap_distances(
+    surface: SurfaceIndex,
+    grid: GridSpec,
+    z_start: int,
+    inside: NDArray[np.bool_],
+    outside_mm: NDArray[np.float64],
+    reach: float,
+    squared: NDArray[np.float64],
+    face: NDArray[np.int32],
+) -> None:
+    """Take the distance to the outside where it is less than that to a visible face.
+
+    Where the winding number closes a hole there is no face: a voxel's distance to the
+    solid's boundary is then its distance to the nearest centre outside (at most a voxel
+    more than the true one). A voxel that no face lies within `reach` of, but the outside
+    does, takes the face nearest to it (for the depth of its layers and its colour).
+    """
+    closer = inside & (outside_mm * outside_mm < squared)
+    np.copyto(squared, outside_mm * outside_mm, where=closer)
+    lonely = np.flatnonzero((closer & (face < 0) & (outside_mm < reach)).reshape(-1))
+    if len(lonely):
+        index = np.stack(np.unravel_index(lonely, inside.shape), axis=1)
+        index[:, 0] += z_start
+        face.reshape(-1)[lonely] = nearest_faces(surface, grid.index_to_world(index))[0]
 
 
 def _field_nodes(

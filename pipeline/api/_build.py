@@ -337,7 +337,7 @@ def build(
     options.config(profile, None)  # every option checked before the model is read
     out = _folder(out_dir)
     load = load or LoadOptions()
-    mesh = model if isinstance(model, ColouredMesh) else load_model(model, load)
+    mesh = model if isinstance(model, ColouredMesh) else load_model(model, load, check="solid")
     choice = layer_thickness(
         mesh,
         thickness_mm=options.thickness_mm,

@@ -144,7 +144,7 @@ def fdm_projects(
     files = tuple(write_projects(out, path.stem, project, slicers))
     manifest = {
         "tool": f"shellvox {__version__}",
-        "input": {"path": str(path), "sha256": sha256(path)},
+        "input": {"path": str(path), "sha256": sha256(path), "loaded": mesh.loaded},
         "filaments": list(chosen.hex),
         "slicers": list(slicers),
         "settings": as_json(settings or FdmSettings()),

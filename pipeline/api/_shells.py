@@ -149,7 +149,7 @@ def write_shells(
         tell("measuring the shells" + (" and the baselines" if baselines else ""))
         report: dict[str, Any] = {
             "tool": f"shellvox {__version__}",
-            "input": {"path": str(model), "sha256": sha256(Path(model))},
+            "input": {"path": str(model), "sha256": sha256(Path(model)), "loaded": mesh.loaded},
             "config": as_json(config),
             "seconds": {"offset": offset_seconds},
             "method": made.record,

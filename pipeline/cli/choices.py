@@ -28,6 +28,8 @@ LAYER_RULES: tuple[str, ...] = ("distance", "shells")
 FORMATS: tuple[str, ...] = ("tiff", "vdb", "gcvf", "png", "zarr")
 #: The units of a model's coordinates (:data:`shellvox.config.UNIT_MM`), sorted.
 UNITS: tuple[str, ...] = ("cm", "foot", "inch", "m", "micron", "mm")
+#: The up axes of a model (:data:`shellvox.config.UP_AXES`).
+UP_AXES: tuple[str, ...] = ("x", "y", "z", "-x", "-y", "-z")
 #: The loader's face limit (:attr:`shellvox.config.LoadOptions.max_faces`).
 MAX_FACES = 5_000_000
 #: The FDM slicers (:data:`shellvox.fdm.SLICERS`).

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from shellvox.cli.choices import MAX_FACES, UNITS
+from shellvox.cli.choices import MAX_FACES, UNITS, UP_AXES
 from shellvox.errors import InputError
 
 if TYPE_CHECKING:
@@ -30,13 +30,26 @@ def add_load_arguments(parser: argparse.ArgumentParser, *, many: bool = False) -
     group.add_argument(
         "--units",
         choices=UNITS,
-        help="unit of the file's coordinates (default mm; 3MF declares its own)",
+        help="unit of the file's coordinates (default mm; 3MF declares its own, glTF is in m)",
     )
     group.add_argument(
         "--scale",
         type=float,
         default=1.0,
         help="extra scale factor after unit conversion (default 1)",
+    )
+    group.add_argument(
+        "--size",
+        type=float,
+        metavar="MM",
+        help="scale the model uniformly so its longest side is MM mm, whatever its unit "
+        "(a slicer's scale-to-fit; not with --scale)",
+    )
+    group.add_argument(
+        "--up",
+        choices=UP_AXES,
+        help="the file's axis that points up, turned to +Z (default: y for glTF, z otherwise; "
+        "a negative axis as --up=-y)",
     )
     group.add_argument(
         "--colour",
@@ -96,6 +109,8 @@ def load_options(args: argparse.Namespace) -> LoadOptions:
     return LoadOptions(
         units=args.units,
         scale=args.scale,
+        size_mm=args.size,
+        up=args.up,
         colour=None if args.colour is None else parse_colour(args.colour),
         texture=args.texture,
         repair=args.repair,

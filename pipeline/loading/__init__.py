@@ -2,9 +2,22 @@
 
 Formats: OBJ (+MTL, textures), PLY, glTF/GLB, 3MF, STL, OFF, VRML 2.0, each a reader
 registered by suffix (:func:`register_format`; :data:`FORMATS`). Every reader returns the
-raw mesh in file units (and the file's own unit where it declares one, as 3MF does); this
-module converts units, applies ``--colour``, checks for NaN/inf and absurd sizes, then
-:func:`shellvox.model._topology.prepare` merges and checks it.
+raw mesh in file units (and the file's own unit where it declares one: 3MF its ``unit``,
+glTF metres by its specification); this module turns the format's up axis to +Z, converts
+units, applies ``--scale`` or ``--size``, applies ``--colour``, checks for NaN/inf and
+absurd sizes, then :func:`shellvox.model._topology.prepare` merges and checks it.
+
+Units and axes by format:
+
+- glTF/GLB: metres, +Y up (its specification). Turned to +Z up as Blender imports it:
+  ``(x, y, z) -> (x, -z, y)``, a rotation, so faces stay outward.
+- 3MF: its declared ``unit``, +Z up.
+- OBJ, PLY, STL, OFF, VRML: no declared unit, read as ``--units`` (default mm), +Z up.
+
+``--up`` names another up axis of the file (turned to +Z by a rotation, :data:`TURNS`);
+``--size`` scales the model uniformly so its longest side is that many mm. Without
+``--size``, a model whose longest side is under :data:`PLAUSIBLE_MM` ``[0]`` or over
+``[1]`` mm is read as it is, with a one-line warning naming ``--units`` and ``--size``.
 
 Every problem ends in a correct load, an :class:`~shellvox.errors.InputError` (one line:
 file, problem, fix), or a :class:`~shellvox.errors.ShellvoxWarning` saying what was
@@ -34,12 +47,12 @@ import dataclasses
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from types import MappingProxyType
-from typing import NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from shellvox.config import UNIT_MM, LoadOptions
+from shellvox.config import UNIT_MM, LoadOptions, Up
 from shellvox.errors import InputError, opt, warn
 from shellvox.loading._images import MAX_TEXTURE_PIXELS
 from shellvox.loading._sniff import check_content
@@ -48,12 +61,14 @@ from shellvox.loading.gltf import read_gltf
 from shellvox.loading.obj import read_obj
 from shellvox.loading.threemf import read_3mf
 from shellvox.loading.vrml import read_vrml
-from shellvox.model import ColouredMesh, prepare
+from shellvox.model import ColouredMesh, needs_solid, prepare, solid_model
 
 __all__ = [
     "FORMATS",
     "MAX_COORDINATE_MM",
     "MAX_TEXTURE_PIXELS",
+    "PLAUSIBLE_MM",
+    "TURNS",
     "Format",
     "load_model",
     "register_format",
@@ -63,6 +78,22 @@ __all__ = [
 MAX_COORDINATE_MM = 1e6
 #: Largest accepted even with ``--force`` (1000 km: the float64 spacing there is 1e-7 mm).
 MAX_COORDINATE_MM_FORCED = 1e9
+#: Longest sides (mm) of a plausible print; outside them, without ``--size``, a warning.
+PLAUSIBLE_MM = (1.0, 1000.0)
+
+#: The rotation that turns each up axis of a file to +Z: ``new[:, i] = sign[i] * old[:, axis[i]]``
+#: (each a proper rotation, determinant +1). ``y`` is Blender's glTF import
+#: (``(x, y, z) -> (x, -z, y)``), ``x`` a quarter turn about y, ``-z`` a half turn about x.
+TURNS: Mapping[Up, tuple[tuple[int, int, int], tuple[float, float, float]]] = MappingProxyType(
+    {
+        "z": ((0, 1, 2), (1.0, 1.0, 1.0)),
+        "y": ((0, 2, 1), (1.0, -1.0, 1.0)),
+        "x": ((2, 1, 0), (-1.0, 1.0, 1.0)),
+        "-z": ((0, 1, 2), (1.0, -1.0, -1.0)),
+        "-y": ((0, 2, 1), (1.0, 1.0, -1.0)),
+        "-x": ((2, 1, 0), (1.0, 1.0, -1.0)),
+    }
+)
 
 #: A reader: the raw mesh of a file in its units and, where the file declares its unit,
 #: millimetres per unit (None: ``--units``, default mm).
@@ -70,10 +101,11 @@ Reader = Callable[[Path, LoadOptions], tuple[ColouredMesh, float | None]]
 
 
 class Format(NamedTuple):
-    """A model format: its name and its reader."""
+    """A model format: its name, its reader and the axis that points up in its files."""
 
     name: str
     read: Reader
+    up: Up = "z"
 
 
 _REGISTRY: dict[str, Format] = {}
@@ -81,9 +113,12 @@ _REGISTRY: dict[str, Format] = {}
 FORMATS: Mapping[str, Format] = MappingProxyType(_REGISTRY)
 
 
-def register_format(suffix: str, name: str, read: Reader) -> None:
-    """Read the files whose suffix is `suffix` (any case) with `read`, as format `name`."""
-    _REGISTRY[suffix.lower()] = Format(name, read)
+def register_format(suffix: str, name: str, read: Reader, up: Up = "z") -> None:
+    """Read the files whose suffix is `suffix` (any case) with `read`, as format `name`.
+
+    `up` is the axis that points up in the format's files (turned to +Z on loading).
+    """
+    _REGISTRY[suffix.lower()] = Format(name, read, up)
 
 
 def _no_unit(read: Callable[[Path, LoadOptions], ColouredMesh]) -> Reader:
@@ -96,18 +131,29 @@ def _by_trimesh(file_type: str) -> Reader:
     return lambda path, options: (read_with_trimesh(path, file_type, options), None)
 
 
+def _metres(read: Callable[[Path, LoadOptions], ColouredMesh]) -> Reader:
+    """Return `read` as a reader of a format in metres (glTF, by its specification)."""
+    return lambda path, options: (read(path, options), UNIT_MM["m"])
+
+
 register_format(".obj", "obj", _no_unit(read_obj))
 register_format(".ply", "ply", _by_trimesh("ply"))
-register_format(".glb", "glb", _no_unit(read_gltf))
-register_format(".gltf", "gltf", _no_unit(read_gltf))
+register_format(".glb", "glb", _metres(read_gltf), up="y")
+register_format(".gltf", "gltf", _metres(read_gltf), up="y")
 register_format(".3mf", "3mf", read_3mf)
 register_format(".stl", "stl", _by_trimesh("stl"))
 register_format(".off", "off", _by_trimesh("off"))
 register_format(".wrl", "wrl", _no_unit(read_vrml))
 
 
-def load_model(path: str | Path, options: LoadOptions | None = None) -> ColouredMesh:
-    """Read a model file, convert it to millimetres, and check it is a printable solid.
+def load_model(
+    path: str | Path,
+    options: LoadOptions | None = None,
+    *,
+    size_warning: bool = True,
+    check: Literal["refuse", "report", "solid"] = "refuse",
+) -> ColouredMesh:
+    """Read a model file, turn it +Z up, convert it to millimetres, check it is a printable solid.
 
     Parameters
     ----------
@@ -115,12 +161,24 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         Model file; the format is chosen by suffix (``.obj .ply .glb .gltf .3mf .stl .off
         .wrl``).
     options : LoadOptions, optional
-        Units, scale, fallback colour and texture, repair and size limits.
+        Units, scale or size, up axis, fallback colour and texture, repair and size limits.
+    size_warning : bool
+        Warn when the model's longest side is implausible for a print (:data:`PLAUSIBLE_MM`)
+        and no ``size_mm`` is given; False for a caller that scales the model itself (a
+        tray entry's ``scale`` or ``size``).
+    check : {"refuse", "report", "solid"}
+        ``"refuse"``: refuse a mesh that is not a closed, oriented solid. ``"report"``:
+        return it merged and cleaned as it is, open or not, for a report of it (``shellvox
+        info``; :func:`shellvox.model.inspect_soup`); files that are no model (unreadable,
+        no faces) are still refused. ``"solid"``: read a mesh as it comes, open, of
+        overlapping parts or inside out, as the solid its winding number makes
+        (:func:`shellvox.model.solid_model`; what ``build`` does).
 
     Returns
     -------
     ColouredMesh
-        Closed, consistently outward-oriented, vertices merged by position, in mm.
+        Closed, consistently outward-oriented, vertices merged by position, in mm, +Z up;
+        ``loaded`` says how it was read (format, unit, up axis, scale, size).
 
     Raises
     ------
@@ -175,7 +233,8 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
         if options.units is not None and UNIT_MM[options.units] != declared:
             warn(
                 f"{path}: the {found.name.upper()} declares its own unit; "
-                f"{opt('units', options.units)} is ignored (use {opt('scale')} to resize)",
+                f"{opt('units', options.units)} is ignored (use {opt('size')} or {opt('scale')} "
+                "to resize)",
             )
         mm_per_unit = declared
 
@@ -192,15 +251,98 @@ def load_model(path: str | Path, options: LoadOptions | None = None) -> Coloured
             f"has {bad} vertices with NaN or infinite coordinates",
             "fix or re-export the model",
         )
-    mesh = dataclasses.replace(
-        mesh,
-        vertices=_checked_mm(path, mesh.vertices, mm_per_unit * options.scale, options),
-        source=str(path),
-    )
+    up = options.up or found.up
+    axis, sign = TURNS[up]
+    vertices = mesh.vertices[:, list(axis)] * np.asarray(sign)  # exact: a signed permutation
+    used = np.zeros(len(vertices), dtype=bool)
+    used[mesh.faces.ravel()] = True  # unused vertices are dropped by prepare: not measured
+    factor = mm_per_unit * options.scale
+    if options.size_mm is not None and used.any():  # no faces: refused by prepare
+        factor = options.size_mm / _longest_side(path, vertices[used])
+    vertices = _checked_mm(path, vertices, factor, options)
+    if options.size_mm is None and size_warning and used.any():
+        _warn_implausible(path, vertices[used], found.name, declared, options)
+    loaded: dict[str, Any] = {
+        "format": found.name,
+        "unit": _unit_name(mm_per_unit),
+        "mm_per_unit": mm_per_unit,
+        "unit_from": "file" if declared is not None else "option" if options.units else "default",
+        "up": up,
+        "up_from": "option" if options.up else "format",
+        "scale": options.scale,
+        "size_mm": options.size_mm,
+        "mm_per_file_unit": factor,
+    }
+    mesh = dataclasses.replace(mesh, vertices=vertices, source=str(path), loaded=loaded)
     if mesh.colour_kind == "none" and options.colour is not None:
         face_rgba = np.tile(np.asarray(options.colour, np.uint8), (len(mesh.faces), 1))
         mesh = dataclasses.replace(mesh, colour_kind="face", face_rgba=face_rgba)
-    return prepare(mesh, repair=options.repair)
+    if check != "solid":
+        return prepare(mesh, repair=options.repair, check=check)
+    mesh = prepare(mesh, repair=options.repair, check="report")
+    if not needs_solid(mesh):
+        return prepare(mesh)  # one closed part: checked (and turned outside out) as ever
+    solid, done = solid_model(mesh)
+    warn(f"{path}: read as it comes: {done.line()}")
+    return dataclasses.replace(solid, loaded={**solid.loaded, "as_it_comes": done._asdict()})
+
+
+def _unit_name(mm_per_unit: float) -> str | None:
+    """Return the name of a unit of :data:`shellvox.config.UNIT_MM` (None: none of them)."""
+    return next((name for name, mm in UNIT_MM.items() if mm == mm_per_unit), None)
+
+
+def _longest_side(path: Path, vertices: NDArray[np.float64]) -> float:
+    """Return the longest side of the bounding box of finite `vertices` ``(V, 3)``, file units.
+
+    Raises
+    ------
+    InputError
+        The model has no extent (every vertex at one point) or one beyond float range.
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        longest = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
+    if not 0 < longest < np.inf:
+        raise InputError(
+            opt("size"),
+            f"{path}: the model's longest side is {longest:g} file units, which no size "
+            "can be scaled from",
+            "check the file",
+        )
+    return longest
+
+
+def _warn_implausible(
+    path: Path,
+    vertices: NDArray[np.float64],
+    format_name: str,
+    declared: float | None,
+    options: LoadOptions,
+) -> None:
+    """Warn in one line when the longest side of `vertices` (mm) is no plausible print's.
+
+    Outside :data:`PLAUSIBLE_MM`; the warning says how the unit was read and names
+    ``--size`` (and ``--units`` for a format that declares no unit).
+    """
+    longest = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
+    low, high = PLAUSIBLE_MM
+    if low <= longest <= high:
+        return
+    kind = "small" if longest < low else "large"
+    if declared is not None:
+        unit = _unit_name(declared) or f"units of {declared:g} mm"
+        read = f"read in {unit}, the {format_name.upper()}'s unit"
+        fix = f"pass the longest side you want ({opt('size', 50)}) or {opt('scale')}"
+    else:
+        unit = options.units or "mm"
+        read = f"read as {unit}" + ("" if options.units else f": {format_name.upper()} has no unit")
+        fix = f"pass the file's unit ({opt('units')}) or the longest side you want " + (
+            f"({opt('size', 50)})"
+        )
+    warn(
+        f"{path}: the model is {longest:.3g} mm at its longest ({read}), implausibly {kind} "
+        f"for a print; {fix}",
+    )
 
 
 def _checked_mm(

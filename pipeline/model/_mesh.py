@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +25,32 @@ ColourKind = Literal["texture", "vertex", "face", "none"]
 
 #: Colour of a surface without colour: the printer's white base material.
 DEFAULT_RGBA = np.array([255, 255, 255, 255], dtype=np.uint8)
+
+
+class Solid(NamedTuple):
+    """The faces whose winding number is a mesh's inside, where they are not its faces.
+
+    A mesh as it comes (open, of overlapping parts, with buried faces) keeps as its
+    faces the visible ones; its solid is all its faces, oriented
+    (:func:`shellvox.model.solid_model`).
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64, mm
+    faces : (F, 3) int64
+        Counter-clockwise seen from outside, where a face has an outside.
+    closed : bool
+        Every edge joins two faces running opposite ways: the exact row crossings give
+        the inside; otherwise the generalised winding number does.
+    partly : (F_mesh,) bool
+        Per face of the mesh: visible only in part (it crosses another part; its buried
+        piece must not decide a voxel's depth).
+    """
+
+    vertices: NDArray[np.float64]
+    faces: NDArray[np.int64]
+    closed: bool
+    partly: NDArray[np.bool_]
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,6 +83,13 @@ class ColouredMesh:
         Where the mesh came from (path), for messages and manifests.
     default_rgba : (4,) uint8
         Colour returned when ``colour_kind == "none"``.
+    solid : Solid, optional
+        The faces whose winding number is the inside, where the mesh's own faces are only
+        its visible ones (a mesh as it comes); None: the mesh is a closed oriented surface.
+    loaded : dict
+        How the file was read into mm and +Z up (:func:`shellvox.load_model`): format,
+        unit, up axis, ``scale``, ``size_mm`` and the millimetres per file unit applied;
+        recorded in the manifests. Empty for a mesh made in code.
     """
 
     vertices: NDArray[np.float64]
@@ -69,6 +102,8 @@ class ColouredMesh:
     materials: tuple[Material, ...] = ()
     source: str = ""
     default_rgba: NDArray[np.uint8] = field(default_factory=lambda: DEFAULT_RGBA.copy())
+    loaded: dict[str, Any] = field(default_factory=dict)
+    solid: Solid | None = None
 
     def __post_init__(self) -> None:
         n_faces = len(self.faces)

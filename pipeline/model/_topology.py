@@ -2,9 +2,11 @@
 
 A model must bound a volume to be printed. Seam-split vertices (UV or colour seams) are
 merged by position for topology while per-corner attributes are kept; zero-area faces are
-dropped with a warning; a wholly inside-out mesh is flipped with a warning; open or
-non-manifold meshes are refused with the number and a location of the bad edges, unless
-``repair`` asks to close holes with a real library (trimesh, then pymeshfix), never silently.
+dropped with a warning (:func:`clean`); a wholly inside-out mesh is flipped with a warning;
+open or non-manifold meshes are refused with the number and a location of the bad edges,
+unless ``repair`` asks to close holes with a real library (trimesh, then pymeshfix), part by
+part (:func:`repair_parts`: a part that would be lost is refused, never dropped silently).
+``prepare(..., check="report")`` returns the merged, cleaned mesh unchecked, for ``info``.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import sys
 import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -136,16 +139,20 @@ def face_areas(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArr
     return areas
 
 
-def prepare(mesh: ColouredMesh, *, repair: bool = False) -> ColouredMesh:
-    """Merge, clean and check a mesh in millimetres; return a closed, outward mesh.
+def clean(mesh: ColouredMesh) -> ColouredMesh:
+    """Merge vertices by position and drop zero-area faces (with a warning).
+
+    Nothing else is checked: the result may be open, non-manifold, inconsistently
+    oriented or made of several overlapping parts.
 
     Raises
     ------
     InputError
-        Open, non-manifold, inconsistently oriented (without ``repair``), empty or
-        zero-volume meshes.
+        The mesh has no faces, or only zero-area ones.
     """
     path = mesh.source
+    if len(mesh.faces) == 0:
+        raise InputError(path, "has no faces", "export the mesh with its faces")
     mesh = merge_by_position(mesh)
     faces = mesh.faces
     extent = float(np.ptp(mesh.vertices, axis=0).max())
@@ -160,10 +167,44 @@ def prepare(mesh: ColouredMesh, *, repair: bool = False) -> ColouredMesh:
             f"{path}: dropped {int(degenerate.sum())} zero-area faces",
         )
         mesh = select_faces(mesh, ~degenerate)
+    return mesh
+
+
+def prepare(
+    mesh: ColouredMesh,
+    *,
+    repair: bool = False,
+    check: Literal["refuse", "report"] = "refuse",
+) -> ColouredMesh:
+    """Merge, clean and check a mesh in millimetres; return a closed, outward mesh.
+
+    Parameters
+    ----------
+    mesh : ColouredMesh
+        The mesh as read, in mm.
+    repair : bool, optional
+        Re-orient and close the holes of each part that is not closed and oriented
+        (:func:`repair_parts`), with a warning.
+    check : {"refuse", "report"}, optional
+        ``"refuse"``: refuse what is not a closed, oriented solid. ``"report"``: return
+        the merged, cleaned (and, with `repair`, repaired) mesh as it is, open or not,
+        for a report of it (:func:`shellvox.model.inspect_soup`).
+
+    Raises
+    ------
+    InputError
+        No faces or only zero-area ones; with ``check="refuse"`` also open,
+        non-manifold, inconsistently oriented (without ``repair``) or zero-volume meshes.
+    """
+    path = mesh.source
+    mesh = clean(mesh)
+    extent = float(np.ptp(mesh.vertices, axis=0).max())
     report = edge_report(mesh.faces)
     if repair and not report.oriented:
-        mesh = _repair(mesh, report)
+        mesh = repair_parts(mesh)
         report = edge_report(mesh.faces)
+    if check == "report":
+        return mesh
     if not report.closed:
         problems = []
         for bad, what in (
@@ -203,36 +244,186 @@ def prepare(mesh: ColouredMesh, *, repair: bool = False) -> ColouredMesh:
     return mesh
 
 
-def _repair(mesh: ColouredMesh, report: EdgeReport) -> ColouredMesh:
-    """Fix winding and close holes with trimesh, falling back to pymeshfix; warn."""
+def face_parts(faces: NDArray[np.int64]) -> tuple[int, NDArray[np.int64]]:
+    """Split a mesh into parts: the faces joined through shared edges.
+
+    Parameters
+    ----------
+    faces : (F, 3) int64
+        Triangles over vertices merged by position (:func:`merge_by_position`).
+
+    Returns
+    -------
+    count : int
+        The number of parts ``P``.
+    part : (F,) int64
+        Each face's part, ``0 .. P - 1``, numbered in the order of their first face.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n_faces = len(faces)
+    if n_faces == 0:
+        return 0, np.zeros(0, dtype=np.int64)
+    ordered = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    n_vertices = int(faces.max()) + 1
+    _, edge = np.unique(ordered[:, 0] * n_vertices + ordered[:, 1], return_inverse=True)
+    # A graph of faces and edges, each face joined to its three edges: its components
+    # are the parts (every edge node lies on a face, so none is a part of its own).
+    size = n_faces + int(edge.max()) + 1
+    rows = np.repeat(np.arange(n_faces), 3)
+    graph = coo_matrix((np.ones(3 * n_faces), (rows, n_faces + edge.ravel())), (size, size))
+    _, labels = connected_components(graph, directed=False)
+    # Labels are given in the order nodes are first reached: faces come first.
+    part = np.asarray(labels[:n_faces], dtype=np.int64)
+    return int(part.max()) + 1, part
+
+
+def repair_parts(mesh: ColouredMesh) -> ColouredMesh:
+    """Close and orient each part of a mesh on its own; never lose a part.
+
+    Each part (:func:`face_parts`) that is not closed and consistently oriented is
+    repaired alone: trimesh makes its winding consistent and fills its one-triangle and
+    one-quad holes; a part still open then goes to MeshFix (pymeshfix), alone too, since
+    MeshFix keeps only the largest part of what it is given. Closed, oriented parts are
+    kept as they are. A part with negative volume is turned outside out, unless it lies
+    inside the rest of the model (a cavity: the generalised winding number of the other
+    parts is at least 1/2 at its face centroids). New faces take the colour of the nearest
+    original face. One warning line says what was done.
+
+    Parameters
+    ----------
+    mesh : ColouredMesh
+        Merged by position, without zero-area faces (:func:`clean`), in mm.
+
+    Returns
+    -------
+    ColouredMesh
+        Every part closed, consistently oriented and outward (cavities inward).
+
+    Raises
+    ------
+    InputError
+        One line naming each part that the repair would lose, leave with fewer than
+        half its faces, or leave open (its number, face count and where it is).
+    """
+    count, part = face_parts(mesh.faces)
+    order = np.argsort(part, kind="stable")
+    bounds = np.searchsorted(part[order], np.arange(count + 1))
+    pieces: list[tuple[NDArray[np.float64], NDArray[np.int64]]] = []
+    failed: list[str] = []
+    closed_edges, closed_parts, reoriented = 0, 0, 0
+    for k in range(count):  # a loop over parts, each repaired with whole-array calls
+        used, local = np.unique(mesh.faces[order[bounds[k] : bounds[k + 1]]], return_inverse=True)
+        vertices, faces = mesh.vertices[used], local.reshape(-1, 3).astype(np.int64)
+        report = edge_report(faces)
+        if not report.oriented:
+            new_vertices, new_faces = _repair_part(vertices, faces, report)
+            lost = (
+                "would be lost"
+                if len(new_faces) == 0
+                else f"would keep {len(new_faces)} faces"
+                if len(new_faces) < len(faces) / 2
+                else "stays open"
+                if not edge_report(new_faces).closed
+                else ""
+            )
+            if lost:
+                x, y, z = vertices.mean(axis=0)
+                failed.append(
+                    f"part {k + 1} of {count} ({len(faces)} faces, around "
+                    f"({x:.4g}, {y:.4g}, {z:.4g}) mm) {lost}"
+                )
+                continue
+            if len(report.boundary) or len(report.non_manifold):
+                closed_edges += len(report.boundary)
+                closed_parts += 1
+            else:
+                reoriented += 1
+            vertices, faces = new_vertices, new_faces
+        pieces.append((vertices, faces))
+    if failed:
+        raise InputError(
+            mesh.source,
+            f"{opt('repair')} cannot repair every part: " + "; ".join(failed),
+            "close or remove these parts in a modeller",
+        )
+    turned = _turn_outside_out(pieces)
+    starts = np.cumsum([0] + [len(v) for v, _ in pieces])
+    vertices = np.concatenate([v for v, _ in pieces])
+    faces = np.concatenate([f + start for (_, f), start in zip(pieces, starts, strict=False)])
+    done = []
+    if closed_parts:
+        done.append(
+            f"closed {closed_edges} boundary edges in {closed_parts} of {count} parts "
+            f"({len(mesh.faces)} -> {len(faces)} faces)"
+        )
+    if reoriented:
+        done.append(f"re-oriented the faces of {reoriented} of {count} parts")
+    if turned:
+        done.append(
+            f"turned {len(turned)} inside-out parts outside out (part "
+            + ", ".join(str(k + 1) for k in turned)
+            + ")"
+        )
+    warn(
+        f"{mesh.source}: {opt('repair')} "
+        + ", ".join(done)
+        + "; colour of new faces is taken from the nearest original face",
+    )
+    return _with_geometry(mesh, vertices, faces)
+
+
+def _repair_part(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], report: EdgeReport
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Make one part consistent and closed: trimesh, then MeshFix; ``(V, 3)``, ``(F, 3)``."""
     import trimesh
 
-    candidate = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
-    if len(report.misoriented) and not len(report.boundary) and not len(report.non_manifold):
+    candidate = trimesh.Trimesh(vertices, faces, process=False)
+    if len(report.boundary) == 0 and len(report.non_manifold) == 0:
         trimesh.repair.fix_winding(candidate)  # type: ignore[no-untyped-call]
-        warn(
-            f"{mesh.source}: {opt('repair')} re-oriented faces to a consistent winding",
-        )
-        return _with_geometry(mesh, np.asarray(candidate.vertices), np.asarray(candidate.faces))
+        return np.asarray(candidate.vertices), np.asarray(candidate.faces, np.int64)
     trimesh.repair.fill_holes(candidate)
     trimesh.repair.fix_winding(candidate)  # type: ignore[no-untyped-call]
-    if not candidate.is_watertight:
-        import pymeshfix
+    if candidate.is_watertight:
+        return np.asarray(candidate.vertices), np.asarray(candidate.faces, np.int64)
+    import pymeshfix
 
-        # MeshFix prints its own lines ("could not fix everything") from C++; they are
-        # not shellvox's words: the checks after the repair say what is still wrong.
-        with _library_prints():
-            vertices, faces = pymeshfix.clean_from_arrays(
-                np.ascontiguousarray(mesh.vertices, np.float64),
-                np.ascontiguousarray(mesh.faces, np.int32),
+    # MeshFix prints its own lines ("could not fix everything") from C++; they are
+    # not shellvox's words: the checks after the repair say what is still wrong.
+    with _library_prints():
+        fixed_vertices, fixed_faces = pymeshfix.clean_from_arrays(
+            np.ascontiguousarray(vertices, np.float64), np.ascontiguousarray(faces, np.int32)
+        )
+    return np.asarray(fixed_vertices, np.float64), np.asarray(fixed_faces, np.int64).reshape(-1, 3)
+
+
+def _turn_outside_out(pieces: list[tuple[NDArray[np.float64], NDArray[np.int64]]]) -> list[int]:
+    """Turn the closed parts of negative volume outside out, in place; return their numbers.
+
+    A part inside the rest (winding number of the other parts at least 1/2 at most of its
+    face centroids) is a cavity and keeps its orientation.
+    """
+    from shellvox.voxel.geometry import fast_winding_numbers
+
+    turned = []
+    for k, (vertices, faces) in enumerate(pieces):  # a loop over parts
+        if signed_volume(vertices, faces) >= 0:
+            continue
+        others = [(v, f) for j, (v, f) in enumerate(pieces) if j != k]
+        if others:
+            starts = np.cumsum([0] + [len(v) for v, _ in others])
+            winding = fast_winding_numbers(
+                np.concatenate([v for v, _ in others]),
+                np.concatenate([f + s for (_, f), s in zip(others, starts, strict=False)]),
+                vertices[faces].mean(axis=1),
             )
-        candidate = trimesh.Trimesh(vertices, faces, process=False)
-    warn(
-        f"{mesh.source}: {opt('repair')} closed {len(report.boundary)} boundary edges "
-        f"({len(mesh.faces)} -> {len(candidate.faces)} faces); colour of new faces is "
-        "taken from the nearest original face",
-    )
-    return _with_geometry(mesh, np.asarray(candidate.vertices), np.asarray(candidate.faces))
+            if np.median(winding) >= 0.5:
+                continue
+        pieces[k] = (vertices, faces[:, ::-1].copy())
+        turned.append(k)
+    return turned
 
 
 @contextlib.contextmanager

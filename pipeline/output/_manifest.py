@@ -193,7 +193,12 @@ def stack_manifest(
         entry["colour"] = entry["index"] in config.colour_layers
     manifest: dict[str, Any] = {
         "tool": f"shellvox {__version__}",
-        "input": {"path": mesh.source, "sha256": _sha256(mesh.source), "faces": mesh.n_faces},
+        "input": {
+            "path": mesh.source,
+            "sha256": _sha256(mesh.source),
+            "faces": mesh.n_faces,
+            "loaded": dict(mesh.loaded),
+        },
         "config": as_json(config),
         "grid": {
             "shape_zyx": list(grid.shape_zyx),

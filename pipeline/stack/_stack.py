@@ -50,7 +50,7 @@ from shellvox.stack._shell_job import ShellJob
 from shellvox.thickness import FaceThickness
 from shellvox.voxel.agreement import shell_agreement
 from shellvox.voxel.colour import MaterialPlan, materials_for_slab
-from shellvox.voxel.geometry import NodeLattice, SurfaceIndex
+from shellvox.voxel.geometry import NodeLattice, SurfaceIndex, soup_solid
 from shellvox.voxel.io import PageEncoder
 from shellvox.voxel.io.vdb import VdbEncoder
 from shellvox.voxel.sampler import LayerSampler
@@ -129,9 +129,14 @@ def stack_model(
     rule, whose `shells` give the layers); `lattice`: the voxel centres whose layer field
     the slabs keep for the shell meshes.
     """
+    solid = mesh.solid
+    # the inside: the mesh's faces, or all the faces of its solid (exactly, when closed)
+    outer = (mesh.vertices, mesh.faces)
+    if solid is not None and solid.closed:
+        outer = (solid.vertices, solid.faces)
     model = StackModel(
         surfaces=(
-            (mesh.vertices, mesh.faces),
+            outer,
             *(((s.vertices, s.faces) for s in shells) if shells is not None else ()),
         ),
         surface=SurfaceIndex.build(mesh.vertices, mesh.faces),
@@ -142,6 +147,9 @@ def stack_model(
         depth_mm=depth,
         layer_rule=config.layer_rule,
         field_nodes=lattice,
+        solid=None if solid is None else soup_solid(solid.vertices, solid.faces),
+        solid_closed=solid is not None and solid.closed,
+        partly=None if solid is None else solid.partly,
     )
     _ = model.surface.regions  # the scan's regions, computed once, inherited by workers
     return model

@@ -189,7 +189,8 @@ def mean_curvature(
     ----------
     vertices : (V, 3) float64, mm
     faces : (F, 3) int64
-        Closed, consistently outward-oriented.
+        Consistently outward-oriented; edges without one reverse (holes' rims,
+        non-manifold edges of a mesh as it comes) join no faces.
     radius_mm : float, mm
         Scale ``r`` (``> 0``).
 
@@ -199,7 +200,7 @@ def mean_curvature(
         Positive on convex, negative on concave regions, about 0 on flat ones.
     """
     normals, areas = face_normals(vertices, faces)
-    adjacency = edge_adjacency(faces)
+    adjacency = edge_adjacency(faces, open_ok=True)
     angle = bend_angles(normals, vertices, adjacency)
     left, right = adjacency.face_left, adjacency.face_right
     length = np.linalg.norm(

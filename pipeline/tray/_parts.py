@@ -93,9 +93,12 @@ def prepare_part(
     colour_layers: tuple[int, ...] | None,
 ) -> TrayPart:
     """Return a tray entry's model, scaled and turned, with its layers and grid."""
-    if model.scale != 1.0 or any(model.rotation_deg):
+    factor = model.scale
+    if model.size_mm is not None:  # the loaded mesh has only used vertices: its extent
+        factor = model.size_mm / float(np.ptp(mesh.vertices, axis=0).max())
+    if factor != 1.0 or any(model.rotation_deg):
         turn = Rotation.from_euler("xyz", model.rotation_deg, degrees=True).as_matrix()
-        mesh = dataclasses.replace(mesh, vertices=(mesh.vertices * model.scale) @ turn.T)
+        mesh = dataclasses.replace(mesh, vertices=(mesh.vertices * factor) @ turn.T)
     if model.thickness_mm is not None:
         source = ThicknessSource(constant_mm=model.thickness_mm)
     elif model.thickness_rule is not None:

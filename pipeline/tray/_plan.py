@@ -137,6 +137,8 @@ class TrayPlan:
                     "rotation_deg": list(part.spec.rotation_deg),
                     "rotation_convention": "extrinsic x, y, z (degrees), before placement",
                     "scale": part.spec.scale,
+                    "size_mm": part.spec.size_mm,
+                    "loaded": part.mesh.loaded,
                     "requested_position_mm": list(place.requested_mm),
                     "position_mm": list(place.actual_mm),
                     "bounds_mm": [list(low), list(low + extent(part.mesh))],
@@ -209,7 +211,13 @@ def plan_tray(
     for model in spec.models:
         key = model.file.resolve()
         if key not in loaded:
-            loaded[key] = load_model(model.file, options)
+            # a model the tray scales itself is not judged by its size as loaded
+            sized = any(
+                m.size_mm is not None or m.scale != 1.0
+                for m in spec.models
+                if m.file.resolve() == key
+            )
+            loaded[key] = load_model(model.file, options, size_warning=not sized)
         parts.append(
             prepare_part(model, loaded[key], rules, config, default_thickness, colour_layers)
         )

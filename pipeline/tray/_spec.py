@@ -8,14 +8,16 @@ model::
     file = "spot.obj"  # relative to the tray file's folder
     position = [10, 20]  # x, y[, z] mm of the model's bounding-box minimum
     rotation = [0, 0, 90]  # degrees about the tray's x, then y, then z axis
-    scale = 60  # times the loader's millimetres (and --scale)
+    scale = 60  # times the loader's millimetres (and --scale or --size)
+    # or: size = 50  # mm: the longest side, scaled to it (a slicer's scale-to-fit)
     thickness_rule = "rule.toml"  # or thickness = [0.5, 0.5] (mm per layer)
     copies = 2  # placed by --layout auto
 
 Rotation convention: extrinsic x-y-z Euler angles in degrees (scipy's ``"xyz"``): the
-model is scaled, then turned about the tray's fixed x axis, then y, then z, and then
-moved so that its bounding-box minimum lies at ``position`` (``z`` default 0: on the
-tray). Printer, layers, materials and voxel size stay on the command line.
+model is scaled (``scale``, or ``size`` on its loaded bounding box), then turned about
+the tray's fixed x axis, then y, then z, and then moved so that its bounding-box
+minimum lies at ``position`` (``z`` default 0: on the tray). Printer, layers, materials
+and voxel size stay on the command line.
 """
 
 from __future__ import annotations
@@ -29,7 +31,16 @@ from typing import Any
 from shellvox.errors import InputError, opt
 
 #: Keys of a ``[[model]]`` table.
-MODEL_KEYS = ("file", "position", "rotation", "scale", "thickness", "thickness_rule", "copies")
+MODEL_KEYS = (
+    "file",
+    "position",
+    "rotation",
+    "scale",
+    "size",
+    "thickness",
+    "thickness_rule",
+    "copies",
+)
 
 
 @dataclass(frozen=True)
@@ -47,6 +58,9 @@ class TrayModel:
         Extrinsic rotations about the tray's x, y and z axes, in that order.
     scale : float
         Factor on the loaded millimetres.
+    size_mm : float, mm, optional
+        The longest side of the model's bounding box, scaled to it uniformly before the
+        rotation (instead of `scale`).
     thickness_mm : tuple of float, mm, optional
         The same thickness per layer on every face (outside in).
     thickness_rule : Path, optional
@@ -60,6 +74,7 @@ class TrayModel:
     position_mm: tuple[float, float, float] | None = None
     rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
     scale: float = 1.0
+    size_mm: float | None = None
     thickness_mm: tuple[float, ...] | None = None
     thickness_rule: Path | None = None
     copies: int = 1
@@ -159,6 +174,13 @@ def _model(path: Path, number: int, entry: dict[str, Any]) -> TrayModel:
     scale = entry.get("scale", 1.0)
     if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0 < scale < math.inf:
         raise bad("scale", f"expected a positive number, got {scale!r}", "set e.g. scale = 1.5")
+    size = entry.get("size")
+    if size is not None and (
+        isinstance(size, bool) or not isinstance(size, int | float) or not 0 < size < math.inf
+    ):
+        raise bad("size", f"expected a positive length in mm, got {size!r}", "set e.g. size = 50")
+    if size is not None and "scale" in entry:
+        raise InputError(where, "gives both scale and size", "keep one of them")
     thickness = entry.get("thickness")
     rule = entry.get("thickness_rule")
     if thickness is not None and rule is not None:
@@ -194,6 +216,7 @@ def _model(path: Path, number: int, entry: dict[str, Any]) -> TrayModel:
         position_mm=position,
         rotation_deg=(angles[0], angles[1], angles[2]),
         scale=float(scale),
+        size_mm=None if size is None else float(size),
         thickness_mm=thickness,
         thickness_rule=None if rule is None else folder / rule,
         copies=copies,

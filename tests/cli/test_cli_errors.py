@@ -51,7 +51,8 @@ def test_empty_file(tmp_path, capsys):
 def test_zero_volume_mesh(tmp_path, capsys):
     # Two copies of one triangle, facing opposite ways: closed, oriented, no volume.
     path = _tet_obj(tmp_path / "flat.obj", faces=np.array([[0, 1, 2], [0, 2, 1]]))
-    _refused(capsys, ["info", str(path)], "flat.obj", "encloses no volume")
+    argv = ["thickness", str(path), "-o", str(tmp_path / "out")]
+    _refused(capsys, argv, "flat.obj", "encloses no volume")
 
 
 def test_nan_coordinates(tmp_path, capsys):
@@ -103,7 +104,8 @@ def test_too_many_faces_without_force(tmp_path, capsys):
 
 def test_open_mesh_names_count_and_location(tmp_path, capsys):
     path = _tet_obj(tmp_path / "open.obj", faces=TET_FACES[:3])
-    line = _refused(capsys, ["info", str(path)], "open.obj", "3 boundary edges", "--repair")
+    argv = ["thickness", str(path), "-o", str(tmp_path / "out")]
+    line = _refused(capsys, argv, "open.obj", "3 boundary edges", "--repair")
     assert " mm" in line
 
 
@@ -111,7 +113,8 @@ def test_non_manifold_edge(tmp_path, capsys):
     vertices = np.vstack([TET_VERTICES, [[5.0, 5.0, -10.0]]])
     faces = np.vstack([TET_FACES, [[0, 1, 4]]])
     path = _tet_obj(tmp_path / "fin.obj", faces=faces, vertices=vertices)
-    _refused(capsys, ["info", str(path)], "fin.obj", "non-manifold")
+    argv = ["thickness", str(path), "-o", str(tmp_path / "out")]
+    _refused(capsys, argv, "fin.obj", "non-manifold")
 
 
 def test_bad_colour_option(tmp_path, capsys):
@@ -119,9 +122,10 @@ def test_bad_colour_option(tmp_path, capsys):
     _refused(capsys, ["info", "--colour", "300,0,0", str(path)], "--colour", "0-255")
 
 
-def test_teapot_is_refused_as_open(shared_mesh, capsys):
+def test_teapot_is_refused_as_open(shared_mesh, capsys, tmp_path):
     path = shared_mesh("teapot/teapot.obj")
-    _refused(capsys, ["info", "--json", str(path)], "teapot.obj", "open", "boundary edges")
+    argv = ["thickness", str(path), "-o", str(tmp_path / "out")]
+    _refused(capsys, argv, "teapot.obj", "open", "boundary edges")
 
 
 def test_missing_mtl_is_refused(tmp_path, capsys):

@@ -59,7 +59,7 @@ def test_version_and_help_run_without_the_libraries(argv):
 
 
 def test_the_offered_names_are_the_registries():
-    from shellvox.config import FORMATS, UNIT_MM, LoadOptions
+    from shellvox.config import FORMATS, UNIT_MM, UP_AXES, LoadOptions
     from shellvox.fdm import SLICERS
     from shellvox.offset import DEFAULT_METHOD, MAX_FIELD_TRIANGLES, METHODS, SHELL_STEP_MM
     from shellvox.printer import shipped_profiles
@@ -72,6 +72,7 @@ def test_the_offered_names_are_the_registries():
     assert get_args(LayerRule) == choices.LAYER_RULES
     assert tuple(FORMATS) == choices.FORMATS
     assert tuple(sorted(UNIT_MM)) == choices.UNITS
+    assert UP_AXES == choices.UP_AXES
     assert LoadOptions().max_faces == choices.MAX_FACES
     assert tuple(SLICERS) == choices.SLICERS
     assert choices.SHELL_STEP_MM == SHELL_STEP_MM

@@ -56,10 +56,14 @@ def test_box_every_side_filament_is_used(box_gcode):
 
 @pytest.mark.slow
 @pytest.mark.parametrize(
-    ("model", "scale"),
-    [("default", 1.0), ("spot/spot_triangulated.obj", 40.0), ("duck/Duck.glb", 30.0)],
+    ("model", "sizing"),
+    [
+        ("default", ("--scale", "1")),
+        ("spot/spot_triangulated.obj", ("--scale", "40")),
+        ("duck/Duck.glb", ("--size", "50")),  # 1.65 m long in its file (glTF: metres)
+    ],
 )
-def test_real_models_slice(shared_mesh, tmp_path, capsys, model, scale):
+def test_real_models_slice(shared_mesh, tmp_path, capsys, model, sizing):
     path = "data/colour_target/colour_target.obj" if model == "default" else str(shared_mesh(model))
     out = tmp_path / "out"
     status = main(
@@ -68,8 +72,7 @@ def test_real_models_slice(shared_mesh, tmp_path, capsys, model, scale):
             path,
             "-o",
             str(out),
-            "--scale",
-            str(scale),
+            *sizing,
             "--thickness",
             "1.2",
             "--filaments",

@@ -167,7 +167,7 @@ def test_gltf_color_0_times_factor(tmp_path, component_type):
                 (g, k)
                 for g in range(4)
                 for k in range(3)
-                if (TET_VERTICES[TET_FACES[g, k]] == corner).all()
+                if np.allclose(TET_VERTICES[TET_FACES[g, k]], corner, atol=1e-4)  # float32 m
             ]
             # A merged vertex's corners all carry the same colour in this file.
             np.testing.assert_array_equal(got, expected[original[0]])
@@ -183,7 +183,7 @@ def test_gltf_missing_image_with_colour_gives_that_colour(tmp_path):
 def test_gltf_instances_and_mirroring_node_keep_faces_outward(tmp_path):
     document, binary = gltf_parts(factor=[1, 0, 0, 1])
     document["nodes"] = [
-        {"mesh": 0, "translation": [20, 0, 0]},
+        {"mesh": 0, "translation": [0.02, 0, 0]},  # metres, glTF's unit
         {"mesh": 0, "scale": [-1, 1, 1]},
     ]
     document["scenes"] = [{"nodes": [0, 1]}]
@@ -194,7 +194,7 @@ def test_gltf_instances_and_mirroring_node_keep_faces_outward(tmp_path):
         mesh = load_model(path)
     assert mesh.n_faces == 8
     xs = np.sort(np.unique(mesh.vertices[:, 0]))
-    np.testing.assert_allclose(xs, [-10, 0, 20, 30])
+    np.testing.assert_allclose(xs, [-10, 0, 20, 30], atol=1e-5)  # float32 metres, in mm
     volume = (
         np.einsum(
             "fi,fi->f", mesh.triangles[:, 0], np.cross(*mesh.triangles[:, 1:].swapaxes(0, 1))

@@ -62,7 +62,9 @@ def _corner_uv(mesh) -> np.ndarray:
         centre = TET_VERTICES[face].mean(0)
         for c, vertex in enumerate(TET_VERTICES[face]):
             fid, _ = locate(mesh, vertex * 0.999 + centre * 0.001)
-            local = np.flatnonzero((mesh.vertices[mesh.faces[fid[0]]] == vertex).all(1))[0]
+            # the file holds metres as float32: the corner in mm within 1e-4 mm
+            near = np.isclose(mesh.vertices[mesh.faces[fid[0]]], vertex, atol=1e-4).all(1)
+            local = np.flatnonzero(near)[0]
             out[f, c] = mesh.corner_uv[fid[0], local]
     return out
 

@@ -26,6 +26,7 @@ from conftest import shared_path
 from PIL import Image
 
 from shellvox.cli import main
+from shellvox.config import LoadOptions
 from shellvox.errors import InputError
 from shellvox.loading import FORMATS, load_model
 
@@ -197,7 +198,9 @@ def test_the_command_line_says_it_in_one_line(tmp_path, capsys):
 
 @pytest.mark.parametrize("relative", sorted(SHARED))
 def test_every_shared_mesh_still_loads(relative):
-    assert len(load_model(shared_path(relative)).faces) == SHARED[relative]
+    # scaled to fit, as a user would: the duck is 1.65 m long in its file (glTF: metres)
+    loaded = load_model(shared_path(relative), LoadOptions(size_mm=50))
+    assert len(loaded.faces) == SHARED[relative]
 
 
 def test_the_open_teapot_is_read_and_refused_as_open():
@@ -205,8 +208,8 @@ def test_the_open_teapot_is_read_and_refused_as_open():
         load_model(shared_path(OPEN))
 
 
-def _faces(path: Path) -> int:
-    return len(load_model(path).faces)
+def _faces(path: Path, options: LoadOptions | None = None) -> int:
+    return len(load_model(path, options).faces)
 
 
 def test_a_binary_stl_whose_header_starts_with_solid_loads(tmp_path):
@@ -227,4 +230,5 @@ def test_text_in_its_other_forms_loads(tmp_path):
     assert _faces(off) == 12
     glb = tmp_path / "duck.gltf"
     glb.write_bytes(shared_path("duck/Duck.glb").read_bytes())
-    assert _faces(glb) == _faces(shared_path("duck/Duck.glb"))
+    fit = LoadOptions(size_mm=50)  # the duck is 1.65 m long (glTF: metres)
+    assert _faces(glb, fit) == _faces(shared_path("duck/Duck.glb"), fit)

@@ -8,6 +8,8 @@
   points (libigl);
 - :mod:`~shellvox.voxel.geometry._fast_winding` fast generalised winding numbers of points for any
   triangle soup (open, overlapping, inside out), compiled (Barill et al.'s tree of expansions);
+- :mod:`~shellvox.voxel.geometry._solid` the solid of any soup on a voxel grid (winding
+  number at least 1/2, sampled where it could decide) and its visible faces;
 - :mod:`~shellvox.voxel.geometry._layer_kernel` the per-voxel pass: layers, SDF band, colour voxels;
 - :mod:`~shellvox.voxel.geometry._field_nodes` the voxel centres where a slab keeps the layer
   field for the shell meshes.
@@ -39,6 +41,15 @@ from shellvox.voxel.geometry._nearest import (
     on_faces,
     winding_numbers,
 )
+from shellvox.voxel.geometry._solid import (
+    SolidSlab,
+    SoupSolid,
+    Visibility,
+    boundary_edges,
+    solid_slab,
+    soup_solid,
+    visible_faces,
+)
 from shellvox.voxel.geometry._voronoi import voronoi_regions
 from shellvox.voxel.geometry._winding import inside_slab, winding_slab
 
@@ -48,10 +59,14 @@ __all__ = [
     "LayerOutputs",
     "Nearest",
     "NodeLattice",
+    "SolidSlab",
+    "SoupSolid",
     "SurfaceIndex",
+    "Visibility",
     "WindingTree",
     "assign_layers",
     "barycentric",
+    "boundary_edges",
     "closest_barycentric",
     "colour_voxels",
     "distance_to_surface",
@@ -64,6 +79,9 @@ __all__ = [
     "nearest_within",
     "node_lattice",
     "on_faces",
+    "solid_slab",
+    "soup_solid",
+    "visible_faces",
     "voronoi_regions",
     "winding_numbers",
     "winding_slab",

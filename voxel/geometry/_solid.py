@@ -147,6 +147,60 @@ def soup_solid(
     return SoupSolid(vertices, faces, WindingTree.build(vertices, faces), points)
 
 
+class Visibility(NamedTuple):
+    """Which faces of a soup lie on its solid's boundary.
+
+    Attributes
+    ----------
+    visible : (F,) bool
+        At least one sample of the face is on the boundary.
+    partly : (F,) bool
+        Visible, but some sample is not (a face that crosses another part: its buried
+        piece must not decide a voxel's depth).
+    """
+
+    visible: NDArray[np.bool_]
+    partly: NDArray[np.bool_]
+
+
+def visible_faces(solid: SoupSolid, *, side_mm: float | None = None) -> Visibility:
+    """Return which faces of a soup lie on its solid's boundary, wholly or in part.
+
+    A face is visible where the solid is on one side of it and not on the other: at its
+    centroid or at one of the three points halfway from there to its corners, the winding
+    number is at least 1/2 on exactly one side (``side_mm`` off the face along its
+    normal). Faces buried inside the solid (a part pushed into another, a duplicated
+    wall, an eye inside a head) and faces outside it (a sheet that encloses nothing) are
+    not.
+
+    Parameters
+    ----------
+    solid : SoupSolid
+    side_mm : float, mm, optional
+        How far off the face each side is sampled; default ``1e-5`` of the soup's
+        bounding-box diagonal.
+
+    Returns
+    -------
+    Visibility
+    """
+    corners = solid.vertices[solid.faces]  # (F, 3, 3)
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    if side_mm is None:
+        side_mm = 1e-5 * float(np.linalg.norm(np.ptp(solid.vertices, axis=0)))
+    centroid = corners.mean(axis=1)
+    samples = np.concatenate([centroid[:, None], 0.5 * (centroid[:, None] + corners)], axis=1)
+    points = samples.reshape(-1, 3)
+    offset = np.repeat(normal, 4, axis=0) * side_mm
+    outer = solid.tree.evaluate(points + offset) >= 0.5
+    inner = solid.tree.evaluate(points - offset) >= 0.5
+    sides = (outer != inner).reshape(-1, 4) & (length > 0)
+    visible = sides.any(axis=1)
+    return Visibility(visible, visible & ~sides.all(axis=1))
+
+
 def solid_slab(
     solid: SoupSolid,
     grid: GridSpec,

@@ -75,7 +75,9 @@ class _BaseColour:
 
 
 def read_gltf(path: Path, options: LoadOptions) -> ColouredMesh:
-    """Read a glTF 2.0 or GLB file into an unmerged mesh in file units.
+    """Read a glTF 2.0 or GLB file into an unmerged mesh in file units (metres, +Y up).
+
+    :func:`shellvox.load_model` turns it +Z up and converts it to millimetres.
 
     Parameters
     ----------
