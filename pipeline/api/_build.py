@@ -338,6 +338,13 @@ def build(
     out = _folder(out_dir)
     load = load or LoadOptions()
     mesh = model if isinstance(model, ColouredMesh) else load_model(model, load, check="solid")
+    if mesh.solid is not None and options.shell_meshes:
+        raise InputError(
+            opt("shell_meshes"),
+            f"{mesh.source}: is not one closed, oriented part (read as it comes); its shell "
+            "meshes are not made",
+            f"build it without {opt('shell_meshes')}",
+        )
     choice = layer_thickness(
         mesh,
         thickness_mm=options.thickness_mm,

@@ -124,6 +124,11 @@ class ColouredMesh:
                 raise ValueError(
                     f"{name} must have {n_faces} rows (one per face), got {len(value)}"
                 )
+        if self.solid is not None and len(self.solid.partly) != n_faces:
+            raise ValueError(
+                f"solid.partly must have {n_faces} rows (one per face), "
+                f"got {len(self.solid.partly)}"
+            )
         if self.colour_kind == "texture" and self.face_material is not None and n_faces:
             top = int(self.face_material.max())
             if top >= len(self.materials) or int(self.face_material.min()) < 0:

@@ -263,4 +263,6 @@ def _carry(
         value = getattr(mesh, name)
         if value is not None:
             changes[name] = value[parent]
+    if mesh.solid is not None:  # a piece of a face crossing another may cross it too
+        changes["solid"] = mesh.solid._replace(partly=mesh.solid.partly[parent])
     return dataclasses.replace(mesh, **changes)  # type: ignore[arg-type]

@@ -87,3 +87,16 @@ def test_overlapping_boxes_layer_by_the_distance_to_their_union(tmp_path):
     overlap = inside & (distance > depth[1] + diagonal)
     assert overlap.sum() > 1000
     assert (layers[overlap] == 3).all()
+
+
+def test_shell_meshes_of_a_model_as_it_comes_are_refused_in_one_line(tmp_path):
+    path = tmp_path / "boxes.ply"
+    _boxes(path)
+    options = shellvox.BuildOptions(voxel_size_mm=0.5, materials=None, shell_meshes=True)
+    with (
+        pytest.warns(shellvox.ShellvoxWarning, match="read as it comes"),
+        pytest.raises(shellvox.InputError, match="shell_meshes") as refused,
+    ):
+        shellvox.build(path, tmp_path / "out", options, progress=False)
+    assert "--shell-meshes" in refused.value.words("cli")
+    assert not (tmp_path / "out" / "layers.tif").exists()
