@@ -78,6 +78,32 @@ CHECKS = 4
 #: Rounds of dropping the splits of triangles that would turn over.
 ROUNDS = 16
 
+#: Triangles the splitting rounds of a surface may visit in all, per triangle of the
+#: surface as marched (each round visits the triangles at the crease candidates). A part
+#: of many facets can end every pass with its rounds run out and nothing kept, passes
+#: and tries over: the passes stop when this is spent, what they made so far goes
+#: through the crossing check, and the surface stays as marched where that fails.
+WORK = 4.0
+
+#: Triangles the splitting rounds of a surface may visit in all at least: a small sharp
+#: part (a few mm, most of its surface at a crease) visits several times its triangles.
+MIN_WORK = 2_000_000
+
+
+class _Work:
+    """Triangles the splitting rounds may still visit (:data:`WORK`)."""
+
+    def __init__(self, triangles: int) -> None:
+        self.left = triangles
+
+    def take(self, triangles: int) -> bool:
+        """Spend `triangles`; False, and nothing left, when fewer are left."""
+        if triangles > self.left:
+            self.left = 0
+            return False
+        self.left -= triangles
+        return True
+
 
 class Creases(NamedTuple):
     """A marched surface with its creases and corners put back.
@@ -116,6 +142,10 @@ def sharpen_creases(
 ) -> Creases:
     """Put back the sharp creases and corners a marched layer surface cut off.
 
+    The splitting rounds of all passes and tries visit at most ``WORK`` triangles per
+    triangle of the surface (``MIN_WORK`` at least): their time follows the surface's
+    size.
+
     Parameters
     ----------
     vertices : (V, 3) float64, mm
@@ -140,11 +170,14 @@ def sharpen_creases(
     n_vertices = len(vertices)
     label = plane_labels(vertices, vertex_face, normals, plane_levels)
     unchanged = Creases(vertices, faces, vertex_face, np.zeros(n_vertices, dtype=bool), 0, 0)
+    work = _Work(max(int(WORK * len(faces)), MIN_WORK))
     for _ in range(CHECKS):
         out, crossing = _sharpen(vertices, faces, vertex_face, label, normals, plane_levels,
-                                 depth_mm, surface)  # fmt: skip
+                                 depth_mm, surface, work)  # fmt: skip
         if len(crossing) == 0:
             return unchanged if out is None else out
+        if work.left == 0:
+            break
         # Leave the surface as marched around the crossings (a vertex ring further).
         at = np.zeros(len(vertices), dtype=bool)
         at[crossing] = True
@@ -161,6 +194,7 @@ def _sharpen(
     plane_levels: NDArray[np.float64],
     depth_mm: NDArray[np.float64],
     surface: SurfaceIndex,
+    work: _Work,
 ) -> tuple[Creases | None, NDArray[np.int64]]:
     """One try of :func:`sharpen_creases` with the vertices' planes `label` (-1: none).
 
@@ -189,7 +223,7 @@ def _sharpen(
     stuck = np.zeros(len(points), dtype=bool)
     for _ in range(PASSES):
         step = _one_pass(
-            tri, points, planes, stuck, fixed, normals, plane_levels, depth_mm, surface
+            tri, points, planes, stuck, fixed, normals, plane_levels, depth_mm, surface, work
         )
         if step is None:
             break
@@ -197,6 +231,8 @@ def _sharpen(
         fixed = np.concatenate([fixed, np.zeros(len(points) - len(fixed), dtype=bool)])
         split_edges += n_split
         corners += n_corners
+        if work.left == 0:
+            break
     n_old = len(kept_ids)
     moved = (points[:n_old] != vertices[kept_ids]).any(axis=1)
     n_new = len(points) - n_old
@@ -295,6 +331,7 @@ def _one_pass(
     plane_levels: NDArray[np.float64],
     depth_mm: NDArray[np.float64],
     surface: SurfaceIndex,
+    work: _Work,
 ) -> (
     tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64], NDArray[np.bool_], int, int]
     | None
@@ -369,6 +406,8 @@ def _one_pass(
     rep[split] = split[first_at[same.ravel()]]
     rejected = np.zeros(len(tri), dtype=bool)
     for _ in range(ROUNDS):
+        if not work.take(len(tri)):  # spent: as if the rounds ran out
+            return unchanged if snapped else None
         new_faces, has_corner, bad, merge = split_triangles(
             tri, edge_of, edge_point, ok, corner, corner_ok, points, n_points,
             planes, edge_planes, corner_planes, normals, rep,
