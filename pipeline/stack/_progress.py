@@ -4,11 +4,14 @@ A build's bars (the voxels' slabs, the shell meshes) are :mod:`tqdm.auto`'s: a w
 a Jupyter notebook, text on stderr elsewhere. ``progress=None`` (the default of
 :func:`shellvox.build` and of ``shellvox build``) shows them where a person is watching:
 when stderr is a terminal, or in a Jupyter kernel (the test :mod:`tqdm.autonotebook`
-makes); ``True`` always, ``False`` never.
+makes); ``True`` always, ``False`` never. A terminal that reports no size (a pseudo-terminal
+nobody sized: ``script`` without a terminal, some containers' ``-t``) gets bars 80 columns
+wide, where tqdm would draw nothing.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 from typing import Any
 
@@ -26,6 +29,18 @@ def watched() -> bool:
         return False
 
 
+#: The size of bars on a terminal that reports none (columns, rows).
+UNSIZED_TERMINAL = (80, 24)
+
+
+def _unsized_terminal() -> bool:
+    """Return whether stderr is a terminal that reports 0 columns (tqdm would draw nothing)."""
+    try:
+        return os.get_terminal_size(sys.stderr.fileno()).columns == 0
+    except (AttributeError, OSError, ValueError):  # no file descriptor, no terminal, closed
+        return False
+
+
 def progress_bar(progress: bool | None, **options: Any) -> tqdm:
     """Return a :mod:`tqdm.auto` bar, shown when `progress` says so (None: :func:`watched`).
 
@@ -37,4 +52,6 @@ def progress_bar(progress: bool | None, **options: Any) -> tqdm:
         tqdm's options (``total``, ``desc``, ``unit``, ``bar_format``, ...).
     """
     shown = watched() if progress is None else progress
+    if shown and "ncols" not in options and _unsized_terminal():
+        options = {"ncols": UNSIZED_TERMINAL[0], "nrows": UNSIZED_TERMINAL[1], **options}
     return tqdm(disable=not shown, **options)

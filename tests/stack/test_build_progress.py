@@ -8,7 +8,10 @@ never. The build is a small real one; what its bars write is read from stderr.
 from __future__ import annotations
 
 import io
+import os
+import select
 import sys
+import threading
 import types
 
 import pytest
@@ -67,3 +70,34 @@ def test_a_jupyter_kernel_is_watched(monkeypatch):
     assert not watched()
     monkeypatch.setitem(sys.modules, "ipykernel.zmqshell", types.ModuleType("ipykernel.zmqshell"))
     assert watched()
+
+
+def test_a_pseudo_terminal_nobody_sized_shows_the_progress(model, tmp_path, monkeypatch):
+    """A new pseudo-terminal reports 0 columns (as under ``script`` with no terminal); the
+    bars still show there, read back from the terminal's other end."""
+    master, slave = os.openpty()
+    assert os.get_terminal_size(slave).columns == 0
+    written = bytearray()
+    done = threading.Event()
+
+    def drain() -> None:
+        while True:  # until the build is done and the terminal has nothing more to read
+            if select.select([master], [], [], 0.2)[0]:
+                written.extend(os.read(master, 1 << 16))
+            elif done.is_set():
+                return
+
+    reader = threading.Thread(target=drain)
+    reader.start()
+    try:
+        with open(slave, "w", closefd=False) as terminal:
+            monkeypatch.setattr(sys, "stderr", terminal)
+            shellvox.build(model, tmp_path / "out", OPTIONS)
+            terminal.flush()
+            monkeypatch.undo()
+    finally:
+        done.set()
+        reader.join()
+        os.close(slave)
+        os.close(master)
+    assert "voxels: 100%" in written.decode("utf-8", "replace")
