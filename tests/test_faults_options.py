@@ -71,7 +71,8 @@ def test_refused_before_allocating(tmp_path, options, needles):
 def test_model_scaled_past_the_grid_range(tmp_path, options, needles):
     out = tmp_path / "out"
     result = run(build_argv(out, *options), tmp_path / "run", rlimit_as=TWO_GB)
-    assert_failed(result, 2, *needles)
+    # a model scaled this far is also implausibly large: one warning line may say so
+    assert_failed(result, 2, *needles, warns=True)
     assert not out.exists()
 
 

@@ -90,7 +90,7 @@ def run_tray(args: argparse.Namespace) -> int:
         print(f"estimate: {plan.estimate.line()}")
         shortfall = None if args.force else resource_shortfall(plan.estimate, args.output)
         if shortfall is not None:
-            print(f"a build would stop here: {shortfall}")
+            print(f"a build would stop here: {shortfall.words('cli')}")
         print(f"planned in {request.seconds:.1f} s; dry run: nothing built")
         return 0
     print("\n".join(plan.lines()), file=sys.stderr)
