@@ -36,6 +36,18 @@ SLIVER_MOVE = 1.0
 #: dropped (each round is one crossing check of all the shells).
 JITTER_REVERTS = 4
 
+#: Largest move (mm) of the collapses the sliver pass makes in locked triangles: the
+#: sub-micrometre vertex clusters a marched surface makes where it passes a grid node.
+LOCKED_COLLAPSE_MM = 1e-5
+
+#: Tries of those collapses, each keeping the triangles near the last try's crossings as
+#: they are.
+LOCKED_COLLAPSE_TRIES = 3
+
+#: Reach (mm) around a crossing of those collapses within which the next try keeps the
+#: input's triangles.
+LOCKED_COLLAPSE_REACH_MM = 1e-3
+
 
 class Locks(NamedTuple):
     """The unsimplified triangles locked per shell ((T,) bool) and the rounds that did it."""
@@ -98,8 +110,15 @@ def without_slivers(
     at most `move_mm`); the triangles the moves made are then tested against all of the
     shells' (the others are as they were: they cross nothing) and for pinches. The first
     try moves every triangle; where it makes a crossing, the second keeps the `locked`
-    ones (the unsimplified triangles kept around the simplification's folds) as they are;
-    where that crosses too, the shells are returned as given.
+    ones (the unsimplified triangles kept around the simplification's folds) as they are
+    but for collapses of needles that move the surface by at most ``LOCKED_COLLAPSE_MM``;
+    where those make a crossing, the triangles within ``LOCKED_COLLAPSE_REACH_MM`` of it
+    are kept as they are and it is tried again, ``LOCKED_COLLAPSE_TRIES`` times at most,
+    then without those collapses; where that crosses too, the shells are returned as given.
+    After the second try the shells are jittered again (:func:`_jittered`): the jitter
+    before was put back at the clusters, which left their flat neighbours exactly coplanar
+    for MeshLab's triangle test; where the new jitter still crosses after its reverts, the
+    shells stay as the sliver pass left them.
 
     Returns the shells and a record: ``collapsed``, ``flipped`` and ``left`` (slivers)
     per shell, ``min_angle_deg`` per shell, and ``kept``: ``"all"`` (the first try),
@@ -109,17 +128,60 @@ def without_slivers(
     if any(lock is not None and lock.any() for lock in locked):
         tries.append(("unlocked", locked))
     for name, locks in tries:
-        out = [
-            remove_slivers(v, f, move_mm, locked=lock)
-            for (v, f), lock in zip(shells, locks, strict=True)
-        ]
-        moved = [(o.vertices, o.faces) for o in out]
-        pairs, _ = crossings(moved, only=np.concatenate([o.changed for o in out]))
-        pinched = pinched_faces(moved)
-        LOG.debug("sliver pass (%s): %d crossing pairs, %d pinched", name, len(pairs), len(pinched))
-        if len(pairs) == 0 and len(pinched) == 0:
-            return moved, _sliver_record(moved, out, name)
+        fixed: list[npt.NDArray[np.bool_] | None] = [None] * len(shells)
+        collapses = [LOCKED_COLLAPSE_MM] * LOCKED_COLLAPSE_TRIES if name == "unlocked" else []
+        for collapse_mm in [*collapses, 0.0]:
+            out = [
+                remove_slivers(
+                    v, f, move_mm, locked=lock, locked_collapse_mm=collapse_mm, fixed=fix
+                )
+                for (v, f), lock, fix in zip(shells, locks, fixed, strict=True)
+            ]
+            moved = [(o.vertices, o.faces) for o in out]
+            pairs, _ = crossings(moved, only=np.concatenate([o.changed for o in out]))
+            pinched = pinched_faces(moved)
+            LOG.debug(
+                "sliver pass (%s, locked collapses %g mm): %d crossing pairs, %d pinched",
+                name,
+                collapse_mm,
+                len(pairs),
+                len(pinched),
+            )
+            if len(pairs) == 0 and len(pinched) == 0:
+                if name == "unlocked":  # the jitter reverted at the clusters, again
+                    again, pairs, _ = _jittered(moved)
+                    if len(pairs) == 0 and len(pinched_faces(again)) == 0:
+                        moved = again
+                return moved, _sliver_record(moved, out, name)
+            if collapse_mm == 0.0:
+                break
+            fixed = _near_faces(shells, moved, np.concatenate([pairs.reshape(-1), pinched]), fixed)
     return shells, _sliver_record(shells, out, "none")
+
+
+def _near_faces(
+    shells: list[Mesh],
+    moved: list[Mesh],
+    bad: IntArray,
+    fixed: list[npt.NDArray[np.bool_] | None],
+) -> list[npt.NDArray[np.bool_] | None]:
+    """Add to `fixed` the triangles of `shells` near the `bad` faces of `moved`.
+
+    `bad` indexes the faces of `moved`, concatenated outside in; a triangle of a shell is
+    near when a corner is within ``LOCKED_COLLAPSE_REACH_MM`` of a corner of a bad face of
+    that shell.
+    """
+    start = np.cumsum([0] + [len(f) for _, f in moved])
+    out: list[npt.NDArray[np.bool_] | None] = []
+    for k, ((v, f), (mv, mf)) in enumerate(zip(shells, moved, strict=True)):
+        mine = bad[(bad >= start[k]) & (bad < start[k + 1])] - start[k]
+        near = np.zeros(len(f), dtype=bool) if fixed[k] is None else np.array(fixed[k])
+        if len(mine):
+            corners = mv[np.unique(mf[mine])]
+            gap, _ = cKDTree(corners).query(v, distance_upper_bound=LOCKED_COLLAPSE_REACH_MM)
+            near |= np.isfinite(gap)[f].any(axis=1)
+        out.append(near)
+    return out
 
 
 def _sliver_record(shells: list[Mesh], out: list[Desliver], kept: str) -> dict[str, Any]:

@@ -21,7 +21,9 @@ link condition; a flip's new edge not already there), turns no triangle by more 
 distance from the planes of the triangles it changes; the diagonals' distance; the cap's
 height), and raises the smallest angle of the triangles it changes or removes. Moves of one
 round touch disjoint stars; a sliver is tried again only when a move changed something
-within two rings of it, for at most ``ROUNDS`` rounds. Locked triangles are never changed.
+within two rings of it, for at most ``ROUNDS`` rounds. Locked triangles are changed only
+by a first phase that collapses needles' edges shorter than a given length (sub-micrometre
+vertex clusters), when asked.
 The moves are compiled (:func:`shellvox.voxel._compiled.kernel`); a round's bookkeeping
 (which triangles meet at each vertex) is numpy.
 """
@@ -82,6 +84,8 @@ def remove_slivers(
     *,
     locked: npt.NDArray[np.bool_] | None = None,
     min_angle_deg: float = MIN_ANGLE_DEG,
+    locked_collapse_mm: float = 0.0,
+    fixed: npt.NDArray[np.bool_] | None = None,
 ) -> Desliver:
     """Collapse the needles and flip the caps of a closed, oriented 2-manifold shell.
 
@@ -95,6 +99,14 @@ def remove_slivers(
         Triangles that must stay as they are.
     min_angle_deg : float, optional
         Triangles with a smaller angle are slivers.
+    locked_collapse_mm : float, optional, mm
+        Before the other moves, needles with an edge at most this long, locked triangles
+        too, lose that edge where the collapse moves the surface by at most this (no
+        flips): the vertex clusters a marched surface makes where it passes a grid node,
+        which a reader with an absolute tolerance (MeshLab's 1e-6) misjudges. 0 (default):
+        locked triangles are never changed.
+    fixed : (T,) bool, optional
+        Triangles that must stay as they are, in both phases.
 
     Returns
     -------
@@ -118,35 +130,56 @@ def remove_slivers(
     v = np.array(vertices, dtype=np.float64)  # a copy: a cap's corner moves
     f = np.array(faces, dtype=np.int64)
     lock = np.zeros(len(f), dtype=bool) if locked is None else np.array(locked, dtype=bool)
+    hold = np.zeros(len(f), dtype=bool) if fixed is None else np.array(fixed, dtype=bool)
     collapsed = flipped = 0
     cos_turn = float(np.cos(np.radians(MAX_TURN_DEG)))
     worst = smallest_angles(v[f])
-    retry = np.ones(len(f), dtype=bool)  # slivers whose neighbourhood changed since tried
     made = np.zeros(len(f), dtype=bool)
-    for _ in range(ROUNDS):
-        slivers = np.flatnonzero((worst < min_angle_deg) & ~lock & retry)
-        if len(slivers) == 0:
-            break
-        corner = f.reshape(-1)
-        order = np.argsort(corner, kind="stable") // 3  # the faces around each vertex
-        start = np.concatenate([[0], np.cumsum(np.bincount(corner, minlength=len(v)))])
-        touched = lock.copy()  # a locked triangle counts as touched: never changed
-        changed = np.zeros(len(f), dtype=bool)
-        dead = np.zeros(len(f), dtype=bool)
-        worst_first = slivers[np.argsort(worst[slivers], kind="stable")]
-        done = _round(
-            v, f, worst, touched, changed, dead, order, start, worst_first, max_move_mm, cos_turn
-        )
-        if done[0] + done[1] == 0:
-            break
-        collapsed += int(done[0])
-        flipped += int(done[1])
-        keep = ~dead
-        changed = changed[keep]
-        f, lock, worst = f[keep], lock[keep], worst[keep]
-        made = made[keep] | changed
-        worst[changed] = smallest_angles(v[f[changed]])
-        retry = _two_rings(f, changed, len(v))
+    phases = [(max_move_mm, True)]  # (largest move, locked triangles kept and flips made)
+    if locked_collapse_mm > 0 and lock.any():
+        phases.insert(0, (min(locked_collapse_mm, max_move_mm), False))
+    for move_mm, keep_locked in phases:
+        retry = np.ones(len(f), dtype=bool)  # slivers whose neighbourhood changed since tried
+        for _ in range(ROUNDS):
+            kept = hold | (lock & keep_locked)  # triangles no move may change
+            slivers = np.flatnonzero((worst < min_angle_deg) & ~kept & retry)
+            if not keep_locked:  # needles with an edge that short only
+                corners = v[f[slivers]]
+                edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2)
+                slivers = slivers[edges.min(axis=1) <= move_mm]
+            if len(slivers) == 0:
+                break
+            corner = f.reshape(-1)
+            order = np.argsort(corner, kind="stable") // 3  # the faces around each vertex
+            start = np.concatenate([[0], np.cumsum(np.bincount(corner, minlength=len(v)))])
+            touched = kept.copy()  # a kept triangle counts as touched: never changed
+            changed = np.zeros(len(f), dtype=bool)
+            dead = np.zeros(len(f), dtype=bool)
+            worst_first = slivers[np.argsort(worst[slivers], kind="stable")]
+            done = _round(
+                v,
+                f,
+                worst,
+                touched,
+                changed,
+                dead,
+                order,
+                start,
+                worst_first,
+                move_mm,
+                cos_turn,
+                keep_locked,
+            )
+            if done[0] + done[1] == 0:
+                break
+            collapsed += int(done[0])
+            flipped += int(done[1])
+            keep = ~dead
+            changed = changed[keep]
+            f, lock, hold, worst = f[keep], lock[keep], hold[keep], worst[keep]
+            made = made[keep] | changed
+            worst[changed] = smallest_angles(v[f[changed]])
+            retry = _two_rings(f, changed, len(v))
     used = np.zeros(len(v), dtype=bool)
     used[f.reshape(-1)] = True
     index = np.cumsum(used) - 1
@@ -182,8 +215,11 @@ def _round(
     slivers: IntArray,
     max_move: float,
     cos_turn: float,
+    flips: bool,
 ) -> IntArray:  # pragma: no cover - compiled
     """Make one round of moves, worst sliver first, on triangles no move touched yet.
+
+    Caps are flipped only where `flips` is true (otherwise only needles are collapsed).
 
     `faces` and `v` change in place (a cap's corner moves); `touched`, `changed` and
     `dead` mark the triangles a move touched (their stars), made or changed, and dropped.
@@ -218,6 +254,8 @@ def _round(
             v, faces, worst, touched, changed, dead, order, start, w, u, cos_turn
         ):
             done[0] += 1
+            continue
+        if not flips:
             continue
         widest = 0
         angle = -1.0
