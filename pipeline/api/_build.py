@@ -338,12 +338,13 @@ def build(
     out = _folder(out_dir)
     load = load or LoadOptions()
     mesh = model if isinstance(model, ColouredMesh) else load_model(model, load, check="solid")
-    if mesh.solid is not None and options.shell_meshes:
+    if mesh.solid is not None and (options.shell_meshes or options.layer_rule == "shells"):
+        asked = "shell_meshes" if options.shell_meshes else "layer_rule"
         raise InputError(
-            opt("shell_meshes"),
-            f"{mesh.source}: is not one closed, oriented part (read as it comes); its shell "
-            "meshes are not made",
-            f"build it without {opt('shell_meshes')}",
+            opt(asked),
+            f"{mesh.source}: is not one closed, oriented part (read as it comes); its offset "
+            "shells are not made",
+            f"build it without {opt(asked)} (layers by distance, the default)",
         )
     choice = layer_thickness(
         mesh,

@@ -100,3 +100,15 @@ def test_shell_meshes_of_a_model_as_it_comes_are_refused_in_one_line(tmp_path):
         shellvox.build(path, tmp_path / "out", options, progress=False)
     assert "--shell-meshes" in refused.value.words("cli")
     assert not (tmp_path / "out" / "layers.tif").exists()
+
+
+def test_layers_from_offset_shells_of_a_model_as_it_comes_are_refused(tmp_path):
+    path = tmp_path / "boxes.ply"
+    _boxes(path)
+    options = shellvox.BuildOptions(voxel_size_mm=0.5, materials=None, layer_rule="shells")
+    with (
+        pytest.warns(shellvox.ShellvoxWarning, match="read as it comes"),
+        pytest.raises(shellvox.InputError, match="layer_rule") as refused,
+    ):
+        shellvox.build(path, tmp_path / "out", options, progress=False)
+    assert "--layers" in refused.value.words("cli")
