@@ -9,15 +9,21 @@ crossings' ``+-1``, so along a row
 
     w(x) = R(x) + D(x),
 
-``R`` the integer count of signed crossings (the row kernel, unchanged) and ``D``
-continuous everywhere and smooth except at the soup's *boundary curves*: the edges whose
-faces do not cancel (holes' rims, non-manifold and misoriented edges). ``D`` is 0 for a
-closed oriented mesh. So ``w`` is sampled (by :class:`WindingTree`, the fast winding
-number) only on a coarse lattice of voxel centres, ``D`` is interpolated trilinearly to
-every voxel, and ``w`` itself is evaluated where that could decide wrong: every voxel of
-a lattice cell that a boundary curve passes near or whose ``D`` varies by more than
-:data:`SMOOTH_RANGE`, and every voxel whose interpolated ``w`` lies within
-:data:`MARGIN` of 1/2.
+``R`` the integer count of signed crossings from the row's start (the row kernel,
+unchanged) and ``D`` smooth except at the soup's *boundary curves*, the edges whose faces
+do not cancel (holes' rims, non-manifold and misoriented edges), and across their
+*shadows*, the sheets a boundary curve sweeps along +x: a row through a shadow crosses
+the faces beyond a rim once more or once less than its neighbours, so its ``R`` differs
+by 1 from theirs from the rim to the row's end while ``w`` does not, and ``D`` jumps by
+1 there. ``D`` is 0 for a closed oriented mesh. So ``w`` is sampled (by
+:class:`WindingTree`, the fast winding number) only on a coarse lattice of voxel centres,
+``D`` is interpolated trilinearly to every voxel, and ``w`` itself is evaluated where that
+could decide wrong: every voxel of a lattice cell that a boundary curve passes near or
+whose ``D`` varies by more than :data:`SMOOTH_RANGE`, and every voxel whose interpolated
+``w`` lies within :data:`MARGIN` of 1/2. In the cells a shadow may pass through (next to a
+rim in ``y`` and ``z``, beyond it along x: a shadow can pass between a cell's corners near
+the extremes of a rim seen along x, and leave them all on one side), ``D`` is sampled on
+every row at the lattice's x and interpolated along x only.
 
 References
 ----------
@@ -251,14 +257,33 @@ def solid_slab(
         t = weights[axis].reshape(shape)
         interpolated = below + (above - below) * t
     winding = rows + interpolated
-    rough = _rough_cells(smooth, solid.rim_points, grid, axes, z_start)
-    unsure = rough[np.ix_(*cells)] | (np.abs(winding - 0.5) < MARGIN)
+    rough, shadow = _rough_cells(smooth, solid.rim_points, grid, axes, z_start)
+    unsure = rough[np.ix_(*cells)]
+    n_sampled = int(sampled.size)
+    in_shadow = np.flatnonzero(shadow[np.ix_(*cells)])
+    if len(in_shadow):  # D sampled on every row at the lattice's x, interpolated along x
+        z, y, x = np.unravel_index(in_shadow, rows.shape)
+        cell_x = cells[2][x]
+        ends = np.concatenate(
+            [np.ravel_multi_index((z, y, axes[2][cell_x + k]), rows.shape) for k in (0, 1)]
+        )
+        nodes, at = np.unique(ends, return_inverse=True)
+        where = np.stack(np.unravel_index(nodes, rows.shape), axis=1)
+        where[:, 0] += z_start
+        along = solid.tree.evaluate(grid.index_to_world(where)) - rows.reshape(-1)[nodes]
+        first, last = along[at[: len(x)]], along[at[len(x) :]]
+        winding.reshape(-1)[in_shadow] = rows.reshape(-1)[in_shadow] + (
+            first + (last - first) * weights[2][x]
+        )
+        unsure.reshape(-1)[in_shadow[np.abs(last - first) > SMOOTH_RANGE]] = True
+        n_sampled += len(nodes)
+    unsure |= np.abs(winding - 0.5) < MARGIN
     exact = np.flatnonzero(unsure)
     if len(exact):
         where = np.stack(np.unravel_index(exact, rows.shape), axis=1)
         where[:, 0] += z_start
         winding.reshape(-1)[exact] = solid.tree.evaluate(grid.index_to_world(where))
-    return SolidSlab(winding >= 0.5, int(sampled.size), len(exact))
+    return SolidSlab(winding >= 0.5, n_sampled, len(exact))
 
 
 def _lattice(n: int, stride: int) -> NDArray[np.int64]:
@@ -282,16 +307,23 @@ def _rough_cells(
     grid: GridSpec,
     axes: list[NDArray[np.int64]],
     z_start: int,
-) -> NDArray[np.bool_]:
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """Lattice cells ``(Lz - 1, Ly - 1, Lx - 1)`` where ``D`` may not be smooth.
 
-    A cell is rough where its corners' ``D`` differ by more than :data:`SMOOTH_RANGE`,
-    or where a rim point lies in it or in a cell next to it (near a boundary curve ``D``
-    changes over distances shorter than a cell).
+    Returns
+    -------
+    rough : (Lz - 1, Ly - 1, Lx - 1) bool
+        Cells whose corners' ``D`` differ by more than :data:`SMOOTH_RANGE`, or where a
+        rim point lies in it or in a cell next to it (near a boundary curve ``D`` changes
+        over distances shorter than a cell): evaluated voxel by voxel.
+    shadow : (Lz - 1, Ly - 1, Lx - 1) bool
+        The other cells next to a rim point's cell in ``y`` and ``z`` and beyond it along
+        +x: a rim's shadow may pass between their corners, where ``D`` jumps by 1 from
+        row to row, but along a row ``D`` stays smooth.
     """
     shape = tuple(max(len(a) - 1, 1) for a in axes)
     if min(len(a) for a in axes) < 2:
-        return np.ones(shape, dtype=bool)
+        return np.ones(shape, dtype=bool), np.zeros(shape, dtype=bool)
     corners = [
         smooth[dz : dz + shape[0], dy : dy + shape[1], dx : dx + shape[2]]
         for dz in (0, 1)
@@ -314,4 +346,5 @@ def _rough_cells(
                     keep = np.all((at >= 0) & (at < shape), axis=1)
                     near[tuple(at[keep].T)] = True
         rough |= near
-    return rough
+        return rough, np.logical_or.accumulate(near, axis=2) & ~rough
+    return rough, np.zeros(shape, dtype=bool)
